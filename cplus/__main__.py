@@ -1,0 +1,3 @@
+from cplus.cli import main
+
+raise SystemExit(main())

@@ -1,0 +1,1 @@
+"""NXT telegrams, transports, the brick emulator and trajectory streaming."""

@@ -1,0 +1,1 @@
+"""Scene geometry, continuous collision checks, kinematics and trajectory export."""
