@@ -1,0 +1,166 @@
+"""Source locations, the project's exception tree, and warnings.
+
+Every error a user can cause carries a :class:`Location` and renders as
+``file:line:col: error: message`` followed by the source line and a caret, the way
+compilers do.  Library code raises; only the CLI prints and picks exit codes.
+"""
+from __future__ import annotations
+
+import bisect
+from dataclasses import dataclass, field
+
+__all__ = [
+    "Source", "Location", "Diagnostic", "Diagnostics",
+    "CPlusError", "CPlusSyntaxError", "IncludeError", "ResolveError", "SortError",
+    "GroundingError", "DefinitenessError", "QueryError", "InputError",
+]
+
+
+class Source:
+    """The text of one input file; turns character offsets into line and column."""
+
+    __slots__ = ("path", "text", "_starts")
+
+    def __init__(self, path: str, text: str) -> None:
+        self.path = path
+        self.text = text
+        self._starts: list[int] | None = None
+
+    def _line_starts(self) -> list[int]:
+        if self._starts is None:
+            starts = [0]
+            find = self.text.find
+            pos = find("\n")
+            while pos >= 0:
+                starts.append(pos + 1)
+                pos = find("\n", pos + 1)
+            self._starts = starts
+        return self._starts
+
+    def line_col(self, offset: int) -> tuple[int, int]:
+        """1-based line and column of a character offset."""
+        starts = self._line_starts()
+        line = bisect.bisect_right(starts, offset) - 1
+        return line + 1, offset - starts[line] + 1
+
+    def line_text(self, line: int) -> str:
+        starts = self._line_starts()
+        if not 1 <= line <= len(starts):
+            return ""
+        begin = starts[line - 1]
+        end = self.text.find("\n", begin)
+        return self.text[begin:] if end < 0 else self.text[begin:end]
+
+    def __repr__(self) -> str:
+        return f"Source({self.path!r})"
+
+
+@dataclass(frozen=True, slots=True)
+class Location:
+    """A span of a source file (character offsets; line and column are derived)."""
+
+    source: Source = field(compare=False, repr=False)
+    start: int
+    end: int
+
+    @property
+    def path(self) -> str:
+        return self.source.path
+
+    @property
+    def line(self) -> int:
+        return self.source.line_col(self.start)[0]
+
+    @property
+    def col(self) -> int:
+        return self.source.line_col(self.start)[1]
+
+    def __str__(self) -> str:
+        line, col = self.source.line_col(self.start)
+        return f"{self.source.path}:{line}:{col}"
+
+    def excerpt(self) -> str:
+        """The source line with a caret under the span (first line of it only)."""
+        line, col = self.source.line_col(self.start)
+        text = self.source.line_text(line).replace("\t", " ")
+        end_line, end_col = self.source.line_col(max(self.start, self.end - 1))
+        width = max(1, end_col - col + 1) if end_line == line else max(1, len(text) - col + 1)
+        return f"  {text}\n  {' ' * (col - 1)}{'^' * min(width, max(1, len(text) - col + 1))}"
+
+
+class CPlusError(Exception):
+    """Root of every error the C+ tool chain reports to a user."""
+
+    kind = "error"
+
+    def __init__(self, message: str, loc: Location | None = None) -> None:
+        super().__init__(message)
+        self.message = message
+        self.loc = loc
+
+    def render(self) -> str:
+        if self.loc is None:
+            return f"error: {self.message}"
+        return f"{self.loc}: error: {self.message}\n{self.loc.excerpt()}"
+
+    def __str__(self) -> str:
+        return self.message if self.loc is None else f"{self.loc}: {self.message}"
+
+
+class InputError(CPlusError):
+    """The input file cannot be read as C+ text (missing, binary, not UTF-8)."""
+
+
+class CPlusSyntaxError(CPlusError):
+    """The text does not follow the grammar of C+."""
+
+
+class IncludeError(CPlusError):
+    """An ``:- include`` names a missing file or closes a cycle."""
+
+
+class ResolveError(CPlusError):
+    """An unknown or misused name: constant, object, sort, variable or macro."""
+
+
+class SortError(ResolveError):
+    """A term of the wrong sort, or a value outside a constant's domain."""
+
+
+class GroundingError(CPlusError):
+    """Something that only shows when variables are bound (division by zero, ...)."""
+
+
+class DefinitenessError(CPlusError):
+    """A law whose head is not a literal: the causal theory would not be definite."""
+
+
+class QueryError(CPlusError):
+    """A malformed query, or a query label that does not exist."""
+
+
+@dataclass(frozen=True, slots=True)
+class Diagnostic:
+    """A warning: something accepted but probably not what the author meant."""
+
+    message: str
+    loc: Location | None = None
+
+    def render(self) -> str:
+        if self.loc is None:
+            return f"warning: {self.message}"
+        return f"{self.loc}: warning: {self.message}\n{self.loc.excerpt()}"
+
+
+class Diagnostics:
+    """Collects warnings; the CLI prints them, API users read :attr:`items`."""
+
+    def __init__(self) -> None:
+        self.items: list[Diagnostic] = []
+        self._seen: set[tuple[str, int | None]] = set()
+
+    def warn(self, message: str, loc: Location | None = None) -> None:
+        key = (message, None if loc is None else loc.start)
+        if key not in self._seen:
+            self._seen.add(key)
+            self.items.append(Diagnostic(message, loc))
