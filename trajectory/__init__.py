@@ -1,1 +1,88 @@
-"""Scene geometry, continuous collision checks, kinematics and trajectory export."""
+"""Scene geometry, continuous collision checks, kinematics, trajectory export and plots.
+
+The pipeline from a plan to motion, as the planner's glue calls it::
+
+    scene = load_scene("domains/payload/scene.toml")      # validated, located errors
+    scene.collision(x1, y1, x2, y2)                        # the domain's external
+    violation = first_violation(scene, states)             # Algorithm 1's check
+    traj = build_trajectory(scene, states, points_per_step=10, step_time_s=1.0)
+    save_json(traj, "out/trajectory.json"); save_csv(traj, "out/trajectory.csv")
+    plot_plan(scene, states, violation, path="out/plan.png")
+
+`trajectory` never imports `cplus` or `nxt_link`: plans arrive as `StepState` lists and leave
+as `cplus.trajectory/1` files. See ``docs/trajectory.md``.
+"""
+
+from .build import build_trajectory, interpolate_path
+from .checker import Violation, ViolationKind, all_violations, check_motion, first_violation
+from .errors import (
+    JointLimitError,
+    Location,
+    PlanStateError,
+    PlanViolationError,
+    SceneError,
+    TrajectoryError,
+    TrajectoryFormatError,
+    UnreachableError,
+)
+from .export import load_trajectory, save_csv, save_json, to_csv_text, to_json_text
+from .kinematics import Arm, BranchChoice, JointState, forward, ik_solutions, inverse
+from .model import TRAJECTORY_FORMAT, MotorChannel, RobotTrajectory, Trajectory
+from .scene import SCENE_FORMAT, Scene, check_reachable, load_scene, parse_scene
+from .states import StepState
+
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from .plots import plot_execution, plot_plan
+
+
+def __getattr__(name: str) -> Any:
+    """Import the plotting functions (and matplotlib) only when they are first used."""
+    if name in ("plot_plan", "plot_execution"):
+        from . import plots
+
+        return getattr(plots, name)
+    raise AttributeError(f"module 'trajectory' has no attribute {name!r}")
+
+
+__all__ = [
+    "Arm",
+    "BranchChoice",
+    "JointLimitError",
+    "JointState",
+    "Location",
+    "MotorChannel",
+    "PlanStateError",
+    "PlanViolationError",
+    "RobotTrajectory",
+    "SCENE_FORMAT",
+    "Scene",
+    "SceneError",
+    "StepState",
+    "TRAJECTORY_FORMAT",
+    "Trajectory",
+    "TrajectoryError",
+    "TrajectoryFormatError",
+    "UnreachableError",
+    "Violation",
+    "ViolationKind",
+    "all_violations",
+    "build_trajectory",
+    "check_motion",
+    "check_reachable",
+    "first_violation",
+    "forward",
+    "ik_solutions",
+    "interpolate_path",
+    "inverse",
+    "load_scene",
+    "load_trajectory",
+    "parse_scene",
+    "plot_execution",
+    "plot_plan",
+    "save_csv",
+    "save_json",
+    "to_csv_text",
+    "to_json_text",
+]

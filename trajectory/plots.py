@@ -1,0 +1,195 @@
+"""Pictures in the style of the paper's Figs 2 and 5 (PNG or SVG, no screen needed).
+
+Colours follow the paper: obstacles black, robot 1 blue, robot 2 red, the payload green.
+Circles with step labels mark the end-effector positions of the plan; a green line joins the
+payload's ends at every step. `plot_plan` also highlights a violation: the region the payload
+sweeps during the failing motion is shaded, the point of first contact is crossed, and the
+message is printed under the plot. `plot_execution` draws planned against executed
+end-effector paths, with thin green payload segments along the executed motion (Fig. 5).
+
+Figures are built with `matplotlib.figure.Figure` directly (Agg and SVG canvases), so plotting
+never touches pyplot's global state or a display.
+"""
+
+from __future__ import annotations
+
+import textwrap
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+
+import numpy as np
+import numpy.typing as npt
+import shapely
+from matplotlib.figure import Figure
+from matplotlib.axes import Axes
+from matplotlib.patches import Polygon as PolygonPatch
+
+from .checker import Violation
+from .errors import TrajectoryError
+from .geometry import lerp
+from .scene import Scene
+from .states import StepState
+
+__all__ = ["plot_plan", "plot_execution", "swept_region_for_display", "ROBOT_COLORS"]
+
+ROBOT_COLORS = ("tab:blue", "tab:red", "tab:purple", "tab:orange", "tab:brown", "tab:cyan")
+PAYLOAD_COLOR = "tab:green"
+_FORMATS = {".png": "png", ".svg": "svg"}
+
+
+def _format_of(path: Path) -> str:
+    fmt = _FORMATS.get(path.suffix.lower())
+    if fmt is None:
+        raise TrajectoryError(f"cannot plot to {path}: use a .png or .svg file name")
+    return fmt
+
+
+def _color(k: int) -> str:
+    return ROBOT_COLORS[k % len(ROBOT_COLORS)]
+
+
+def swept_region_for_display(a1: Sequence[float], a2: Sequence[float], b1: Sequence[float],
+                             b2: Sequence[float], samples: int = 64) -> shapely.Geometry:
+    """An outline of the region the payload sweeps, for drawing only.
+
+    Made of the quadrilaterals between ``samples`` intermediate positions of the segment;
+    the checker never uses it (its test is exact, see `geometry`).
+    """
+    pieces = []
+    us = np.linspace(0.0, 1.0, samples + 1)
+    segs = [(lerp(tuple(a1), tuple(b1), u), lerp(tuple(a2), tuple(b2), u)) for u in us]  # type: ignore[arg-type]
+    for (p, q), (r, s) in zip(segs, segs[1:]):
+        quad = shapely.Polygon([p, q, s, r])
+        pieces.append(quad if quad.is_valid else shapely.make_valid(quad))
+        pieces.append(shapely.LineString([p, q]).buffer(1e-3))
+    return shapely.union_all(pieces)
+
+
+def _draw_scene(ax: Axes, scene: Scene) -> None:
+    g = scene.grid
+    xs, ys = np.meshgrid(np.arange(g.x_min, g.x_max + 1), np.arange(g.y_min, g.y_max + 1))
+    ax.plot(xs.ravel(), ys.ravel(), linestyle="none", marker=".", markersize=2, color="0.75", zorder=1)
+    ax.plot([g.x_min, g.x_max, g.x_max, g.x_min, g.x_min], [g.y_min, g.y_min, g.y_max, g.y_max, g.y_min],
+            color="0.6", linewidth=0.8, linestyle=":", zorder=1)
+    for k, obstacle in enumerate(scene.obstacles):
+        coords = shapely.get_coordinates(obstacle.polygon.exterior)
+        ax.add_patch(PolygonPatch(coords, closed=True, facecolor="0.15", edgecolor="black",
+                                  linewidth=1.2, zorder=2, label="obstacles" if k == 0 else None))
+    ax.set_aspect("equal")
+    unit = f" (1 unit = {g.unit_mm:g} mm)" if g.unit_mm else " (grid units)"
+    ax.set_xlabel("x" + unit)
+    ax.set_ylabel("y")
+    ax.set_xlim(g.x_min - 1.5, g.x_max + 1.5)
+    ax.set_ylim(g.y_min - 1.5, g.y_max + 1.5)
+
+
+def _draw_states(ax: Axes, scene: Scene, states: Sequence[StepState], big: bool) -> None:
+    e1, e2 = scene.end_names
+    for i, st in enumerate(states):
+        a, b = st.payload[e1], st.payload[e2]
+        ax.plot([a[0], b[0]], [a[1], b[1]], color=PAYLOAD_COLOR, linewidth=2.5 if big else 1.5,
+                alpha=0.9, zorder=3, solid_capstyle="round", label="payload" if i == 0 else None)
+    for k, robot in enumerate(scene.robots):
+        pts = np.array([st.robots[robot.name] for st in states])
+        color = _color(k)
+        ax.plot(pts[:, 0], pts[:, 1], color=color, linewidth=1.5, zorder=4,
+                label=f"robot {robot.name}")
+        ax.plot(pts[:, 0], pts[:, 1], linestyle="none", marker="o", markersize=11 if big else 7,
+                markerfacecolor="white", markeredgecolor=color, markeredgewidth=1.5, zorder=5)
+        for i, (x, y) in enumerate(pts):
+            ax.annotate(str(i), (x, y), ha="center", va="center", fontsize=6.5, color=color, zorder=6)
+
+
+def _save(fig: Figure, path: Path) -> Path:
+    fig.savefig(path, format=_format_of(path), dpi=150, bbox_inches="tight")
+    return path
+
+
+def plot_plan(scene: Scene, states: Sequence[StepState], violation: Violation | None = None, *,
+              path: str | Path, title: str | None = None) -> Path:
+    """Draw a plan over the scene (like the paper's Fig. 2) and save it as PNG or SVG.
+
+    With ``violation``, the motion from ``violation.step`` to the next state is highlighted:
+    the payload's swept region shaded, the first contact crossed, the message printed.
+    """
+    out = Path(path)
+    _format_of(out)
+    if not states:
+        raise TrajectoryError("cannot plot an empty plan")
+    fig = Figure(figsize=(8, 6))
+    ax = fig.add_subplot()
+    _draw_scene(ax, scene)
+    _draw_states(ax, scene, states, big=True)
+    if violation is not None:
+        i = violation.step
+        a, b = states[min(i, len(states) - 1)], states[min(i + 1, len(states) - 1)]
+        e1, e2 = scene.end_names
+        region = swept_region_for_display(a.payload[e1], a.payload[e2], b.payload[e1], b.payload[e2])
+        parts = [g for g in getattr(region, "geoms", [region])
+                 if isinstance(g, shapely.Polygon) and not g.is_empty]
+        for n, geom in enumerate(parts):
+            ax.add_patch(PolygonPatch(shapely.get_coordinates(geom.exterior), closed=True,
+                                      facecolor="gold", edgecolor="darkorange", alpha=0.45, zorder=2.5,
+                                      label=f"payload sweep, step {i} -> {i + 1}" if n == 0 else None))
+        for k, robot in enumerate(scene.robots):
+            p, q = a.robots[robot.name], b.robots[robot.name]
+            ax.plot([p[0], q[0]], [p[1], q[1]], color=_color(k), linewidth=3.5, alpha=0.5, zorder=4)
+        ax.plot([violation.point[0]], [violation.point[1]], marker="X", markersize=16, color="crimson",
+                markeredgecolor="white", zorder=7, linestyle="none",
+                label=f"first violation ({violation.kind.value})")
+        fig.text(0.5, 0.005, "\n".join(textwrap.wrap(violation.message, 110)), ha="center", va="bottom",
+                 fontsize=7.5, color="crimson")
+    ax.set_title(title or f"{scene.name}: plan of {len(states) - 1} steps")
+    ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8, frameon=False)
+    return _save(fig, out)
+
+
+def plot_execution(scene: Scene, planned_paths: Mapping[str, npt.ArrayLike],
+                   executed_paths: Mapping[str, npt.ArrayLike], path: str | Path, *,
+                   states: Sequence[StepState] | None = None, title: str | None = None,
+                   payload_every: int = 5) -> Path:
+    """Draw planned against executed end-effector paths (like the paper's Fig. 5).
+
+    ``planned_paths`` and ``executed_paths`` map robot names to arrays of shape (n, 2).
+    With ``states``, the plan's steps are drawn as labelled circles and thick payload lines.
+    Thin green payload segments join the executed positions of the two robots holding the
+    payload's ends (at the first state, or the first two robots without ``states``) every
+    ``payload_every`` samples.
+    """
+    out = Path(path)
+    _format_of(out)
+    fig = Figure(figsize=(8, 6))
+    ax = fig.add_subplot()
+    _draw_scene(ax, scene)
+    if states:
+        _draw_states(ax, scene, states, big=True)
+    names = list(scene.robot_names)
+    for name in [*planned_paths, *executed_paths]:
+        if name not in names:
+            raise TrajectoryError(f"cannot plot robot {name}: it is not in the scene")
+    for k, name in enumerate(names):
+        color = _color(k)
+        if name in planned_paths:
+            pts = np.asarray(planned_paths[name], dtype=float).reshape(-1, 2)
+            ax.plot(pts[:, 0], pts[:, 1], color=color, linewidth=1.0, linestyle="--", alpha=0.8,
+                    zorder=4, label=f"{name} planned")
+        if name in executed_paths:
+            pts = np.asarray(executed_paths[name], dtype=float).reshape(-1, 2)
+            ax.plot(pts[:, 0], pts[:, 1], color=color, linewidth=1.6, zorder=4.5,
+                    label=f"{name} executed")
+    holders: list[str] = []
+    if states:
+        holders = [h for h in (states[0].holder(e) for e in scene.end_names) if h is not None]
+    elif len(names) >= 2:
+        holders = names[:2]
+    if len(holders) == 2 and all(h in executed_paths for h in holders):
+        p = np.asarray(executed_paths[holders[0]], dtype=float).reshape(-1, 2)
+        q = np.asarray(executed_paths[holders[1]], dtype=float).reshape(-1, 2)
+        n = min(len(p), len(q))
+        stride = max(1, int(payload_every))
+        for j, k in enumerate(list(range(0, n, stride)) + ([n - 1] if n and (n - 1) % stride else [])):
+            ax.plot([p[k, 0], q[k, 0]], [p[k, 1], q[k, 1]], color=PAYLOAD_COLOR, linewidth=0.6,
+                    alpha=0.7, zorder=3, label="payload (executed)" if j == 0 else None)
+    ax.set_title(title or f"{scene.name}: planned and executed paths")
+    ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8, frameon=False)
+    return _save(fig, out)

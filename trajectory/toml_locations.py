@@ -1,0 +1,231 @@
+"""Where each key of a TOML document sits, so scene errors can say ``file:line:col``.
+
+`tomllib` parses TOML but forgets positions. This module scans the same text once more and
+maps every key path to the line and column of its key (or, for an array element, of the
+element's first character). It runs only on text `tomllib` has already accepted, so it does not
+need to diagnose syntax; it only needs to follow the structure: table headers, arrays of
+tables, dotted keys, quoted keys, strings (with their escapes and multi-line forms), arrays
+spanning lines, inline tables and comments.
+
+Paths use the same shape as the parsed document: ``("robots", "r1", "arm_length")``,
+``("obstacles", 0, "points", 2)`` for the third point of the first ``[[obstacles]]``.
+
+>>> locs = locate_keys('[grid]\\nx_min = 0\\n[[obstacles]]\\npoints = [[0, 0], [1, 0]]\\n')
+>>> locs[("grid", "x_min")], locs[("obstacles", 0, "points", 1)]
+((2, 1), (4, 19))
+"""
+
+from __future__ import annotations
+
+__all__ = ["KeyPath", "locate_keys", "nearest_location"]
+
+KeyPath = tuple[str | int, ...]
+
+_BARE_KEY_CHARS = frozenset("ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789_-")
+
+
+class _Scanner:
+    """A cursor over the text that knows its line and column."""
+
+    def __init__(self, text: str) -> None:
+        self.text = text
+        self.pos = 0
+        self.line = 1
+        self.col = 1
+        self.locations: dict[KeyPath, tuple[int, int]] = {}
+        self.aot_counts: dict[KeyPath, int] = {}
+
+    # -- low-level movement ------------------------------------------------------------
+    def peek(self, n: int = 1) -> str:
+        return self.text[self.pos : self.pos + n]
+
+    def at_end(self) -> bool:
+        return self.pos >= len(self.text)
+
+    def advance(self, n: int = 1) -> None:
+        for _ in range(n):
+            if self.pos >= len(self.text):
+                return
+            if self.text[self.pos] == "\n":
+                self.line += 1
+                self.col = 1
+            else:
+                self.col += 1
+            self.pos += 1
+
+    def skip_blank(self, newlines: bool) -> None:
+        """Skip spaces, tabs, comments and (when asked) line breaks."""
+        while not self.at_end():
+            ch = self.peek()
+            if ch in " \t\r" or (newlines and ch == "\n"):
+                self.advance()
+            elif ch == "#":
+                while not self.at_end() and self.peek() != "\n":
+                    self.advance()
+            else:
+                return
+
+    # -- tokens ------------------------------------------------------------------------
+    def read_string(self) -> str:
+        """Read a basic, literal or multi-line string and return its (roughly decoded) text."""
+        quote = self.peek()
+        triple = self.peek(3) == quote * 3
+        delim = quote * 3 if triple else quote
+        self.advance(len(delim))
+        chars: list[str] = []
+        while not self.at_end():
+            if self.peek(len(delim)) == delim:
+                # a multi-line string may end with up to two extra quotes
+                while triple and self.peek(len(delim) + 1) == quote * (len(delim) + 1):
+                    chars.append(quote)
+                    self.advance()
+                self.advance(len(delim))
+                return "".join(chars)
+            ch = self.peek()
+            if quote == '"' and ch == "\\":
+                chars.append(self.peek(2)[1:])
+                self.advance(2)
+                continue
+            chars.append(ch)
+            self.advance()
+        return "".join(chars)
+
+    def read_key(self) -> list[tuple[str, tuple[int, int]]]:
+        """Read a possibly dotted key; return each part with its position."""
+        parts: list[tuple[str, tuple[int, int]]] = []
+        while True:
+            self.skip_blank(newlines=False)
+            start = (self.line, self.col)
+            if self.peek() in ('"', "'"):
+                parts.append((self.read_string(), start))
+            else:
+                begin = self.pos
+                while not self.at_end() and self.peek() in _BARE_KEY_CHARS:
+                    self.advance()
+                parts.append((self.text[begin : self.pos], start))
+            self.skip_blank(newlines=False)
+            if self.peek() == ".":
+                self.advance()
+                continue
+            return parts
+
+    def skip_scalar(self) -> None:
+        """Skip a number, boolean or date: everything up to a delimiter."""
+        while not self.at_end() and self.peek() not in ",]}\n#":
+            self.advance()
+
+    # -- structure ---------------------------------------------------------------------
+    def record(self, path: KeyPath, where: tuple[int, int]) -> None:
+        self.locations.setdefault(path, where)
+
+    def resolve(self, keys: list[str]) -> KeyPath:
+        """Turn a header's keys into a path, entering the last element of arrays of tables."""
+        out: list[str | int] = []
+        for key in keys:
+            out.append(key)
+            count = self.aot_counts.get(tuple(out))
+            if count is not None:
+                out.append(count - 1)
+        return tuple(out)
+
+    def value(self, path: KeyPath) -> None:
+        self.skip_blank(newlines=False)
+        ch = self.peek()
+        if ch in ('"', "'"):
+            self.read_string()
+        elif ch == "[":
+            self.advance()
+            index = 0
+            while True:
+                self.skip_blank(newlines=True)
+                if self.at_end():
+                    return
+                if self.peek() == "]":
+                    self.advance()
+                    return
+                if self.peek() == ",":
+                    self.advance()
+                    continue
+                self.record(path + (index,), (self.line, self.col))
+                self.value(path + (index,))
+                index += 1
+        elif ch == "{":
+            self.advance()
+            while True:
+                self.skip_blank(newlines=True)
+                if self.at_end():
+                    return
+                if self.peek() == "}":
+                    self.advance()
+                    return
+                if self.peek() == ",":
+                    self.advance()
+                    continue
+                self.key_value(path)
+        else:
+            self.skip_scalar()
+
+    def key_value(self, table: KeyPath) -> None:
+        parts = self.read_key()
+        path = table
+        for name, where in parts:
+            path = path + (name,)
+            self.record(path, where)
+        self.skip_blank(newlines=False)
+        if self.peek() == "=":
+            self.advance()
+        self.value(path)
+
+    def header(self) -> KeyPath:
+        where = (self.line, self.col)
+        is_array = self.peek(2) == "[["
+        self.advance(2 if is_array else 1)
+        keys = [name for name, _ in self.read_key()]
+        self.advance(2 if is_array else 1)
+        if is_array:
+            parent = self.resolve(keys[:-1])
+            own = parent + (keys[-1],)
+            index = self.aot_counts.get(own, 0)
+            self.aot_counts[own] = index + 1
+            self.record(own, where)
+            path: KeyPath = own + (index,)
+        else:
+            path = self.resolve(keys)
+        self.record(path, where)
+        return path
+
+    def document(self) -> dict[KeyPath, tuple[int, int]]:
+        table: KeyPath = ()
+        while True:
+            self.skip_blank(newlines=True)
+            if self.at_end():
+                return self.locations
+            if self.peek() == "[":
+                table = self.header()
+            else:
+                before = self.pos
+                self.key_value(table)
+                if self.pos == before:  # not valid TOML; never loop forever
+                    self.advance()
+
+
+def locate_keys(text: str) -> dict[KeyPath, tuple[int, int]]:
+    """Map each key path of a TOML document to the (line, col) where it is written.
+
+    Tables defined by a header map to the header's position. Keys are recorded at their
+    first occurrence.
+    """
+    return _Scanner(text).document()
+
+
+def nearest_location(locations: dict[KeyPath, tuple[int, int]], path: KeyPath) -> tuple[int, int]:
+    """The position of ``path``, or of its closest written ancestor, or (1, 1).
+
+    A missing field has no position of its own; its table's header (or the file's start)
+    is the best place to point at.
+    """
+    for end in range(len(path), 0, -1):
+        where = locations.get(path[:end])
+        if where is not None:
+            return where
+    return (1, 1)
