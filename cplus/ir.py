@@ -1,0 +1,294 @@
+"""Resolved formulas and terms: names are bound to constants, objects and variables.
+
+The resolver (:mod:`cplus.resolve`) turns :mod:`cplus.ast` expressions into these nodes
+after macro expansion; the grounder compiles them into closures.  Terms evaluate to
+objects (see :mod:`cplus.signature`); formulas to propositional formulas over atoms.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Callable, Union
+
+from cplus.errors import Location
+from cplus.signature import ConstDecl, SortExpr
+
+# ---------------------------------------------------------------------------- terms
+
+
+@dataclass(frozen=True, slots=True)
+class Lit:
+    """A ground object (or an integer)."""
+
+    value: object
+
+
+@dataclass(frozen=True, slots=True)
+class Var:
+    name: str
+    sort: SortExpr
+    loc: Location
+
+
+@dataclass(frozen=True, slots=True)
+class Obj:
+    """A constructor object with non-ground arguments: ``cell(I+1)``."""
+
+    name: str
+    args: tuple["Term", ...]
+    loc: Location
+
+
+@dataclass(frozen=True, slots=True)
+class Arith:
+    """``op`` in ``+ - * // mod neg abs min max``."""
+
+    op: str
+    args: tuple["Term", ...]
+    loc: Location
+
+
+@dataclass(frozen=True, slots=True)
+class Cst:
+    """An occurrence of a constant; as a term it stands for the constant's value."""
+
+    decl: ConstDecl
+    args: tuple["Term", ...]
+    loc: Location
+
+
+@dataclass(frozen=True, slots=True)
+class MaxStepT:
+    loc: Location
+
+
+@dataclass(frozen=True, slots=True)
+class StampT:
+    time: "Term"
+    term: "Term"
+    loc: Location
+
+
+@dataclass(frozen=True, slots=True)
+class Ext:
+    """A call of an external function (registry), evaluated at grounding time."""
+
+    name: str
+    fn: Callable[..., object]
+    args: tuple["Term", ...]
+    loc: Location
+
+
+Term = Union[Lit, Var, Obj, Arith, Cst, MaxStepT, StampT, Ext]
+
+# ---------------------------------------------------------------------------- formulas
+
+
+@dataclass(frozen=True, slots=True)
+class Truth:
+    value: bool
+
+
+@dataclass(frozen=True, slots=True)
+class Atom:
+    """``c(args)=value``; ``cst`` may be a variable over a constant kind (``A``)."""
+
+    cst: Union[Cst, Var]
+    value: Term
+    loc: Location
+
+
+@dataclass(frozen=True, slots=True)
+class Cmp:
+    op: str
+    left: Term
+    right: Term
+    loc: Location
+
+
+@dataclass(frozen=True, slots=True)
+class Not:
+    arg: "Formula"
+
+
+@dataclass(frozen=True, slots=True)
+class And:
+    items: tuple["Formula", ...]
+
+
+@dataclass(frozen=True, slots=True)
+class Or:
+    items: tuple["Formula", ...]
+
+
+@dataclass(frozen=True, slots=True)
+class Imp:
+    left: "Formula"
+    right: "Formula"
+
+
+@dataclass(frozen=True, slots=True)
+class Iff:
+    left: "Formula"
+    right: "Formula"
+
+
+@dataclass(frozen=True, slots=True)
+class Quant:
+    exists: bool
+    var: Var
+    body: "Formula"
+
+
+@dataclass(frozen=True, slots=True)
+class StampF:
+    time: Term
+    body: "Formula"
+    loc: Location
+
+
+@dataclass(frozen=True, slots=True)
+class ExtPred:
+    """An external predicate (``collision(X1,Y1,X2,Y2)``), decided at grounding time."""
+
+    name: str
+    fn: Callable[..., object]
+    args: tuple[Term, ...]
+    loc: Location
+
+
+Formula = Union[Truth, Atom, Cmp, Not, And, Or, Imp, Iff, Quant, StampF, ExtPred]
+
+TRUE = Truth(True)
+FALSE = Truth(False)
+
+
+def conj(items) -> "Formula":
+    flat: list = []
+    for f in items:
+        if isinstance(f, And):
+            flat.extend(f.items)
+        elif f == TRUE:
+            continue
+        else:
+            flat.append(f)
+    if not flat:
+        return TRUE
+    return flat[0] if len(flat) == 1 else And(tuple(flat))
+
+
+def conjuncts(f: "Formula | None") -> list:
+    if f is None or f == TRUE:
+        return []
+    if isinstance(f, And):
+        out: list = []
+        for x in f.items:
+            out.extend(conjuncts(x))
+        return out
+    return [f]
+
+
+# ---------------------------------------------------------------------------- queries over the tree
+
+
+def free_vars(node, bound: frozenset = frozenset()) -> dict[str, Var]:
+    """Free variables of a term or formula, by name (first occurrence wins)."""
+    out: dict[str, Var] = {}
+    _free(node, bound, out)
+    return out
+
+
+def _free(node, bound, out) -> None:
+    if isinstance(node, Var):
+        if node.name not in bound:
+            out.setdefault(node.name, node)
+    elif isinstance(node, Quant):
+        _free(node.body, bound | {node.var.name}, out)
+    elif isinstance(node, (Lit, Truth, MaxStepT)):
+        return
+    elif isinstance(node, (Obj, Arith, Ext, ExtPred, Cst)):
+        for a in node.args:
+            _free(a, bound, out)
+    elif isinstance(node, Atom):
+        _free(node.cst, bound, out)
+        _free(node.value, bound, out)
+    elif isinstance(node, Cmp):
+        _free(node.left, bound, out)
+        _free(node.right, bound, out)
+    elif isinstance(node, Not):
+        _free(node.arg, bound, out)
+    elif isinstance(node, (And, Or)):
+        for x in node.items:
+            _free(x, bound, out)
+    elif isinstance(node, (Imp, Iff)):
+        _free(node.left, bound, out)
+        _free(node.right, bound, out)
+    elif isinstance(node, StampF):
+        _free(node.time, bound, out)
+        _free(node.body, bound, out)
+    elif isinstance(node, StampT):
+        _free(node.time, bound, out)
+        _free(node.term, bound, out)
+    else:  # pragma: no cover - exhaustive
+        raise TypeError(node)
+
+
+def constants_in(node, acc: list | None = None) -> list:
+    """Every constant occurrence (:class:`Cst`, or a variable over a constant kind)."""
+    acc = [] if acc is None else acc
+    if isinstance(node, Cst):
+        acc.append(node)
+        for a in node.args:
+            constants_in(a, acc)
+    elif isinstance(node, Atom):
+        if isinstance(node.cst, Var):
+            acc.append(node.cst)
+        else:
+            constants_in(node.cst, acc)
+        constants_in(node.value, acc)
+    elif isinstance(node, (Obj, Arith, Ext, ExtPred)):
+        for a in node.args:
+            constants_in(a, acc)
+    elif isinstance(node, Cmp):
+        if node.op not in ("==", "\\=="):
+            constants_in(node.left, acc)
+            constants_in(node.right, acc)
+    elif isinstance(node, Not):
+        constants_in(node.arg, acc)
+    elif isinstance(node, (And, Or)):
+        for x in node.items:
+            constants_in(x, acc)
+    elif isinstance(node, (Imp, Iff)):
+        constants_in(node.left, acc)
+        constants_in(node.right, acc)
+    elif isinstance(node, Quant):
+        constants_in(node.body, acc)
+    elif isinstance(node, StampF):
+        constants_in(node.body, acc)
+    elif isinstance(node, StampT):
+        constants_in(node.term, acc)
+    return acc
+
+
+def mentions(node, kinds: tuple[type, ...]) -> bool:
+    """Whether any node of the given types occurs (quantifiers and stamps included)."""
+    if isinstance(node, kinds):
+        return True
+    if isinstance(node, (Obj, Arith, Ext, ExtPred, Cst)):
+        return any(mentions(a, kinds) for a in node.args)
+    if isinstance(node, Atom):
+        return mentions(node.cst, kinds) or mentions(node.value, kinds)
+    if isinstance(node, Cmp):
+        return mentions(node.left, kinds) or mentions(node.right, kinds)
+    if isinstance(node, Not):
+        return mentions(node.arg, kinds)
+    if isinstance(node, (And, Or)):
+        return any(mentions(x, kinds) for x in node.items)
+    if isinstance(node, (Imp, Iff)):
+        return mentions(node.left, kinds) or mentions(node.right, kinds)
+    if isinstance(node, Quant):
+        return mentions(node.var, kinds) or mentions(node.body, kinds)
+    if isinstance(node, StampF):
+        return mentions(node.time, kinds) or mentions(node.body, kinds)
+    if isinstance(node, StampT):
+        return mentions(node.time, kinds) or mentions(node.term, kinds)
+    return False

@@ -1,0 +1,1021 @@
+"""Resolve parsed statements into a :class:`~cplus.program.Program`.
+
+Statements are processed in order, as CCALC reads them: declarations fill the
+:class:`~cplus.signature.Signature`, macros are expanded at every later use (on the syntax
+tree, so precedence is kept), includes are followed (relative to the including file;
+repeats are ignored, cycles are errors), names are bound, and each law is classified and
+expanded into basic laws.  The only I/O is through the ``read`` callback that returns an
+included file's parsed statements.
+"""
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass
+from typing import Callable, Iterable
+
+from cplus import ast, ir
+from cplus.errors import (DefinitenessError, Diagnostics, IncludeError,
+                          Location, QueryError, ResolveError, SortError)
+from cplus.program import BasicLaw, IncrementLaw, Pattern, Program, QuerySpec
+from cplus.signature import (ACTION_KINDS, FLUENT_KINDS, USER_KINDS, ConstDecl, KindSort,
+                             NamedSort, RangeSort, Signature, SortExpr, StepSort)
+
+__all__ = ["resolve", "Externals", "BUILTIN_EXTERNALS", "Reader"]
+
+Reader = Callable[[str, Location | None], ast.ParsedFile]
+"""``read(path, loc)`` returns the parsed statements of a file or raises a CPlusError."""
+
+
+@dataclass(frozen=True)
+class External:
+    name: str
+    arity: int
+    fn: Callable[..., object]
+    predicate: bool
+
+
+class Externals:
+    """Registry of external functions and predicates usable in laws (``collision/4``)."""
+
+    def __init__(self, items: Iterable[External] = ()) -> None:
+        self._items: dict[tuple[str, int], External] = {(e.name, e.arity): e for e in items}
+
+    def add_predicate(self, name: str, arity: int, fn: Callable[..., object]) -> None:
+        self._items[(name, arity)] = External(name, arity, fn, True)
+
+    def add_function(self, name: str, arity: int, fn: Callable[..., object]) -> None:
+        self._items[(name, arity)] = External(name, arity, fn, False)
+
+    def get(self, name: str, arity: int) -> External | None:
+        return self._items.get((name, arity))
+
+    def copy(self) -> "Externals":
+        return Externals(self._items.values())
+
+
+def _between(lo: object, hi: object, x: object) -> bool:
+    return isinstance(lo, int) and isinstance(hi, int) and isinstance(x, int) and lo <= x <= hi
+
+
+BUILTIN_EXTERNALS = Externals([External("between", 3, _between, True)])
+
+_KIND_ALIASES = {k: k for k in USER_KINDS}
+_ARITH_FUNS = {("abs", 1): "abs", ("min", 2): "min", ("max", 2): "max"}
+_INCLUDE_LIMIT = 64
+
+
+def resolve(main: ast.ParsedFile, read: Reader, externals: Externals | None = None,
+            diagnostics: Diagnostics | None = None) -> Program:
+    """Resolve a parsed file (and everything it includes) into a Program."""
+    r = _Resolver(read, externals or BUILTIN_EXTERNALS, diagnostics or Diagnostics())
+    r.run(main)
+    return r.program
+
+
+class _Scope:
+    """Variables visible in an expression: declared ones plus quantified ones."""
+
+    __slots__ = ("local", "query", "law")
+
+    def __init__(self, query: bool = False, law: str = "") -> None:
+        self.local: dict[str, ir.Var] = {}
+        self.query = query
+        self.law = law
+
+    def with_var(self, var: ir.Var) -> "_Scope":
+        s = _Scope(self.query, self.law)
+        s.local = dict(self.local)
+        s.local[var.name] = var
+        return s
+
+
+class _Resolver:
+    def __init__(self, read: Reader, externals: Externals, diagnostics: Diagnostics) -> None:
+        self.read = read
+        self.externals = externals
+        self.sig = Signature()
+        self.program = Program(self.sig, diagnostics=diagnostics)
+        self.diag = diagnostics
+        self.macros: dict[tuple[str, int], ast.MacroDef] = {}
+        self.variables: dict[str, ir.Var] = {}
+        self.objects: dict[str, Location | None] = {"true": None, "false": None, "none": None}
+        self.included: set[str] = set()
+        self.stack: list[str] = []
+        self.const_order = 0
+        self.anon = 0
+
+    # ------------------------------------------------------------------ driver
+    def run(self, main: ast.ParsedFile) -> None:
+        path = main.source.path  # type: ignore[attr-defined]
+        self._file(main, os.path.abspath(path) if not path.startswith("<") else path)
+        self._finish()
+
+    def _file(self, parsed: ast.ParsedFile, key: str) -> None:
+        self.included.add(key)
+        self.program.files.append(parsed.source.path)  # type: ignore[attr-defined]
+        self.stack.append(key)
+        for stmt in parsed.statements:
+            self._statement(stmt)
+        self.stack.pop()
+
+    def _statement(self, stmt: ast.Statement) -> None:
+        handler = getattr(self, "_st_" + type(stmt).__name__)
+        handler(stmt)
+
+    # ------------------------------------------------------------------ includes
+    def _st_Include(self, stmt: ast.Include) -> None:
+        base_dir = os.path.dirname(self.stack[-1]) if not self.stack[-1].startswith("<") else os.getcwd()
+        for name, loc in stmt.paths:
+            path = self._find_include(name, base_dir)
+            if path is None:
+                raise IncludeError(f"cannot find included file '{name}'", loc)
+            key = os.path.abspath(path)
+            if key in self.stack:
+                chain = " -> ".join(os.path.basename(p) for p in self.stack[self.stack.index(key):])
+                raise IncludeError(f"include cycle: {chain} -> {os.path.basename(key)}", loc)
+            if key in self.included:
+                continue
+            if len(self.stack) > _INCLUDE_LIMIT:
+                raise IncludeError("includes nested too deeply", loc)
+            self._file(self.read(path, loc), key)
+
+    @staticmethod
+    def _find_include(name: str, base_dir: str) -> str | None:
+        candidates = [os.path.join(base_dir, name), name, os.path.join(base_dir, name + ".cp"), name + ".cp"]
+        for c in candidates:
+            if os.path.isfile(c):
+                return c
+        return None
+
+    # ------------------------------------------------------------------ sorts, objects
+    def _st_Sorts(self, stmt: ast.Sorts) -> None:
+        for d in stmt.decls:
+            self._check_new_sort_name(d.name, d.loc)
+            self.sig.add_sort(d.name, d.loc)
+            if d.parent is not None:
+                if self.sig.is_subsort(d.parent, d.name) and d.parent != d.name:
+                    raise SortError(f"'{d.name} >> {d.parent}' would make the sorts a cycle", d.loc)
+                self.sig.add_subsort(d.parent, d.name)
+
+    def _check_new_sort_name(self, name: str, loc: Location) -> None:
+        if name in ("step", "astep", "afValue") or name in _KIND_ALIASES:
+            raise SortError(f"'{name}' is a built-in name and cannot be declared as a sort", loc)
+        if name[0].isupper():
+            raise SortError(f"sort names start with a lower-case letter: '{name}'", loc)
+
+    def _sort_info(self, name: str, loc: Location):
+        info = self.sig.sorts.get(name)
+        if info is None:
+            raise SortError(f"unknown sort '{name}'", loc)
+        return info
+
+    def _st_Objects(self, stmt: ast.Objects) -> None:
+        for item in stmt.items:
+            self._sort_info(item.sort, item.sort_loc)
+            if item.sort == "boolean":
+                raise SortError("the objects of 'boolean' are fixed (true, false)", item.sort_loc)
+            for term in item.terms:
+                for value in self._object_values(self._expand(term)):
+                    self.sig.add_object(value, item.sort)
+
+    def _object_values(self, e: ast.Expr) -> list:
+        if isinstance(e, ast.Range):
+            lo, hi = self._static_int(e.lo), self._static_int(e.hi)
+            return list(range(lo, hi + 1))
+        if isinstance(e, ast.Name) and not e.args:
+            if e.name[0].isupper():
+                raise ResolveError(f"object names start with a lower-case letter: '{e.name}'", e.loc)
+            if self.sig.lookup(e.name, 0) is not None:
+                raise ResolveError(f"'{e.name}' is already declared as a constant", e.loc)
+            self.objects.setdefault(e.name, e.loc)
+            return [e.name]
+        if isinstance(e, ast.Name):
+            if self.sig.lookup(e.name, len(e.args)) is not None:
+                raise ResolveError(f"'{e.name}/{len(e.args)}' is already declared as a constant", e.loc)
+            choices = [self._constructor_arg(a) for a in e.args]
+            self.sig.constructors[(e.name, len(e.args))] = e.loc
+            out: list = [()]
+            for ch in choices:
+                out = [prev + (v,) for prev in out for v in ch]
+            return [(e.name,) + t for t in out]
+        return [self._static_int(e)]
+
+    def _constructor_arg(self, a: ast.Expr) -> list:
+        a = self._expand(a)
+        if isinstance(a, ast.Range):
+            return list(range(self._static_int(a.lo), self._static_int(a.hi) + 1))
+        if isinstance(a, ast.Name) and not a.args and a.name in self.sig.sorts:
+            return list(self.sig.objects_of(NamedSort(a.name)))
+        if isinstance(a, ast.Name) and not a.args and a.name in self.objects:
+            return [a.name]
+        if isinstance(a, ast.Name) and not a.args:
+            raise SortError(f"'{a.name}' is neither a sort nor an object", a.loc)
+        term = self._term(a, _Scope())
+        if isinstance(term, ir.Lit):
+            return [term.value]
+        raise ResolveError("a constructor argument must be a sort, a range or an object", a.loc)
+
+    # ------------------------------------------------------------------ sort expressions
+    def _sort_expr(self, spec: ast.SortSpec, for_variable: bool = False) -> SortExpr:
+        if isinstance(spec, ast.Range):
+            lo_e, hi_e = self._expand(spec.lo), self._expand(spec.hi)
+            lo, hi = self._static_int(lo_e), self._static_int(hi_e)
+            if hi < lo:
+                raise SortError(f"empty range {lo}..{hi}", spec.loc)
+            return RangeSort(lo, hi)
+        name = spec.name
+        if (name, 0) in self.macros:
+            body = self._expand(ast.Name(spec.loc, name))
+            if isinstance(body, ast.Range):
+                return self._sort_expr(body, for_variable)
+        if name == "afValue":
+            if self.sig.max_additive is None:
+                raise SortError("'afValue' needs ':- maxAdditive :: N.' before it", spec.loc)
+            m = self.sig.max_additive
+            return RangeSort(-m, m, spec.star)
+        if for_variable and name in ("step", "astep") and not spec.star:
+            return StepSort(name == "astep")
+        if for_variable and name in _KIND_ALIASES and not spec.star:
+            return KindSort(name)
+        self._sort_info(name, spec.loc)
+        return NamedSort(name, spec.star)
+
+    # ------------------------------------------------------------------ constants
+    def _st_Constants(self, stmt: ast.Constants) -> None:
+        for item in stmt.items:
+            spec = item.spec
+            kind = spec.kind
+            domain: SortExpr
+            if kind is None:
+                kind, domain = "rigid", self._sort_expr(spec.domain)  # type: ignore[arg-type]
+            elif kind == "attribute":
+                domain = self._sort_expr(spec.domain) if spec.domain is not None else NamedSort("boolean")
+            elif kind in _KIND_ALIASES:
+                domain = self._sort_expr(spec.domain) if spec.domain is not None else NamedSort("boolean")
+            elif spec.domain is None and kind in self.sig.sorts:
+                kind, domain = "rigid", NamedSort(kind)
+            elif spec.domain is None and (kind, 0) in self.macros:
+                kind, domain = "rigid", self._sort_expr(ast.SortRef(spec.loc, kind))
+            else:
+                raise SortError(f"unknown constant kind or sort '{kind}'", spec.loc)
+            if kind in ("additiveFluent", "additiveAction"):
+                self._check_numeric(domain, spec.loc)
+            parent = None
+            if kind == "attribute":
+                parent = self._attribute_parent(spec)
+            for cname in item.names:
+                self._declare_constant(cname, kind, domain, parent, spec.loc)
+
+    def _check_numeric(self, domain: SortExpr, loc: Location) -> None:
+        if isinstance(domain, RangeSort):
+            return
+        objs = self.sig.objects_of(domain)
+        bad = [o for o in objs if not isinstance(o, int)]
+        if bad:
+            raise SortError(f"an additive constant needs a numeric domain; '{domain}' has '{bad[0]}'", loc)
+
+    def _attribute_parent(self, spec: ast.ConstSpec) -> ConstDecl:
+        p = spec.parent
+        assert p is not None
+        decl = self.sig.lookup(p.name, len(p.args))
+        if decl is None:
+            raise ResolveError(f"unknown action '{p.name}/{len(p.args)}' in 'attribute ... of'", p.loc)
+        if decl.kind not in ("exogenousAction", "action", "abAction"):
+            raise SortError(f"'{p.name}' is a {decl.kind}; attributes belong to actions", p.loc)
+        sorts = tuple(self._sort_expr(s) for s in p.args)
+        if sorts != decl.argsorts:
+            raise SortError(f"the argument sorts of '{p.name}' are ({', '.join(map(str, decl.argsorts))})", p.loc)
+        return decl
+
+    def _declare_constant(self, cname: ast.ConstName, kind: str, domain: SortExpr,
+                          parent: ConstDecl | None, loc: Location, auto_ab: bool = False) -> ConstDecl:
+        name = cname.name
+        if name[0].isupper():
+            raise ResolveError(f"constant names start with a lower-case letter: '{name}'", cname.loc)
+        argsorts = tuple(self._sort_expr(s) for s in cname.args)
+        key = (name, len(argsorts))
+        if key in self.sig.constants:
+            raise ResolveError(f"constant '{name}/{len(argsorts)}' is declared twice", cname.loc)
+        if key in self.sig.constructors or (not argsorts and name in self.objects):
+            raise ResolveError(f"'{name}' is already declared as an object", cname.loc)
+        decl = ConstDecl(name, argsorts, kind, domain, cname.loc, parent=parent, auto_ab=auto_ab,
+                         order=self.const_order)
+        self.const_order += 1
+        if parent is not None:
+            k = parent.arity
+            if argsorts[:k] != parent.argsorts:
+                raise SortError(f"the arguments of attribute '{name}' must begin with those of '{parent.name}'",
+                                cname.loc)
+            decl.parent_args = tuple(range(k))
+            parent.attributes.append(decl)
+        self.sig.constants[key] = decl
+        return decl
+
+    # ------------------------------------------------------------------ variables, macros
+    def _st_Variables(self, stmt: ast.Variables) -> None:
+        for item in stmt.items:
+            sort = self._sort_expr(item.sort, for_variable=True)
+            for name, loc in item.names:
+                if not name[0].isupper():
+                    raise ResolveError(f"variable names start with an upper-case letter: '{name}'", loc)
+                self.variables[name] = ir.Var(name, sort, loc)
+
+    def _st_Macros(self, stmt: ast.Macros) -> None:
+        for m in stmt.items:
+            self.macros[(m.name, m.arity)] = m
+
+    def _st_MaxAdditive(self, stmt: ast.MaxAdditive) -> None:
+        value = self._static_int(self._expand(stmt.value))
+        if value < 0:
+            raise SortError("maxAdditive must not be negative", stmt.loc)
+        self.sig.max_additive = value
+        self.macros[("maxAdditive", 0)] = ast.MacroDef(stmt.loc, "maxAdditive", 0, ast.Num(stmt.loc, value))
+
+    def _st_NoConcurrency(self, stmt: ast.NoConcurrency) -> None:
+        self.program.noconcurrency.append((stmt.strong, stmt.loc))
+
+    # ------------------------------------------------------------------ show / hide
+    def _st_ShowHide(self, stmt: ast.ShowHide) -> None:
+        if stmt.all_:
+            self.program.hide_all = stmt.hide
+        pats = [self._pattern(p) for p in stmt.patterns]
+        if stmt.hide:
+            self.program.hide.extend(pats)
+        else:
+            self.program.show.extend(pats)
+            self.program.show_given = True
+
+    def _pattern(self, e: ast.Expr) -> Pattern:
+        e = self._expand(e)
+        negated = False
+        if isinstance(e, ast.Unary) and e.op == "not":
+            negated, e = True, e.arg
+        value = None
+        if isinstance(e, ast.Binary) and e.op == "=":
+            value = self._pattern_arg(e.right)
+            e = e.left
+        if not isinstance(e, ast.Name):
+            raise ResolveError("a show/hide pattern is an atom 'c(args)' or 'c(args)=v'", e.loc)
+        decl = self.sig.lookup(e.name, len(e.args))
+        if decl is None:
+            raise ResolveError(f"unknown constant '{e.name}/{len(e.args)}' in show/hide", e.loc)
+        return Pattern(decl, tuple(self._pattern_arg(a) for a in e.args), value, negated)
+
+    def _pattern_arg(self, a: ast.Expr):
+        t = self._term(a, _Scope())
+        if isinstance(t, (ir.Lit, ir.Var)):
+            return t if isinstance(t, ir.Var) else t.value
+        raise ResolveError("show/hide arguments are objects or variables", a.loc)
+
+    # ------------------------------------------------------------------ queries
+    def _st_Query(self, stmt: ast.Query) -> None:
+        label = "0"
+        lo, hi, explicit = 0, None, False
+        seen_label = seen_max = False
+        items: list[tuple[ir.Formula, Location]] = []
+        for it in stmt.items:
+            if isinstance(it, ast.QueryLabel):
+                if seen_label:
+                    raise QueryError("a query has at most one label", it.loc)
+                seen_label, label = True, it.label
+            elif isinstance(it, ast.QueryMaxstep):
+                if seen_max:
+                    raise QueryError("a query has at most one maxstep", it.loc)
+                seen_max, explicit = True, True
+                lo = self._static_int(self._expand(it.lo))
+                hi = None if it.hi is None else self._static_int(self._expand(it.hi))
+                if lo < 0 or (hi is not None and hi < lo):
+                    bounds = f"{lo}..{'infinity' if hi is None else hi}"
+                    raise QueryError(f"malformed maxstep {bounds}: need 0 =< min =< max", it.loc)
+            else:
+                items.append((self._formula(it.formula, _Scope(query=True)), it.loc))
+        if self.program.query(label) is not None:
+            self.diag.warn(f"query label '{label}' is used again; the later query replaces the earlier",
+                           stmt.loc)
+            self.program.queries = [q for q in self.program.queries if q.label != label]
+        self.program.queries.append(QuerySpec(label, lo, hi, tuple(items), stmt.loc, explicit))
+
+    # ------------------------------------------------------------------ macros
+    def _expand(self, e: ast.Expr, stack: tuple = ()) -> ast.Expr:
+        if isinstance(e, ast.Name):
+            key = (e.name, len(e.args))
+            args = tuple(self._expand(a, stack) for a in e.args)
+            m = self.macros.get(key)
+            if m is None:
+                return ast.Name(e.loc, e.name, args) if args != e.args else e
+            if key in stack:
+                raise ResolveError(f"recursive macro '{e.name}/{len(e.args)}'", e.loc)
+            body = self._expand(m.body, stack + (key,))
+            return _substitute(body, args) if args else body
+        if isinstance(e, ast.Unary):
+            a = self._expand(e.arg, stack)
+            return e if a is e.arg else ast.Unary(e.loc, e.op, a)
+        if isinstance(e, ast.Binary):
+            left, right = self._expand(e.left, stack), self._expand(e.right, stack)
+            return e if (left is e.left and right is e.right) else ast.Binary(e.loc, e.op, left, right)
+        if isinstance(e, ast.Quant):
+            return ast.Quant(e.loc, e.vars, self._expand(e.body, stack))
+        if isinstance(e, ast.Stamp):
+            return ast.Stamp(e.loc, self._expand(e.time, stack), self._expand(e.body, stack))
+        if isinstance(e, ast.Range):
+            return ast.Range(e.loc, self._expand(e.lo, stack), self._expand(e.hi, stack))
+        return e
+
+    def _static_int(self, e: ast.Expr) -> int:
+        """Evaluate a constant-free integer expression written in a declaration."""
+        t = self._term(self._expand(e), _Scope())
+        if isinstance(t, ir.Lit) and isinstance(t.value, int):
+            return t.value
+        raise SortError("expected an integer expression (numbers, macros and arithmetic only)",
+                        getattr(e, "loc", None))
+
+    # ------------------------------------------------------------------ terms
+    def _var(self, name: str, loc: Location, scope: _Scope) -> ir.Var | None:
+        v = scope.local.get(name) or self.variables.get(name)
+        if v is not None:
+            return ir.Var(v.name, v.sort, loc)
+        if name.startswith("V_") and name[2:] in self.sig.sorts:
+            return ir.Var(name, NamedSort(name[2:]), loc)
+        return None
+
+    def _term(self, e: ast.Expr, scope: _Scope) -> ir.Term:
+        e = self._expand(e)
+        return self._term_x(e, scope)
+
+    def _term_x(self, e: ast.Expr, scope: _Scope) -> ir.Term:
+        if isinstance(e, ast.Num):
+            return ir.Lit(e.value)
+        if isinstance(e, ast.Name):
+            return self._name_term(e, scope)
+        if isinstance(e, ast.Unary):
+            if e.op == "not":
+                return self._term_x(_rotate_minus(e.arg, e.loc), scope) if isinstance(e.arg, ast.Binary) \
+                    else self._arith("neg", (self._term_x(e.arg, scope),), e.loc)
+            return self._arith("neg" if e.op == "-" else "abs", (self._term_x(e.arg, scope),), e.loc)
+        if isinstance(e, ast.Binary):
+            if e.op in ast.ARITH_OPS:
+                return self._arith(e.op, (self._term_x(e.left, scope), self._term_x(e.right, scope)), e.loc)
+            raise ResolveError(f"expected a term, found a formula ('{e.op}')", e.loc)
+        if isinstance(e, ast.MaxStep):
+            if not scope.query:
+                raise ResolveError("'maxstep' may only occur in queries", e.loc)
+            return ir.MaxStepT(e.loc)
+        if isinstance(e, ast.Stamp):
+            if not scope.query:
+                raise ResolveError("time stamps 'i: ...' may only occur in queries", e.loc)
+            return ir.StampT(self._term_x(e.time, scope), self._term_x(e.body, scope), e.loc)
+        if isinstance(e, ast.Param):
+            raise ResolveError(f"macro parameter #{e.index} outside a macro body", e.loc)
+        if isinstance(e, ast.Quant):
+            raise ResolveError("expected a term, found a quantified formula", e.loc)
+        raise ResolveError("expected a term", e.loc)
+
+    def _arith(self, op: str, args: tuple, loc: Location) -> ir.Term:
+        for a in args:
+            if isinstance(a, ir.Lit) and not isinstance(a.value, int):
+                raise SortError(f"arithmetic on the object '{_show(a.value)}' (not an integer)", loc)
+            if isinstance(a, ir.Var) and not self._may_be_int(a.sort):
+                raise SortError(f"arithmetic on variable {a.name} of sort '{a.sort}', which has no integers",
+                                a.loc)
+        if all(isinstance(a, ir.Lit) for a in args):
+            from cplus.ground.arith import apply_arith  # local: ground depends on ir, not vice versa
+            try:
+                value = apply_arith(op, [a.value for a in args])
+            except ZeroDivisionError:
+                raise SortError("division by zero", loc) from None
+            return ir.Lit(value)
+        return ir.Arith(op, args, loc)
+
+    def _may_be_int(self, sort: SortExpr) -> bool:
+        if isinstance(sort, (RangeSort, StepSort)):
+            return True
+        if isinstance(sort, KindSort):
+            return False
+        return any(isinstance(o, int) for o in self.sig.objects_of(sort)) or not self.sig.objects_of(sort)
+
+    def _name_term(self, e: ast.Name, scope: _Scope) -> ir.Term:
+        name, n = e.name, len(e.args)
+        if name[0].isupper():
+            if n:
+                raise ResolveError(f"'{name}' looks like a variable but has arguments", e.loc)
+            v = self._var(name, e.loc, scope)
+            if v is None:
+                raise ResolveError(f"unknown variable '{name}' (declare it in ':- variables')", e.loc)
+            return v
+        decl = self.sig.lookup(name, n)
+        if decl is not None:
+            args = tuple(self._term_x(a, scope) for a in e.args)
+            return ir.Cst(decl, args, e.loc)
+        if n == 0:
+            if name in self.objects:
+                return ir.Lit(name)
+            if name in self.sig.sorts:
+                raise ResolveError(f"'{name}' is a sort, not an object or constant", e.loc)
+            if self.sig.constants_named(name):
+                arities = ", ".join(str(d.arity) for d in self.sig.constants_named(name))
+                raise ResolveError(f"constant '{name}' takes {arities} argument(s), not 0", e.loc)
+            raise ResolveError(f"unknown name '{name}'", e.loc)
+        if (name, n) in _ARITH_FUNS:
+            return self._arith(_ARITH_FUNS[(name, n)], tuple(self._term_x(a, scope) for a in e.args), e.loc)
+        if (name, n) in self.sig.constructors:
+            args = tuple(self._term_x(a, scope) for a in e.args)
+            if all(isinstance(a, ir.Lit) for a in args):
+                value = (name,) + tuple(a.value for a in args)  # type: ignore[union-attr]
+                if value not in self.sig.object_order:
+                    raise SortError(f"'{_show(value)}' is not a declared object", e.loc)
+                return ir.Lit(value)
+            return ir.Obj(name, args, e.loc)
+        if name == "var" and n == 2:
+            sort_e = e.args[0]
+            if not isinstance(sort_e, ast.Name) or sort_e.args:
+                raise ResolveError("var(s, k) needs a sort name s", e.loc)
+            sort = self._sort_expr(ast.SortRef(sort_e.loc, sort_e.name), for_variable=True)
+            return ir.Var(f"var({sort_e.name},{_ast_text(e.args[1])})", sort, e.loc)
+        ext = self.externals.get(name, n)
+        if ext is not None:
+            args = tuple(self._term_x(a, scope) for a in e.args)
+            if ext.predicate:
+                raise ResolveError(f"'{name}/{n}' is an external predicate, not a function", e.loc)
+            return ir.Ext(name, ext.fn, args, e.loc)
+        known = self.sig.constants_named(name)
+        if known:
+            arities = ", ".join(str(d.arity) for d in known)
+            raise ResolveError(f"constant '{name}' takes {arities} argument(s), not {n}", e.loc)
+        raise ResolveError(f"unknown constant or function '{name}/{n}'", e.loc)
+
+    # ------------------------------------------------------------------ formulas
+    def _formula(self, e: ast.Expr, scope: _Scope) -> ir.Formula:
+        return self._formula_x(self._expand(e), scope)
+
+    def _formula_x(self, e: ast.Expr, scope: _Scope) -> ir.Formula:
+        if isinstance(e, ast.Binary):
+            op = e.op
+            if op in ("&", ",", "&&"):
+                return ir.conj((self._formula_x(e.left, scope), self._formula_x(e.right, scope)))
+            if op in ("++", "||"):
+                left, right = self._formula_x(e.left, scope), self._formula_x(e.right, scope)
+                items = (left.items if isinstance(left, ir.Or) else (left,)) + \
+                        (right.items if isinstance(right, ir.Or) else (right,))
+                return ir.Or(items)
+            if op == "->>":
+                return ir.Imp(self._formula_x(e.left, scope), self._formula_x(e.right, scope))
+            if op == "<->>":
+                return ir.Iff(self._formula_x(e.left, scope), self._formula_x(e.right, scope))
+            if op in ast.COMPARE_OPS:
+                return self._comparison(e, scope)
+            raise ResolveError(f"expected a formula, found an arithmetic term ('{op}')", e.loc)
+        if isinstance(e, ast.Unary):
+            if e.op == "not":
+                return ir.Not(self._formula_x(e.arg, scope))
+            raise ResolveError("expected a formula, found an arithmetic term", e.loc)
+        if isinstance(e, ast.Name):
+            return self._name_formula(e, scope)
+        if isinstance(e, ast.Quant):
+            return self._quant(e, scope)
+        if isinstance(e, ast.Stamp):
+            if not scope.query:
+                raise ResolveError("time stamps 'i: ...' may only occur in queries", e.loc)
+            return ir.StampF(self._term_x(e.time, scope), self._formula_x(e.body, scope), e.loc)
+        if isinstance(e, ast.Num):
+            raise ResolveError(f"expected a formula, found the number {e.value}", e.loc)
+        if isinstance(e, ast.MaxStep):
+            raise ResolveError("expected a formula, found 'maxstep'", e.loc)
+        if isinstance(e, ast.Param):
+            raise ResolveError(f"macro parameter #{e.index} outside a macro body", e.loc)
+        raise ResolveError("expected a formula", e.loc)
+
+    def _comparison(self, e: ast.Binary, scope: _Scope) -> ir.Formula:
+        left, right = self._term_x(e.left, scope), self._term_x(e.right, scope)
+        if isinstance(left, ir.Cst) and e.op in ("=", "\\="):
+            atom = ir.Atom(left, right, e.loc)
+            self._check_value(left, right, e.loc)
+            return atom if e.op == "=" else ir.Not(atom)
+        if isinstance(left, ir.Var) and isinstance(left.sort, KindSort) and e.op in ("=", "\\=") \
+                and not isinstance(right, ir.Cst):
+            atom = ir.Atom(left, right, e.loc)
+            return atom if e.op == "=" else ir.Not(atom)
+        if e.op == "\\=":
+            return ir.Not(ir.Cmp("=", left, right, e.loc))
+        return ir.Cmp(e.op, left, right, e.loc)
+
+    def _check_value(self, cst: ir.Cst, value: ir.Term, loc: Location) -> None:
+        if isinstance(value, ir.Lit) and isinstance(value.value, int) and isinstance(cst.decl.domain, RangeSort):
+            d = cst.decl.domain
+            if not (d.lo <= value.value <= d.hi):
+                self.diag.warn(f"{value.value} is outside the domain {d} of '{cst.decl.name}'; "
+                               "this atom is always false", loc)
+
+    def _name_formula(self, e: ast.Name, scope: _Scope) -> ir.Formula:
+        name, n = e.name, len(e.args)
+        if n == 0 and name in ("true", "false"):
+            return ir.TRUE if name == "true" else ir.FALSE
+        if not name[0].isupper():
+            decl = self.sig.lookup(name, n)
+            if decl is None:
+                ext = self.externals.get(name, n)
+                if ext is not None and ext.predicate:
+                    return ir.ExtPred(name, ext.fn, tuple(self._term_x(a, scope) for a in e.args), e.loc)
+        t = self._name_term(e, scope)
+        if isinstance(t, ir.Cst):
+            if not _is_boolean(t.decl.domain):
+                raise SortError(f"'{t.decl.name}' is not Boolean (its domain is {t.decl.domain}); "
+                                f"write {t.decl.name}(...)=value", e.loc)
+            return ir.Atom(t, ir.Lit("true"), e.loc)
+        if isinstance(t, ir.Var):
+            if isinstance(t.sort, KindSort):
+                return ir.Atom(t, ir.Lit("true"), e.loc)
+            if isinstance(t.sort, NamedSort) and t.sort.name == "boolean":
+                return ir.Cmp("=", t, ir.Lit("true"), e.loc)
+            raise SortError(f"variable {t.name} of sort '{t.sort}' is not a formula", e.loc)
+        raise ResolveError(f"expected a formula, found the object '{_ast_text(e)}'", e.loc)
+
+    def _quant(self, e: ast.Quant, scope: _Scope) -> ir.Formula:
+        inner = scope
+        qvars: list[tuple[bool, ir.Var]] = []
+        for qv in e.vars:
+            base = self._var(qv.name, qv.loc, _Scope()) if qv.name[0].isupper() else None
+            if base is None:
+                raise ResolveError(f"unknown variable '{qv.name}' in a quantifier", qv.loc)
+            var = ir.Var(qv.name, base.sort, qv.loc)
+            if isinstance(var.sort, StepSort) and not scope.query:
+                raise ResolveError("variables over steps may only occur in queries", qv.loc)
+            inner = inner.with_var(var)
+            qvars.append((qv.exists, var))
+        body = self._formula_x(e.body, inner)
+        for exists, var in reversed(qvars):
+            body = ir.Quant(exists, var, body)
+        return body
+
+    # ------------------------------------------------------------------ laws
+    def _st_Law(self, law: ast.Law) -> None:
+        scope = _Scope(law=law.kind)
+        if law.kind == "fact" and _has_stamp(law.head):
+            self.diag.warn("a time-stamped formula outside a query has no effect; ignored", law.loc)
+            return
+        if law.kind in ("exogenous", "inertial", "rigid"):
+            self._frame_law(law, scope)
+            return
+        f = lambda x: None if x is None else self._formula(x, scope)  # noqa: E731
+        head = f(law.head) if law.kind != "increments" else None
+        if_ = f(law.if_) or ir.TRUE
+        after = f(law.after)
+        where = f(law.where)
+        if where is not None and ir.constants_in(where):
+            raise ResolveError("a 'where' condition may not mention constants", law.loc)
+        kind = law.kind
+        if kind == "increments":
+            self._increment_law(law, scope, if_, where)
+            return
+        action = f(law.action)
+        if kind in ("caused", "fact"):
+            self._add(law, head, if_, after, where, "caused")
+        elif kind == "default":
+            self._add(law, head, ir.conj((head, if_)), after, where, "default")
+        elif kind == "causes":
+            assert action is not None
+            if self._mentions_actions(head):
+                self._add(law, head, ir.conj((action, if_)), None, where, "causes", force="action")
+            else:
+                self._add(law, head, ir.TRUE, ir.conj((action, if_)), where, "causes")
+        elif kind == "may_cause":
+            assert action is not None
+            self._add(law, head, head, ir.conj((action, if_)), where, "may cause")
+        elif kind == "nonexecutable":
+            self._add(law, None, ir.TRUE, ir.conj((head, if_)), where, "nonexecutable")
+        elif kind == "constraint":
+            body = ir.conj((ir.Not(head), if_))
+            if after is None and self._mentions_actions(head):
+                raise ResolveError("'constraint' cannot mention actions; use 'always' or 'nonexecutable'",
+                                   law.loc)
+            self._add(law, None, body, after, where, "constraint")
+        elif kind == "always":
+            if law.if_ is not None:
+                raise ResolveError("'always F' takes no 'if' part", law.loc)
+            self._add(law, None, ir.TRUE, ir.conj((ir.Not(head), after or ir.TRUE)), where, "always")
+        elif kind == "never":
+            self._add(law, None, ir.conj((head, if_)), after, where, "never")
+        else:  # pragma: no cover - grammar covers the kinds
+            raise ResolveError(f"unsupported law '{kind}'", law.loc)
+
+    def _mentions_actions(self, f) -> bool:
+        return any(_is_action(c) for c in ir.constants_in(f))
+
+    def _add(self, law: ast.Law, head: ir.Formula | None, body: ir.Formula, after: ir.Formula | None,
+             where: ir.Formula | None, origin: str, force: str | None = None) -> None:
+        if head is not None and head == ir.TRUE:
+            return
+        if head == ir.FALSE:
+            head = None
+        cls = force or self._classify(law, head, body, after)
+        if law.unless is not None:
+            body, after = self._unless(law, cls, body, after, origin)
+        if head is not None:
+            self._check_head(law, head, cls)
+        self.program.laws.append(BasicLaw(cls, head, body, after, where, law.loc, origin))
+
+    def _classify(self, law: ast.Law, head, body, after) -> str:
+        head_c = ir.constants_in(head) if head is not None else []
+        body_c = ir.constants_in(body)
+        after_c = ir.constants_in(after) if after is not None else []
+        head_actions = [c for c in head_c if _is_action(c)]
+        head_fluents = [c for c in head_c if _kind(c) in FLUENT_KINDS]
+        if head_actions and head_fluents:
+            raise DefinitenessError("a law's head may not mix actions and fluents", law.loc)
+        if after is not None:
+            if head_actions:
+                raise ResolveError("a law with an action in its head cannot have an 'after' part", law.loc)
+            if any(_is_action(c) for c in body_c):
+                raise ResolveError("the 'if' part of a law with 'after' may not mention actions "
+                                   "(they belong in the 'after' part)", law.loc)
+            return "dynamic"
+        if head_actions:
+            return "action"
+        if head is None:
+            if any(_is_action(c) for c in body_c):
+                return "action"
+            if all(_kind(c) == "rigid" for c in body_c):
+                return "rigid"
+            return "static"
+        if head_fluents:
+            if any(_is_action(c) for c in body_c):
+                raise ResolveError("a static law's 'if' part may not mention actions; use 'after', "
+                                   "'always' or 'nonexecutable'", law.loc)
+            return "static"
+        # rigid head
+        if any(_kind(c) != "rigid" for c in body_c + after_c):
+            raise ResolveError("a law with a rigid constant in its head may mention only rigid constants",
+                               law.loc)
+        return "rigid"
+
+    def _check_head(self, law: ast.Law, head: ir.Formula, cls: str) -> None:
+        for lit in ir.conjuncts(head):
+            atom = lit.arg if isinstance(lit, ir.Not) else lit
+            if isinstance(atom, ir.Truth):
+                continue
+            if not isinstance(atom, ir.Atom):
+                raise DefinitenessError(
+                    f"the head of this law is not a literal or conjunction of literals (found {_describe(atom)}); "
+                    "the causal theory would not be definite", law.loc)
+            if isinstance(lit, ir.Not) and not _atom_boolean(atom):
+                raise DefinitenessError("a negated non-Boolean atom -(c=v) cannot be a head; "
+                                        "the causal theory would not be definite", law.loc)
+            if isinstance(atom.cst, ir.Var):
+                continue
+            kind = atom.cst.decl.kind
+            if cls == "dynamic" and kind in ("sdFluent", "rigid"):
+                raise ResolveError(f"'{atom.cst.decl.name}' is a {kind}; it cannot be the head of a law "
+                                   "with 'after'", law.loc)
+            if kind in ("additiveFluent", "additiveAction"):
+                raise ResolveError(f"'{atom.cst.decl.name}' is additive; it changes only by "
+                                   "'increments'/'decrements' laws", law.loc)
+
+    def _unless(self, law: ast.Law, cls: str, body, after, origin: str):
+        scope = _Scope(law=law.kind)
+        target = "after" if cls == "dynamic" else "if"
+        kind = {"dynamic": "abAction", "action": "abAction", "static": "sdFluent", "rigid": "rigid"}[cls]
+        ab = self._ab_atom(law.unless, scope, kind)
+        neg = ir.Not(ab)
+        if target == "after":
+            return body, ir.conj((after or ir.TRUE, neg))
+        return ir.conj((body, neg)), after
+
+    def _ab_atom(self, e: ast.Expr, scope: _Scope, kind: str) -> ir.Atom:
+        e = self._expand(e)
+        if not isinstance(e, ast.Name) or e.name[0].isupper():
+            raise ResolveError("'unless' takes an abnormality atom ab(args)", e.loc)
+        decl = self.sig.lookup(e.name, len(e.args))
+        args = tuple(self._term_x(a, scope) for a in e.args)
+        if decl is None:
+            sorts = tuple(self._sort_of_arg(a, e) for a in args)
+            decl = ConstDecl(e.name, sorts, kind, NamedSort("boolean"), e.loc, auto_ab=True,
+                             order=self.const_order)
+            self.const_order += 1
+            self.sig.constants[(e.name, len(args))] = decl
+            if kind in ("sdFluent", "rigid"):
+                v = [ir.Var(f"_ab{i}", s, e.loc) for i, s in enumerate(sorts)]
+                cst = ir.Cst(decl, tuple(v), e.loc)
+                neg = ir.Not(ir.Atom(cst, ir.Lit("true"), e.loc))
+                cls = "static" if kind == "sdFluent" else "rigid"
+                self.program.laws.append(BasicLaw(cls, neg, neg, None, None, e.loc, "default"))
+        elif not _is_boolean(decl.domain):
+            raise SortError(f"'{e.name}' in 'unless' must be Boolean", e.loc)
+        return ir.Atom(ir.Cst(decl, args, e.loc), ir.Lit("true"), e.loc)
+
+    def _sort_of_arg(self, a: ir.Term, e: ast.Name) -> SortExpr:
+        if isinstance(a, ir.Var):
+            return a.sort
+        if isinstance(a, ir.Lit):
+            for name, info in self.sig.sorts.items():
+                if a.value in info.objects:
+                    return NamedSort(name)
+            if isinstance(a.value, int):
+                return RangeSort(a.value, a.value)
+        raise ResolveError("the arguments of an undeclared abnormality must be variables or objects", e.loc)
+
+    def _frame_law(self, law: ast.Law, scope: _Scope) -> None:
+        items = _split_list(self._expand(law.head))
+        if_ = self._formula(law.if_, scope) if law.if_ is not None else ir.TRUE
+        after = self._formula(law.after, scope) if law.after is not None else None
+        where = self._formula(law.where, scope) if law.where is not None else None
+        for item in items:
+            neg = isinstance(item, ast.Unary) and item.op == "not"
+            t = self._term_x(item.arg if neg else item, scope)
+            if not isinstance(t, ir.Cst) or neg:
+                raise ResolveError(f"'{law.kind}' takes constants, e.g. '{law.kind} c(X)'", item.loc)
+            kind = t.decl.kind
+            if law.kind == "exogenous":
+                if after is not None:
+                    raise ResolveError("'exogenous c' takes no 'after' part", law.loc)
+                cls = "rigid" if kind == "rigid" else ("action" if t.decl.is_action else "static")
+                body, aft = if_, None
+            else:
+                if not t.decl.is_fluent:
+                    raise ResolveError(f"'{law.kind}' applies to fluents; '{t.decl.name}' is a {kind}", item.loc)
+                if kind in ("sdFluent", "additiveFluent"):
+                    raise ResolveError(f"'{law.kind}' cannot apply to the {kind} '{t.decl.name}'", item.loc)
+                cls = "dynamic"
+                if law.kind == "inertial":   # caused c=v if c=v after c=v & G
+                    body, aft = ir.TRUE, ir.conj((after or ir.TRUE, if_))
+                else:                        # rigid c: caused false if -(c=v) & G after c=v & H
+                    body, aft = if_, after or ir.TRUE
+            law_obj = BasicLaw(cls, None, body, aft, where, law.loc, law.kind, frame=law.kind, frame_cst=t)
+            if law.unless is not None:
+                b, a = self._unless(law, cls, law_obj.body, law_obj.after, law.kind)
+                law_obj = BasicLaw(cls, None, b, a, where, law.loc, law.kind, frame=law.kind, frame_cst=t)
+            self.program.laws.append(law_obj)
+
+    def _increment_law(self, law: ast.Law, scope: _Scope, cond: ir.Formula, where) -> None:
+        target = self._term(law.head, scope)  # type: ignore[arg-type]
+        if not isinstance(target, ir.Cst) or target.decl.kind not in ("additiveFluent", "additiveAction"):
+            raise SortError("'increments'/'decrements' apply to additive constants", law.head.loc)  # type: ignore
+        action = self._formula(law.action, scope)  # type: ignore[arg-type]
+        if not self._mentions_actions(action):
+            raise ResolveError("the left side of 'increments' must be an action", law.loc)
+        amount = self._term(law.amount, scope)  # type: ignore[arg-type]
+        if ir.constants_in(amount):
+            raise ResolveError("the amount of 'increments' may not mention constants", law.amount.loc)  # type: ignore
+        if law.unless is not None:
+            ab = self._ab_atom(law.unless, scope, "abAction")
+            cond = ir.conj((cond, ir.Not(ab)))
+        if law.after is not None:
+            raise ResolveError("'increments' takes no 'after' part", law.loc)
+        self.program.increments.append(IncrementLaw(action, target, amount, cond, where, law.decrement, law.loc))
+
+    # ------------------------------------------------------------------ finish
+    def _finish(self) -> None:
+        has_additive = any(d.kind in ("additiveFluent", "additiveAction") for d in self.sig.constants.values())
+        if has_additive and self.sig.max_additive is None:
+            d = next(d for d in self.sig.constants.values() if d.kind in ("additiveFluent", "additiveAction"))
+            raise SortError("additive constants need ':- maxAdditive :: N.'", d.loc)
+        self.sig.finalize()
+        _Validator(self.sig).run(self.program)
+
+
+def _substitute(e: ast.Expr, args: tuple) -> ast.Expr:
+    if isinstance(e, ast.Param):
+        if e.index > len(args):
+            raise ResolveError(f"macro parameter #{e.index} has no argument", e.loc)
+        return args[e.index - 1]
+    if isinstance(e, ast.Name):
+        return ast.Name(e.loc, e.name, tuple(_substitute(a, args) for a in e.args)) if e.args else e
+    if isinstance(e, ast.Unary):
+        return ast.Unary(e.loc, e.op, _substitute(e.arg, args))
+    if isinstance(e, ast.Binary):
+        return ast.Binary(e.loc, e.op, _substitute(e.left, args), _substitute(e.right, args))
+    if isinstance(e, ast.Quant):
+        return ast.Quant(e.loc, e.vars, _substitute(e.body, args))
+    if isinstance(e, ast.Stamp):
+        return ast.Stamp(e.loc, _substitute(e.time, args), _substitute(e.body, args))
+    if isinstance(e, ast.Range):
+        return ast.Range(e.loc, _substitute(e.lo, args), _substitute(e.hi, args))
+    return e
+
+
+def _rotate_minus(e: ast.Binary, loc: Location) -> ast.Expr:
+    """``-(a op b)`` read as a term: the minus belongs to the leftmost operand."""
+    if e.op in ast.ARITH_OPS:
+        left = _rotate_minus(e.left, loc) if isinstance(e.left, ast.Binary) else ast.Unary(loc, "-", e.left)
+        return ast.Binary(e.loc, e.op, left, e.right)
+    raise ResolveError(f"expected a term, found a formula ('{e.op}')", e.loc)
+
+
+def _split_list(e: ast.Expr) -> list[ast.Expr]:
+    if isinstance(e, ast.Binary) and e.op in (",", "&"):
+        return _split_list(e.left) + _split_list(e.right)
+    return [e]
+
+
+def _has_stamp(e) -> bool:
+    if isinstance(e, ast.Stamp):
+        return True
+    if isinstance(e, ast.Binary):
+        return _has_stamp(e.left) or _has_stamp(e.right)
+    if isinstance(e, ast.Unary):
+        return _has_stamp(e.arg)
+    if isinstance(e, ast.Quant):
+        return _has_stamp(e.body)
+    return False
+
+
+def _is_boolean(sort: SortExpr) -> bool:
+    return isinstance(sort, NamedSort) and sort.name == "boolean" and not sort.star
+
+
+def _kind(c) -> str:
+    return c.sort.kind if isinstance(c, ir.Var) else c.decl.kind
+
+
+def _is_action(c) -> bool:
+    return _kind(c) in ACTION_KINDS
+
+
+def _atom_boolean(atom: ir.Atom) -> bool:
+    if isinstance(atom.cst, ir.Var):
+        return True
+    return _is_boolean(atom.cst.decl.domain) and atom.cst.decl.kind != "attribute"
+
+
+def _describe(f) -> str:
+    return {ir.Or: "a disjunction", ir.Imp: "an implication", ir.Iff: "an equivalence",
+            ir.Quant: "a quantifier", ir.Cmp: "a comparison", ir.Not: "a negated formula",
+            ir.ExtPred: "an external predicate"}.get(type(f), "a formula")
+
+
+def _show(v) -> str:
+    from cplus.signature import render_value
+    return render_value(v)
+
+
+def _ast_text(e: ast.Expr) -> str:
+    if isinstance(e, ast.Num):
+        return str(e.value)
+    if isinstance(e, ast.Name):
+        return e.name + (f"({','.join(_ast_text(a) for a in e.args)})" if e.args else "")
+    return "?"
+
+
+class _Validator:
+    """Checks that need the final object sets: literal arguments and values in their sorts."""
+
+    def __init__(self, sig: Signature) -> None:
+        self.sig = sig
+
+    def run(self, program: Program) -> None:
+        for law in program.laws:
+            for part in (law.head, law.body, law.after, law.where):
+                if part is not None:
+                    self.walk(part)
+        for inc in program.increments:
+            self.walk(inc.action)
+            self.walk(inc.cond)
+            self.walk(inc.target)
+        for q in program.queries:
+            for f, _ in q.items:
+                self.walk(f)
+
+    def walk(self, node) -> None:
+        if isinstance(node, ir.Cst):
+            for sort, a in zip(node.decl.argsorts, node.args):
+                if isinstance(a, ir.Lit) and not isinstance(sort, (StepSort,)) and not self.sig.contains(sort, a.value):
+                    raise SortError(f"'{_show(a.value)}' is not an object of sort '{sort}' "
+                                    f"(argument of '{node.decl.name}')", node.loc)
+                if isinstance(a, ir.Var) and not isinstance(a.sort, (StepSort, KindSort)) and \
+                        not isinstance(sort, StepSort):
+                    if not set(self.sig.objects_of(a.sort)) & set(self.sig.objects_of(sort)) \
+                            and self.sig.objects_of(a.sort):
+                        raise SortError(f"variable {a.name} of sort '{a.sort}' can never be an argument of "
+                                        f"sort '{sort}' of '{node.decl.name}'", a.loc)
+            for a in node.args:
+                self.walk(a)
+        elif isinstance(node, ir.Atom):
+            self.walk(node.cst)
+            self.walk(node.value)
+            if isinstance(node.cst, ir.Cst) and isinstance(node.value, ir.Lit):
+                dom = self.sig.objects_of(node.cst.decl.domain)
+                v = node.value.value
+                if v not in dom and not (v == "none" and node.cst.decl.kind in ("attribute", "abAction")):
+                    raise SortError(f"'{_show(v)}' is not in the domain {node.cst.decl.domain} of "
+                                    f"'{node.cst.decl.name}'", node.loc)
+        elif isinstance(node, (ir.Obj, ir.Arith, ir.Ext, ir.ExtPred)):
+            for a in node.args:
+                self.walk(a)
+        elif isinstance(node, ir.Cmp):
+            self.walk(node.left)
+            self.walk(node.right)
+        elif isinstance(node, ir.Not):
+            self.walk(node.arg)
+        elif isinstance(node, (ir.And, ir.Or)):
+            for x in node.items:
+                self.walk(x)
+        elif isinstance(node, (ir.Imp, ir.Iff)):
+            self.walk(node.left)
+            self.walk(node.right)
+        elif isinstance(node, ir.Quant):
+            self.walk(node.body)
+        elif isinstance(node, ir.StampF):
+            self.walk(node.time)
+            self.walk(node.body)
+        elif isinstance(node, ir.StampT):
+            self.walk(node.time)
+            self.walk(node.term)
+

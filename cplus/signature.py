@@ -1,0 +1,329 @@
+"""Sorts, objects, constants and their ground instances: the signature of a domain.
+
+Identity layers (compare clingo's symbols / program literals / solver literals):
+
+* an **object** is a plain Python value: an ``int``, a ``str`` for a symbolic name
+  (``"table"``, ``"none"``, ``"true"``), or a tuple ``("cell", 2)`` for a constructor object;
+* a **constant** is a :class:`ConstDecl` (name, argument sorts, kind, domain); its **ground
+  instances** are interned :class:`GroundConst` objects (``loc(d1)``), each with a small
+  integer ``id``;
+* a **ground atom** is a ground constant with one value of its domain; the grounder gives
+  atoms integer ids and the SAT layer maps (atom, step) to solver variables.
+
+Objects are ordered by Prolog's standard order of terms (integers < names < compound
+terms), which is what ``@<`` compares and how CCALC prints argument tuples.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from itertools import product
+from typing import Iterable, Union
+
+from cplus.errors import Location
+
+__all__ = [
+    "Value", "SortExpr", "NamedSort", "RangeSort", "KindSort", "StepSort",
+    "ConstDecl", "GroundConst", "Signature", "FLUENT_KINDS", "ACTION_KINDS", "SIMPLE_KINDS",
+    "order_key", "render_value",
+]
+
+Value = Union[int, str, tuple]
+
+FLUENT_KINDS = frozenset({"simpleFluent", "inertialFluent", "sdFluent", "additiveFluent"})
+ACTION_KINDS = frozenset({"exogenousAction", "action", "attribute", "abAction", "additiveAction",
+                          "contribution"})
+SIMPLE_KINDS = frozenset({"simpleFluent", "inertialFluent", "additiveFluent"})
+CONSTANT_KINDS = FLUENT_KINDS | ACTION_KINDS | {"rigid"}
+USER_KINDS = CONSTANT_KINDS - {"contribution"}
+
+
+def order_key(v: object) -> tuple:
+    """Prolog standard order: numbers < atoms < compound terms (arity, name, args)."""
+    if isinstance(v, bool):  # pragma: no cover - never an object, but keep bools out
+        return (0, int(v))
+    if isinstance(v, int):
+        return (0, v)
+    if isinstance(v, str):
+        return (1, v)
+    if isinstance(v, GroundConst):
+        return (2, len(v.args), v.decl.name, tuple(order_key(a) for a in v.args))
+    if isinstance(v, tuple):
+        return (2, len(v) - 1, v[0], tuple(order_key(a) for a in v[1:]))
+    raise TypeError(f"not a C+ value: {v!r}")
+
+
+def render_value(v: Value) -> str:
+    if isinstance(v, tuple):
+        return f"{v[0]}({','.join(render_value(a) for a in v[1:])})"
+    if isinstance(v, GroundConst):
+        return v.text
+    return str(v)
+
+
+# --------------------------------------------------------------------------- sorts
+
+
+@dataclass(frozen=True, slots=True)
+class NamedSort:
+    """A declared (or built-in) sort; ``star`` adds the object ``none``."""
+
+    name: str
+    star: bool = False
+
+    def __str__(self) -> str:
+        return self.name + ("*" if self.star else "")
+
+
+@dataclass(frozen=True, slots=True)
+class RangeSort:
+    """An anonymous integer sort ``lo..hi``."""
+
+    lo: int
+    hi: int
+    star: bool = False
+
+    def __str__(self) -> str:
+        return f"{self.lo}..{self.hi}"
+
+
+@dataclass(frozen=True, slots=True)
+class KindSort:
+    """Variables over a constant kind (``A :: exogenousAction``): Boolean ground constants."""
+
+    kind: str
+
+    def __str__(self) -> str:
+        return self.kind
+
+
+@dataclass(frozen=True, slots=True)
+class StepSort:
+    """``step`` (0..maxstep) or ``astep`` (0..maxstep-1): only known per horizon."""
+
+    action: bool = False
+
+    def __str__(self) -> str:
+        return "astep" if self.action else "step"
+
+
+SortExpr = Union[NamedSort, RangeSort, KindSort, StepSort]
+
+
+@dataclass(eq=False)
+class SortInfo:
+    name: str
+    loc: Location | None
+    parents: list[str] = field(default_factory=list)
+    children: list[str] = field(default_factory=list)
+    objects: list[Value] = field(default_factory=list)
+
+
+# --------------------------------------------------------------------------- constants
+
+
+@dataclass(eq=False)
+class ConstDecl:
+    """A declared constant ``name(argsorts) :: kind(domain)``."""
+
+    name: str
+    argsorts: tuple[SortExpr, ...]
+    kind: str
+    domain: SortExpr
+    loc: Location | None
+    parent: "ConstDecl | None" = None
+    parent_args: tuple[int, ...] = ()   # attribute: positions of the parent's arguments
+    hidden: bool = False                # internal constants (contributions, ...)
+    auto_ab: bool = False               # declared by an `unless` clause
+    order: int = 0                      # declaration order
+    instances: dict[tuple, "GroundConst"] = field(default_factory=dict)
+    attributes: list["ConstDecl"] = field(default_factory=list)
+
+    @property
+    def arity(self) -> int:
+        return len(self.argsorts)
+
+    @property
+    def is_fluent(self) -> bool:
+        return self.kind in FLUENT_KINDS
+
+    @property
+    def is_action(self) -> bool:
+        return self.kind in ACTION_KINDS
+
+    @property
+    def is_rigid(self) -> bool:
+        return self.kind == "rigid"
+
+    def __repr__(self) -> str:
+        return f"ConstDecl({self.name}/{self.arity}:{self.kind})"
+
+
+class GroundConst:
+    """A ground constant instance such as ``loc(d1)``, interned per signature."""
+
+    __slots__ = ("decl", "args", "id", "text", "domain", "boolean", "_hash")
+
+    def __init__(self, decl: ConstDecl, args: tuple, ident: int, domain: tuple) -> None:
+        self.decl = decl
+        self.args = args
+        self.id = ident
+        self.text = decl.name if not args else f"{decl.name}({','.join(render_value(a) for a in args)})"
+        self.domain = domain
+        self.boolean = domain == ("true", "false")
+        self._hash = hash((decl.name, args))
+
+    def __hash__(self) -> int:
+        return self._hash
+
+    def __repr__(self) -> str:
+        return self.text
+
+    def __str__(self) -> str:
+        return self.text
+
+
+class Signature:
+    """Symbol tables built by :mod:`cplus.resolve`; ground instances after :meth:`finalize`."""
+
+    def __init__(self) -> None:
+        self.sorts: dict[str, SortInfo] = {}
+        self.constants: dict[tuple[str, int], ConstDecl] = {}
+        self.object_order: dict[Value, int] = {}
+        self.constructors: dict[tuple[str, int], Location | None] = {}
+        self.max_additive: int | None = None
+        self.ground: list[GroundConst] = []
+        self.finalized = False
+        self._sort_cache: dict[SortExpr, tuple] = {}
+        self.add_sort("boolean", None)
+        self.add_object("true", "boolean")
+        self.add_object("false", "boolean")
+
+    # -- declarations -------------------------------------------------------------
+    def add_sort(self, name: str, loc: Location | None) -> SortInfo:
+        info = self.sorts.get(name)
+        if info is None:
+            info = self.sorts[name] = SortInfo(name, loc)
+        return info
+
+    def add_subsort(self, parent: str, child: str) -> None:
+        p, c = self.sorts[parent], self.sorts[child]
+        if child not in p.children:
+            p.children.append(child)
+            c.parents.append(parent)
+        self._sort_cache.clear()
+
+    def add_object(self, value: Value, sort: str) -> None:
+        if value not in self.object_order:
+            self.object_order[value] = len(self.object_order)
+        objs = self.sorts[sort].objects
+        if value not in objs:
+            objs.append(value)
+        self._sort_cache.clear()
+
+    def is_subsort(self, child: str, parent: str) -> bool:
+        if child == parent:
+            return True
+        seen, todo = set(), [child]
+        while todo:
+            s = todo.pop()
+            for p in self.sorts[s].parents:
+                if p == parent:
+                    return True
+                if p not in seen:
+                    seen.add(p)
+                    todo.append(p)
+        return False
+
+    # -- sort extensions ----------------------------------------------------------
+    def objects_of(self, sort: SortExpr) -> tuple:
+        """The objects of a sort, subsorts included, in declaration order."""
+        cached = self._sort_cache.get(sort)
+        if cached is not None:
+            return cached
+        if isinstance(sort, NamedSort):
+            seen: dict[Value, None] = {}
+            todo = [sort.name]
+            visited = set()
+            while todo:
+                s = todo.pop(0)
+                if s in visited:
+                    continue
+                visited.add(s)
+                info = self.sorts[s]
+                for o in info.objects:
+                    seen.setdefault(o, None)
+                todo.extend(info.children)
+            objs = sorted(seen, key=self.object_order.__getitem__)
+            if sort.name == "boolean":
+                objs = ["true", "false"]
+            if sort.star and "none" not in seen:
+                objs.append("none")
+            result = tuple(objs)
+        elif isinstance(sort, RangeSort):
+            result = tuple(range(sort.lo, sort.hi + 1)) + (("none",) if sort.star else ())
+        elif isinstance(sort, KindSort):
+            result = tuple(g for g in self.ground if g.decl.kind == sort.kind and g.boolean
+                           and not g.decl.hidden)
+        else:
+            raise TypeError(f"the objects of {sort} depend on maxstep")
+        if self.finalized or not isinstance(sort, KindSort):
+            self._sort_cache[sort] = result
+        return result
+
+    def contains(self, sort: SortExpr, value: object) -> bool:
+        if isinstance(sort, RangeSort):
+            return (isinstance(value, int) and sort.lo <= value <= sort.hi) or (sort.star and value == "none")
+        return value in self._membership(sort)
+
+    def _membership(self, sort: SortExpr) -> frozenset:
+        key = ("members", sort)
+        cached = self._sort_cache.get(key)  # type: ignore[arg-type]
+        if cached is None:
+            cached = frozenset(self.objects_of(sort))
+            self._sort_cache[key] = cached  # type: ignore[index]
+        return cached
+
+    # -- ground instances ---------------------------------------------------------
+    def finalize(self) -> None:
+        """Enumerate every constant's ground instances (objects are final now)."""
+        self.ground = []
+        self._sort_cache.clear()
+        decls = sorted(self.constants.values(), key=lambda d: d.order)
+        for decl in decls:
+            self._instantiate(decl)
+        self.finalized = True
+        self._sort_cache.clear()
+
+    def _instantiate(self, decl: ConstDecl) -> None:
+        decl.instances = {}
+        domain = self.objects_of(decl.domain)
+        if decl.kind == "attribute" or (decl.kind == "abAction" and domain != ("true", "false")):
+            if "none" not in domain:
+                domain = domain + ("none",)
+        arg_values = [self.objects_of(s) for s in decl.argsorts]
+        for args in product(*arg_values):
+            g = GroundConst(decl, tuple(args), len(self.ground), domain)
+            decl.instances[g.args] = g
+            self.ground.append(g)
+
+    def add_hidden_instance(self, decl: ConstDecl, args: tuple, domain: tuple) -> GroundConst:
+        """A ground instance of an internal constant created during grounding."""
+        g = GroundConst(decl, args, len(self.ground), domain)
+        decl.instances[args] = g
+        self.ground.append(g)
+        return g
+
+    def instance(self, decl: ConstDecl, args: tuple) -> GroundConst | None:
+        return decl.instances.get(args)
+
+    def lookup(self, name: str, arity: int) -> ConstDecl | None:
+        return self.constants.get((name, arity))
+
+    def constants_named(self, name: str) -> list[ConstDecl]:
+        return [d for (n, _), d in self.constants.items() if n == name]
+
+    def value_sort_name(self, decl: ConstDecl) -> str:
+        return str(decl.domain)
+
+    def sort_of_values(self, values: Iterable[Value]) -> None:  # pragma: no cover - debug aid
+        pass
