@@ -1,0 +1,103 @@
+"""Propositional formulas in negation normal form, as produced by grounding.
+
+A formula is ``True``, ``False``, a non-zero ``int`` literal (its sign is its polarity),
+or a tuple ``("&", items)`` / ``("|", items)`` whose items are formulas.  The builders
+flatten, drop neutral elements, remove duplicates and spot complementary literals, so that
+a ground body that cannot hold becomes ``False`` as early as possible.
+
+>>> mk_and([1, True, ("&", (2, 3))])
+('&', (1, 2, 3))
+>>> mk_or([1, -1])
+True
+>>> neg(("&", (1, -2)))
+('|', (-1, 2))
+"""
+from __future__ import annotations
+
+from typing import Callable, Iterable, Union
+
+PF = Union[bool, int, tuple]
+
+__all__ = ["PF", "mk_and", "mk_or", "neg", "map_lits", "lits_of"]
+
+
+def mk_and(items: Iterable[PF]) -> PF:
+    out: list = []
+    seen: set = set()
+    for f in items:
+        if f is True:
+            continue
+        if f is False:
+            return False
+        if type(f) is tuple and f[0] == "&":
+            sub = f[1]
+        else:
+            sub = (f,)
+        for g in sub:
+            if g in seen:
+                continue
+            if type(g) is int and -g in seen:
+                return False
+            seen.add(g)
+            out.append(g)
+    if not out:
+        return True
+    if len(out) == 1:
+        return out[0]
+    return ("&", tuple(out))
+
+
+def mk_or(items: Iterable[PF]) -> PF:
+    out: list = []
+    seen: set = set()
+    for f in items:
+        if f is False:
+            continue
+        if f is True:
+            return True
+        if type(f) is tuple and f[0] == "|":
+            sub = f[1]
+        else:
+            sub = (f,)
+        for g in sub:
+            if g in seen:
+                continue
+            if type(g) is int and -g in seen:
+                return True
+            seen.add(g)
+            out.append(g)
+    if not out:
+        return False
+    if len(out) == 1:
+        return out[0]
+    return ("|", tuple(out))
+
+
+def neg(f: PF) -> PF:
+    if f is True:
+        return False
+    if f is False:
+        return True
+    if type(f) is int:
+        return -f
+    op, items = f
+    return ("|" if op == "&" else "&", tuple(neg(g) for g in items))
+
+
+def map_lits(f: PF, fn: Callable[[int], int]) -> PF:
+    """Rename the literals of a formula (``fn`` maps a positive literal to a positive one)."""
+    if type(f) is int:
+        return fn(f) if f > 0 else -fn(-f)
+    if type(f) is bool:
+        return f
+    return (f[0], tuple(map_lits(g, fn) for g in f[1]))
+
+
+def lits_of(f: PF, acc: set | None = None) -> set:
+    acc = set() if acc is None else acc
+    if type(f) is int:
+        acc.add(abs(f))
+    elif type(f) is tuple:
+        for g in f[1]:
+            lits_of(g, acc)
+    return acc

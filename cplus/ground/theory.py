@@ -1,0 +1,379 @@
+"""Ground a program into step templates of basic causal rules.
+
+The result does not depend on the plan length: every rule is stamped with *slots*
+relative to a step i (slot 0 = step i, slot 1 = step i+1, slot 2 = rigid, unstamped), and
+the SAT layer instantiates the templates for each step.  A template literal is
+``±(atom * 3 + slot + 1)``.
+
+* ``rigid`` rules and constraints: one copy;
+* ``static`` ones: at every step 0..m (slot 0);
+* ``action`` ones: at every action step 0..m-1 (slot 0);
+* ``dynamic`` ones: head at slot 1, ``after`` part at slot 0, for every transition.
+
+Laws implied by declarations are added here from each constant's kind: inertia, exogeneity
+of exogenous actions and attributes, the attribute axiom ``c=none <->> -a``, the defaults
+of abnormalities and of additive contributions.  Additive fluents and actions get hidden
+contribution constants (Lee & Lifschitz 2003) whose sums the SAT layer encodes.
+"""
+from __future__ import annotations
+
+import time as _time
+from dataclasses import dataclass, field
+
+from cplus import ir
+from cplus.errors import GroundingError, Location, SortError
+from cplus.ground.atoms import AtomTable
+from cplus.ground.compile import Cases, Ctx, UNDEF, bind, compile_formula, compile_term
+from cplus.ground.pf import PF, mk_and, neg
+from cplus.program import BasicLaw, IncrementLaw, Program
+from cplus.signature import ConstDecl, GroundConst, RangeSort, SIMPLE_KINDS, StepSort
+
+__all__ = ["GroundTheory", "AdditiveSum", "ground_program", "template_lit", "SLOT_NOW", "SLOT_NEXT",
+           "SLOT_RIGID", "initially_free"]
+
+SLOT_NOW, SLOT_NEXT, SLOT_RIGID = 0, 1, 2
+CLASSES = ("rigid", "static", "action", "dynamic")
+
+
+def template_lit(aid: int, slot: int) -> int:
+    return aid * 3 + slot + 1 if aid > 0 else -(-aid * 3 + slot + 1)
+
+
+@dataclass
+class AdditiveSum:
+    """``target`` (at slot 1 for a fluent, slot 0 for an action) = base + sum of contributions."""
+
+    target: GroundConst
+    contributions: list[GroundConst]
+
+
+@dataclass
+class GroundTheory:
+    program: Program
+    atoms: AtomTable
+    rules: dict[str, list[tuple[int, PF]]] = field(default_factory=lambda: {c: [] for c in CLASSES})
+    constraints: dict[str, list[PF]] = field(default_factory=lambda: {c: [] for c in CLASSES})
+    sums: list[AdditiveSum] = field(default_factory=list)
+    noconcurrency: list[list[PF]] = field(default_factory=list)
+    rule_count: int = 0
+    seconds: float = 0.0
+
+    @property
+    def sig(self):
+        return self.program.signature
+
+
+class _Grounder:
+    def __init__(self, program: Program) -> None:
+        self.program = program
+        self.sig = program.signature
+        self.atoms = AtomTable(self.sig)
+        self.theory = GroundTheory(program, self.atoms)
+        rigid = self._rigid_flags()
+        self.rigid = rigid
+
+        def mklit(aid: int, slot: object) -> PF:
+            if aid == 0:
+                return False
+            a = aid if aid > 0 else -aid
+            if rigid[a]:
+                slot = SLOT_RIGID
+            code = a * 3 + slot + 1  # type: ignore[operator]
+            return code if aid > 0 else -code
+        self.ctx = Ctx(self.sig, self.atoms, mklit)
+        self.mklit = mklit
+        self.warned: set[int] = set()
+
+    def _rigid_flags(self) -> list[bool]:
+        flags = [False] * (len(self.atoms) + 1)
+        for aid in range(1, len(self.atoms) + 1):
+            gc = self.atoms.gc_of[aid]
+            flags[aid] = gc is not None and gc.decl.kind == "rigid"
+        return flags
+
+    def run(self) -> GroundTheory:
+        t0 = _time.perf_counter()
+        self._increments()
+        for law in self.program.laws:
+            self._law(law)
+        for gc in list(self.sig.ground):
+            self._implied(gc)
+        self._noconcurrency()
+        th = self.theory
+        th.rule_count = sum(len(v) for v in th.rules.values()) + sum(len(v) for v in th.constraints.values())
+        th.seconds = _time.perf_counter() - t0
+        return th
+
+    # ------------------------------------------------------------------ helpers
+    def _split(self, formula: ir.Formula | None, slot: int, filters: list, parts: list) -> None:
+        """Constant-free conjuncts become binding filters; the rest is compiled at ``slot``."""
+        for c in ir.conjuncts(formula):
+            if not ir.constants_in(c) and not ir.mentions(c, (ir.MaxStepT, ir.StampF, ir.StampT)):
+                filters.append((compile_formula(c, self.ctx), set(ir.free_vars(c))))
+            else:
+                fn = compile_formula(c, self.ctx)
+                parts.append((fn, slot))
+
+    def _variables(self, law_loc: Location, *nodes) -> dict[str, ir.Var]:
+        out: dict[str, ir.Var] = {}
+        for n in nodes:
+            if n is not None:
+                for name, v in ir.free_vars(n).items():
+                    out.setdefault(name, v)
+        for v in out.values():
+            if isinstance(v.sort, StepSort):
+                raise GroundingError(f"variable {v.name} ranges over steps, which exist only in queries", v.loc)
+        return out
+
+    @staticmethod
+    def _eval_parts(parts: list, env: dict) -> PF:
+        acc = []
+        for fn, slot in parts:
+            r = fn(env, slot)
+            if r is False:
+                return False
+            if r is not True:
+                acc.append(r)
+        return mk_and(acc) if acc else True
+
+    # ------------------------------------------------------------------ laws
+    def _law(self, law: BasicLaw) -> None:
+        head_slot = SLOT_NEXT if law.cls == "dynamic" else SLOT_NOW
+        variables = self._variables(law.loc, law.head, law.body, law.after, law.where, law.frame_cst)
+        filters: list = []
+        parts: list = []
+        self._split(law.where, head_slot, filters, parts)
+        if parts:
+            raise GroundingError("a 'where' condition may not mention constants", law.loc)
+        self._split(law.body, head_slot, filters, parts)
+        self._split(law.after, SLOT_NOW, filters, parts)
+        rules = self.theory.rules[law.cls]
+        constraints = self.theory.constraints[law.cls]
+
+        if law.frame is not None:
+            self._frame_law(law, variables, filters, parts, rules, constraints)
+            return
+        heads = [self._head_fn(h) for h in ir.conjuncts(law.head)] if law.head is not None else None
+        if heads == []:   # head `true`
+            return
+        eval_parts = self._eval_parts
+
+        def leaf(env: dict) -> None:
+            body = eval_parts(parts, env)
+            if body is False:
+                return
+            if heads is None:
+                constraints.append(body)
+                return
+            for hf in heads:
+                for lit, cond in hf(env, head_slot):
+                    b = mk_and((body, cond)) if cond is not True else body
+                    if b is False:
+                        continue
+                    if lit is None:
+                        constraints.append(b)
+                    else:
+                        rules.append((lit, b))
+        bind(self.sig, variables, filters, leaf)
+
+    def _head_fn(self, h: ir.Formula):
+        """Compile one head conjunct into ``fn(env, slot) -> [(literal or None, condition)]``."""
+        if isinstance(h, ir.Truth):
+            return lambda env, slot: [] if h.value else [(None, True)]
+        negated = isinstance(h, ir.Not)
+        atom = h.arg if negated else h
+        assert isinstance(atom, ir.Atom)
+        value_fn = compile_term(atom.value, self.ctx)
+        lit_of = self.atoms.lit
+        mklit = self.mklit
+        warn_loc = atom.loc
+        if isinstance(atom.cst, ir.Var):
+            name = atom.cst.name
+            gc_fn = lambda env, slot: env[name]  # noqa: E731
+        else:
+            gc_fn = compile_term(atom.cst, self.ctx, names=True)
+
+        def head(env, slot):
+            gcs = gc_fn(env, slot)
+            gcs = gcs if type(gcs) is Cases else [(True, gcs)]
+            v = value_fn(env, slot)
+            vals = v if type(v) is Cases else [(True, v)]
+            out = []
+            for cg, gc in gcs:
+                if gc is UNDEF:
+                    continue
+                for cv, val in vals:
+                    cond = mk_and((cg, cv))
+                    if cond is False:
+                        continue
+                    aid = lit_of(gc, val) if val is not UNDEF else 0
+                    if aid == 0:
+                        self._warn_domain(warn_loc, gc, val)
+                        out.append((None, cond))
+                        continue
+                    lit = mklit(aid, slot)
+                    out.append((neg(lit) if negated else lit, cond))
+            return out
+        return head
+
+    def _warn_domain(self, loc: Location, gc: GroundConst, val) -> None:
+        if loc.start in self.warned:
+            return
+        self.warned.add(loc.start)
+        from cplus.signature import render_value
+        shown = "undefined" if val is UNDEF else render_value(val)
+        self.program.diagnostics.warn(
+            f"the head value {shown} is outside the domain of {gc.text}; such instances act as "
+            "'caused false' (guard the law with 'where')", loc)
+
+    def _frame_law(self, law: BasicLaw, variables, filters, parts, rules, constraints) -> None:
+        gc_fn = compile_term(law.frame_cst, self.ctx, names=True)
+        ctx_values = self.ctx.values
+        mklit = self.mklit
+        eval_parts = self._eval_parts
+        frame = law.frame
+
+        def leaf(env: dict) -> None:
+            gc = gc_fn(env, 0)
+            if gc is UNDEF or type(gc) is Cases:
+                return
+            body = eval_parts(parts, env)
+            if body is False:
+                return
+            for aid, _ in ctx_values(gc):
+                if frame == "exogenous":
+                    lit = mklit(aid, SLOT_NOW)
+                    rules.append((lit, mk_and((lit, body))))
+                elif frame == "inertial":
+                    lit1 = mklit(aid, SLOT_NEXT)
+                    rules.append((lit1, mk_and((lit1, mklit(aid, SLOT_NOW), body))))
+                else:  # rigid c: false if -(c=v) after c=v
+                    constraints.append(mk_and((neg(mklit(aid, SLOT_NEXT)), mklit(aid, SLOT_NOW), body)))
+        bind(self.sig, variables, filters, leaf)
+
+    # ------------------------------------------------------------------ implied laws
+    def _implied(self, gc: GroundConst) -> None:
+        kind = gc.decl.kind
+        rules = self.theory.rules
+        lits = self.atoms.head_lits(gc)
+        mk = self.mklit
+        if kind == "inertialFluent":
+            for aid, _ in lits:
+                l1 = mk(aid, SLOT_NEXT)
+                rules["dynamic"].append((l1, mk_and((l1, mk(aid, SLOT_NOW)))))
+        elif kind in ("exogenousAction", "attribute"):
+            for aid, _ in lits:
+                lit = mk(aid, SLOT_NOW)
+                rules["action"].append((lit, lit))
+            if kind == "attribute":
+                self._attribute_axiom(gc)
+        elif kind == "abAction" or kind == "contribution":
+            default = {"abAction": "false" if gc.boolean else "none", "contribution": 0}[kind]
+            aid = self.atoms.lit(gc, default)
+            if aid:
+                lit = mk(aid, SLOT_NOW)
+                rules["action"].append((lit, lit))
+
+    def _attribute_axiom(self, gc: GroundConst) -> None:
+        parent = gc.decl.parent
+        assert parent is not None
+        pg = parent.instances.get(gc.args[:parent.arity])
+        if pg is None:
+            return
+        if pg.boolean:
+            p = self.mklit(self.atoms.lit(pg, "true"), SLOT_NOW)
+        else:
+            none = self.atoms.lit(pg, "none")
+            if not none:
+                raise SortError(f"the attribute '{gc.decl.name}' needs its non-Boolean action "
+                                f"'{parent.name}' to have 'none' in its domain", gc.decl.loc)
+            p = neg(self.mklit(none, SLOT_NOW))
+        n = self.mklit(self.atoms.lit(gc, "none"), SLOT_NOW)
+        cons = self.theory.constraints["action"]
+        cons.append(mk_and((n, p)))
+        cons.append(mk_and((neg(n), neg(p))))
+
+    # ------------------------------------------------------------------ additive constants
+    def _increments(self) -> None:
+        groups: dict[tuple[int, object], list] = {}
+        order: list[tuple[GroundConst, PF]] = []
+        for inc in self.program.increments:
+            self._increment(inc, groups, order)
+        m = self.sig.max_additive or 0
+        decl = ConstDecl("contribution", (), "contribution", RangeSort(-m, m), None, hidden=True)
+        by_target: dict[int, list[GroundConst]] = {}
+        for target, action in order:
+            entries = groups[(target.id, action)]
+            amounts = sorted({0} | {n for n, _ in entries if -m <= n <= m})
+            cg = self.sig.add_hidden_instance(decl, (target.text, len(self.sig.ground)), tuple(amounts))
+            self.atoms.add(cg)
+            self.rigid.extend([False] * (len(self.atoms) + 1 - len(self.rigid)))
+            by_target.setdefault(target.id, []).append(cg)
+            for n, body in entries:
+                aid = self.atoms.lit(cg, n)
+                if aid:
+                    self.theory.rules["action"].append((self.mklit(aid, SLOT_NOW), body))
+                else:   # a contribution outside -maxAdditive..maxAdditive cannot be caused
+                    self.theory.constraints["action"].append(body)
+        for gc in self.sig.ground:
+            if gc.decl.kind in ("additiveFluent", "additiveAction"):
+                self.theory.sums.append(AdditiveSum(gc, by_target.get(gc.id, [])))
+
+    def _increment(self, inc: IncrementLaw, groups: dict, order: list) -> None:
+        variables = self._variables(inc.loc, inc.action, inc.target, inc.amount, inc.cond, inc.where)
+        filters: list = []
+        parts: list = []
+        self._split(inc.where, SLOT_NOW, filters, parts)
+        self._split(inc.cond, SLOT_NOW, filters, parts)
+        action_fn = compile_formula(inc.action, self.ctx)
+        target_fn = compile_term(inc.target, self.ctx, names=True)
+        amount_fn = compile_term(inc.amount, self.ctx)
+        sign = -1 if inc.decrement else 1
+        eval_parts = self._eval_parts
+
+        def leaf(env: dict) -> None:
+            target = target_fn(env, 0)
+            if target is UNDEF or type(target) is Cases:
+                return
+            amount = amount_fn(env, 0)
+            if type(amount) is not int:
+                raise GroundingError("the amount of 'increments' must be an integer", inc.loc)
+            action = action_fn(env, SLOT_NOW)
+            if action is False:
+                return
+            body = eval_parts(parts, env)
+            if body is False:
+                return
+            key = (target.id, action)
+            if key not in groups:
+                groups[key] = []
+                order.append((target, action))
+            groups[key].append((sign * amount, mk_and((action, body))))
+        bind(self.sig, variables, filters, leaf)
+
+    # ------------------------------------------------------------------ noconcurrency
+    def _noconcurrency(self) -> None:
+        if not self.program.noconcurrency:
+            return
+        strong = any(s for s, _ in self.program.noconcurrency)
+        group: list[PF] = []
+        for gc in self.sig.ground:
+            if gc.decl.kind not in ("exogenousAction", "action") or gc.decl.hidden:
+                continue
+            if gc.boolean:
+                group.append(self.mklit(self.atoms.lit(gc, "true"), SLOT_NOW))
+            elif strong and self.atoms.lit(gc, "none"):
+                group.append(neg(self.mklit(self.atoms.lit(gc, "none"), SLOT_NOW)))
+        if len(group) > 1:
+            self.theory.noconcurrency.append(group)
+
+
+def ground_program(program: Program) -> GroundTheory:
+    """Ground every law of a resolved program into step templates."""
+    return _Grounder(program).run()
+
+
+def initially_free(decl: ConstDecl) -> bool:
+    """Simple, inertial and additive fluents take any value at step 0 (C.3)."""
+    return decl.kind in SIMPLE_KINDS
+
