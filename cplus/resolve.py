@@ -232,7 +232,7 @@ class _Resolver:
             if self.sig.max_additive is None:
                 raise SortError("'afValue' needs ':- maxAdditive :: N.' before it", spec.loc)
             m = self.sig.max_additive
-            return RangeSort(-m, m, spec.star)
+            return RangeSort(0, m, spec.star)
         if for_variable and name in ("step", "astep") and not spec.star:
             return StepSort(name == "astep")
         if for_variable and name in _KIND_ALIASES and not spec.star:

@@ -1,0 +1,89 @@
+"""Histories: what a model of the causal theory says, in source names.
+
+A :class:`History` of length m holds the rigid constants, the states 0..m (every fluent's
+value) and the actions 0..m-1 (every action constant's value), keyed by ground constants.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from cplus.signature import GroundConst, render_value
+
+__all__ = ["History", "decode_history", "executed_actions"]
+
+
+@dataclass(frozen=True)
+class History:
+    maxstep: int
+    rigid: dict[GroundConst, object]
+    states: tuple[dict[GroundConst, object], ...]
+    actions: tuple[dict[GroundConst, object], ...]
+
+    def value(self, text: str, step: int | None = None) -> object:
+        """Value of a ground constant given by its text (``"loc(d1)"``) at a step."""
+        if step is None:
+            for gc, v in self.rigid.items():
+                if gc.text == text:
+                    return v
+            raise KeyError(text)
+        for table in (self.states[step], self.actions[step] if step < len(self.actions) else {}):
+            for gc, v in table.items():
+                if gc.text == text:
+                    return v
+        raise KeyError(text)
+
+    def state_text(self, step: int) -> dict[str, object]:
+        return {gc.text: v for gc, v in self.states[step].items()}
+
+    def key(self) -> tuple:
+        """A hashable identity of the history (two equal keys = the same history)."""
+        return (tuple(sorted((gc.id, render_value(v)) for gc, v in self.rigid.items())),
+                tuple(tuple(sorted((gc.id, render_value(v)) for gc, v in s.items())) for s in self.states),
+                tuple(tuple(sorted((gc.id, render_value(v)) for gc, v in a.items())) for a in self.actions))
+
+
+def executed_actions(actions: dict[GroundConst, object]) -> list[GroundConst]:
+    """Action constants that are 'done': Boolean ones true, others not none (attributes and
+    hidden constants excluded)."""
+    out = []
+    for gc, v in actions.items():
+        d = gc.decl
+        if d.hidden or d.kind == "attribute":
+            continue
+        if (gc.boolean and v == "true") or (not gc.boolean and v != "none"):
+            out.append(gc)
+    return out
+
+
+def decode_history(session) -> History:
+    """Read the current model of a :class:`~cplus.sat.horizon.QuerySession`."""
+    h = session.horizon
+    s = h.solver
+    atoms = session.atoms
+    m = h.m
+    rigid: dict = {}
+    states: list[dict] = [dict() for _ in range(m + 1)]
+    actions: list[dict] = [dict() for _ in range(m)]
+    for gc in session.sig.ground:
+        d = gc.decl
+        if d.hidden:
+            continue
+        pairs = atoms.head_lits(gc)
+        if d.kind == "rigid":
+            rigid[gc] = _read(s, h, pairs, gc, None)
+        elif d.is_action:
+            for t in range(m):
+                actions[t][gc] = _read(s, h, pairs, gc, t)
+        else:
+            for t in range(m + 1):
+                states[t][gc] = _read(s, h, pairs, gc, t)
+    return History(m, rigid, tuple(states), tuple(actions))
+
+
+def _read(s, h, pairs, gc: GroundConst, t: int | None) -> object:
+    if gc.boolean:
+        return "true" if s.value(h.var(pairs[0][0], t)) else "false"
+    for aid, v in pairs:
+        if s.value(h.var(aid, t)):
+            return v
+    raise AssertionError(f"no value for {gc.text} at {t}")  # exactly-one makes this impossible

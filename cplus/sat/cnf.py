@@ -1,0 +1,161 @@
+"""Clauses from propositional formulas: Tseitin definitions, literal completion, exactly-one.
+
+A :class:`ClauseBuilder` works in any integer variable space; ``new_var`` allocates fresh
+variables.  Every auxiliary variable gets a *full* definition (``v <-> formula``), so it is a
+function of the atoms: the models of the clauses correspond one to one to the models of
+the causal theory, which is what model counting (``-n 0``) and DIMACS export rely on.
+
+Literal completion (NMCT): for every head literal h with bodies B1..Bk,
+``h <-> B1 | ... | Bk``.  A body that contains h itself (``default``, ``exogenous``,
+inertia) adds nothing to the "<-" direction, and in the "->" direction h may be dropped from
+it; a body that is just h makes h free.
+"""
+from __future__ import annotations
+
+from typing import Callable, Iterable
+
+from cplus.ground.pf import PF, mk_and, mk_or, neg
+
+__all__ = ["ClauseBuilder"]
+
+_PAIRWISE_MAX = 6
+
+
+class ClauseBuilder:
+    def __init__(self, new_var: Callable[[], int], sink: Callable[[list[int]], None] | None = None) -> None:
+        self.new_var = new_var
+        self.clauses: list[list[int]] = []
+        self.add_clause = sink if sink is not None else self.clauses.append
+        self._defs: dict[tuple, int] = {}
+        self._false: int | None = None
+
+    # ------------------------------------------------------------------ Tseitin
+    def lit(self, f: PF) -> int:
+        """A literal equivalent to ``f`` (introducing defined variables as needed)."""
+        if type(f) is int:
+            return f
+        if f is True or f is False:
+            z = self._false_var()
+            return -z if f is True else z
+        op, items = f
+        key = (op, frozenset(items))
+        v = self._defs.get(key)
+        if v is not None:
+            return v
+        lits = [self.lit(g) for g in items]
+        v = self.new_var()
+        add = self.add_clause
+        if op == "&":
+            for c in lits:
+                add([-v, c])
+            add([v] + [-c for c in lits])
+        else:
+            add([-v] + lits)
+            for c in lits:
+                add([v, -c])
+        self._defs[key] = v
+        neg_key = ("|" if op == "&" else "&", frozenset(neg(g) for g in items))
+        self._defs.setdefault(neg_key, -v)
+        return v
+
+    def _false_var(self) -> int:
+        if self._false is None:
+            self._false = self.new_var()
+            self.add_clause([-self._false])
+        return self._false
+
+    def _clause_lits(self, f: PF) -> list[int] | None:
+        """Literals of a clause equivalent to ``f`` (None when f is True)."""
+        if f is True:
+            return None
+        if f is False:
+            return []
+        if type(f) is int:
+            return [f]
+        op, items = f
+        if op == "|":
+            return [self.lit(g) for g in items]
+        return [self.lit(f)]
+
+    def add(self, f: PF, guard: int = 0) -> None:
+        """Assert ``f`` (only when ``guard`` holds, if a guard literal is given)."""
+        if f is True:
+            return
+        if type(f) is tuple and f[0] == "&":
+            for g in f[1]:
+                self.add(g, guard)
+            return
+        lits = self._clause_lits(f)
+        assert lits is not None
+        if guard:
+            lits = lits + [-guard]
+        if not lits:
+            z = self._false_var()
+            self.add_clause([z])
+            return
+        self.add_clause(lits)
+
+    # ------------------------------------------------------------------ completion
+    def complete(self, head: int, bodies: Iterable[PF], free: bool = False) -> None:
+        """Literal completion of ``head`` with the bodies of the rules that cause it."""
+        alternatives: list[PF] = []
+        for b in bodies:
+            if b is False:
+                continue
+            rest = _without(b, head)
+            if rest is None:                      # b does not mention head: b -> head
+                self.add(mk_or((neg(b), head)))
+                alternatives.append(b)
+            else:                                 # self-supporting: h -> rest suffices
+                if rest is True:
+                    free = True
+                alternatives.append(rest)
+        if free:
+            return
+        clause = [-head]
+        for alt in alternatives:
+            if alt is True:
+                return
+            if type(alt) is tuple and alt[0] == "|":
+                clause.extend(self.lit(g) for g in alt[1])
+            else:
+                clause.append(self.lit(alt))
+        self.add_clause(clause)
+
+    # ------------------------------------------------------------------ cardinality
+    def exactly_one(self, lits: list[int]) -> None:
+        self.add_clause(list(lits))
+        self.at_most_one(lits)
+
+    def at_most_one(self, lits: list[PF]) -> None:
+        ls = [self.lit(x) for x in lits]
+        n = len(ls)
+        if n <= 1:
+            return
+        if n <= _PAIRWISE_MAX:
+            for i in range(n):
+                for j in range(i + 1, n):
+                    self.add_clause([-ls[i], -ls[j]])
+            return
+        # ladder: y_i <-> y_{i-1} | x_i (defined), and not (y_{i-1} & x_i)
+        add = self.add_clause
+        prev = ls[0]
+        for i in range(1, n):
+            x = ls[i]
+            add([-prev, -x])
+            if i == n - 1:
+                break
+            y = self.new_var()
+            add([-y, prev, x])
+            add([y, -prev])
+            add([y, -x])
+            prev = y
+
+
+def _without(body: PF, head: int) -> PF | None:
+    """``body`` minus the conjunct ``head``; None when head is not a conjunct of body."""
+    if body == head:
+        return True
+    if type(body) is tuple and body[0] == "&" and head in body[1]:
+        return mk_and(g for g in body[1] if g != head)
+    return None

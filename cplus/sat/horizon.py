@@ -1,0 +1,276 @@
+"""One live solver per query, extended one step at a time.
+
+Solver variables are allocated in blocks: the rigid atoms first, then for each step t a
+block of N variables (every non-rigid atom at t), then the auxiliary variables of each
+template instance, and the query's own variables where they are needed.  Step m+1 only
+*adds* clauses (the transition template instantiated for m -> m+1); whatever depends on the
+current maxstep (the goal, conditions with ``maxstep``, quantifiers over steps) is guarded
+by an activation literal per horizon, so learned clauses survive from one horizon to the
+next and across refinement iterations.
+"""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+from typing import Iterator
+
+from cplus import ir
+from cplus.errors import GroundingError
+from cplus.ground.compile import Ctx, bind, compile_formula
+from cplus.ground.pf import PF, mk_and
+from cplus.ground.theory import GroundTheory
+from cplus.program import QuerySpec
+from cplus.sat.cnf import ClauseBuilder
+from cplus.sat.solver import DEFAULT_SOLVER, SatSolver
+from cplus.sat.templates import Template, build_templates
+
+__all__ = ["Horizon", "QuerySession", "HorizonStats"]
+
+
+@dataclass
+class HorizonStats:
+    maxstep: int
+    variables: int
+    clauses: int
+    encode_s: float
+    solve_s: float
+    satisfiable: bool | None = None
+    models: int = 0
+
+
+class Horizon:
+    """The clauses of D_m for growing m in one incremental solver."""
+
+    def __init__(self, theory: GroundTheory, solver: str = DEFAULT_SOLVER) -> None:
+        t0 = time.perf_counter()
+        self.theory = theory
+        self.layout, self.t_rigid, self.t_init, self.t_trans = build_templates(theory)
+        self.template_s = time.perf_counter() - t0
+        self.solver = SatSolver(solver)
+        L = self.layout
+        self.top = L.R
+        self.blocks: list[int] = []
+        self._rigid_range = range(1, L.R + 1)
+        self.m = -1
+        self.extra: list[PF] = []          # transition constraints added later (refinement)
+        self.builder = ClauseBuilder(self.new_var, self.solver.add_clause)
+        self._instantiate(self.t_rigid, 0, 0)
+        self._add_block()
+        self._instantiate(self.t_init, self.blocks[0], self.blocks[0])
+        self.m = 0
+
+    # ------------------------------------------------------------------ variables
+    def new_var(self) -> int:
+        self.top += 1
+        return self.top
+
+    def _add_block(self) -> None:
+        self.blocks.append(self.top + 1)
+        self.top += self.layout.N
+
+    def var(self, aid: int, t: int | None) -> int:
+        """Solver variable of an atom at step t (rigid atoms: t is ignored)."""
+        L = self.layout
+        r = L.ridx.get(aid)
+        if r is not None:
+            return r + 1
+        return self.blocks[t] + L.pos[aid]  # type: ignore[index]
+
+    # ------------------------------------------------------------------ templates
+    def _instantiate(self, tpl: Template, b0: int, b1: int) -> None:
+        L = self.layout
+        n_aux = tpl.top - L.base_top
+        aux = self.top + 1
+        self.top += n_aux
+        off = [0]
+        off.extend(self._rigid_range)
+        off.extend(range(b0, b0 + L.N))
+        off.extend(range(b1, b1 + L.N))
+        off.extend(range(aux, aux + n_aux))
+        add = self.solver.add_clause
+        for c in tpl.clauses:
+            add([off[x] if x > 0 else -off[-x] for x in c])
+
+    def extend_to(self, m: int) -> None:
+        """Add transitions until the horizon is m."""
+        while self.m < m:
+            t = self.m
+            self._add_block()
+            self._instantiate(self.t_trans, self.blocks[t], self.blocks[t + 1])
+            for f in self.extra:
+                self.builder.add(self._at(f, t))
+            self.m += 1
+
+    def _at(self, f: PF, t: int) -> PF:
+        """A transition formula over template codes, placed at transition t."""
+        from cplus.ground.pf import map_lits
+
+        def place(code: int) -> int:
+            aid, slot = divmod(code - 1, 3)
+            return self.var(aid, None if slot == 2 else t + slot)
+        return map_lits(f, place)
+
+    def forbid_everywhere(self, f: PF) -> None:
+        """Add ``not f`` (a transition formula over template codes) at every transition,
+        existing and future ones."""
+        from cplus.ground.pf import neg
+        g = neg(f)
+        self.extra.append(g)
+        for t in range(self.m):
+            self.builder.add(self._at(g, t))
+
+
+class QuerySession:
+    """Answer one query: horizons in ascending order, then models at the first good one."""
+
+    def __init__(self, theory: GroundTheory, query: QuerySpec, solver: str = DEFAULT_SOLVER,
+                 max_horizon: int | None = None) -> None:
+        self.theory = theory
+        self.query = query
+        self.horizon = Horizon(theory, solver)
+        self.max_horizon = max_horizon
+        self.sig = theory.sig
+        self.atoms = theory.atoms
+        self._mklit_now = None
+        self.ctx = Ctx(self.sig, self.atoms, self._mklit)
+        self.items = []
+        for formula, loc in query.items:
+            dynamic = ir.mentions(formula, (ir.MaxStepT,)) or _has_step_var(formula)
+            self.items.append([formula, loc, compile_formula(formula, self.ctx), dynamic, False])
+        self.stats: list[HorizonStats] = []
+        self.act: int | None = None
+        self.out_of_range: list = []
+        self._projection: list[tuple[int, int | None]] | None = None
+
+    # ------------------------------------------------------------------ query items
+    def _mklit(self, aid: int, t: object) -> PF:
+        a = aid if aid > 0 else -aid
+        gc = self.atoms.gc_of[a]
+        h = self.horizon
+        if gc.decl.kind == "rigid":  # type: ignore[union-attr]
+            v = h.var(a, None)
+        else:
+            if t is None:
+                raise GroundingError(f"'{gc.text}' needs a time stamp in a query (write 'i: {gc.text}')")  # type: ignore
+            last = self._m - 1 if gc.decl.is_action else self._m  # type: ignore[union-attr]
+            if not (0 <= t <= last):  # type: ignore[operator]
+                self._oor = True
+                return False
+            v = h.var(a, t)  # type: ignore[arg-type]
+        return v if aid > 0 else -v
+
+    def _ground_item(self, item, m: int) -> tuple[PF, bool]:
+        formula, loc, fn, _, _ = item
+        self._m = m
+        self._oor = False
+        parts: list[PF] = []
+        variables = ir.free_vars(formula)
+
+        def leaf(env: dict) -> None:
+            parts.append(fn(env, None))
+        try:
+            bind(self.sig, variables, [], leaf, {"$maxstep": m})
+        except GroundingError as exc:
+            if exc.loc is None:
+                exc.loc = loc
+            raise
+        return mk_and(parts), self._oor
+
+    def _add_items(self, m: int) -> None:
+        h = self.horizon
+        self.act = h.new_var()
+        for item in self.items:
+            if item[4]:
+                continue
+            pf, oor = self._ground_item(item, m)
+            if item[3] or oor:
+                h.builder.add(pf, guard=self.act)
+                if oor:
+                    self.out_of_range.append(item[1])
+            else:
+                h.builder.add(pf)
+                item[4] = True
+
+    # ------------------------------------------------------------------ search
+    def horizons(self) -> Iterator[int]:
+        q = self.query
+        hi = q.hi if q.hi is not None else self.max_horizon
+        m = q.lo
+        while hi is None or m <= hi:
+            yield m
+            m += 1
+
+    def solve_at(self, m: int) -> bool:
+        """Extend to horizon m (only upwards) and solve; records statistics."""
+        t0 = time.perf_counter()
+        h = self.horizon
+        if self.act is not None:
+            h.solver.add_clause([-self.act])    # retire the previous horizon's goal
+        self.out_of_range = []
+        h.extend_to(m)
+        self._add_items(m)
+        self._projection = None
+        t1 = time.perf_counter()
+        ok = h.solver.solve([self.act])  # type: ignore[list-item]
+        t2 = time.perf_counter()
+        self.stats.append(HorizonStats(m, h.top, h.solver.clauses, t1 - t0, t2 - t1, ok, 1 if ok else 0))
+        return ok
+
+    def resolve(self) -> bool:
+        """Solve again at the current horizon (after clauses were added)."""
+        h = self.horizon
+        t0 = time.perf_counter()
+        ok = h.solver.solve([self.act])  # type: ignore[list-item]
+        st = self.stats[-1]
+        st.solve_s += time.perf_counter() - t0
+        st.satisfiable = ok
+        return ok
+
+    def block_current(self) -> None:
+        """Exclude the history of the current model (only at this horizon)."""
+        h = self.horizon
+        s = h.solver
+        clause = [-self.act]  # type: ignore[operator]
+        for v in self.projection_vars():
+            clause.append(-v if s.value(v) else v)
+        s.add_clause(clause)
+
+    def projection_vars(self) -> list[int]:
+        """Solver variables of the history atoms: fluents 0..m, actions 0..m-1, rigids.
+        For a non-Boolean constant one atom per value is listed (exactly one is true)."""
+        if self._projection is None:
+            h = self.horizon
+            m = h.m
+            out: list[int] = []
+            for aid in h.layout.rigid_atoms:
+                if not self.atoms.gc_of[aid].decl.hidden:  # type: ignore[union-attr]
+                    out.append(h.var(aid, None))
+            for aid in h.layout.step_atoms:
+                gc = self.atoms.gc_of[aid]
+                if gc.decl.hidden:  # type: ignore[union-attr]
+                    continue
+                last = m - 1 if gc.decl.is_action else m  # type: ignore[union-attr]
+                out.extend(h.var(aid, t) for t in range(last + 1))
+            self._projection = out
+        return self._projection  # type: ignore[return-value]
+
+
+def _has_step_var(f) -> bool:
+    from cplus.signature import StepSort
+    return any(isinstance(v.sort, StepSort) for v in ir.free_vars(f).values()) or _quant_step(f)
+
+
+def _quant_step(f) -> bool:
+    from cplus.signature import StepSort
+    if isinstance(f, ir.Quant):
+        return isinstance(f.var.sort, StepSort) or _quant_step(f.body)
+    if isinstance(f, (ir.And, ir.Or)):
+        return any(_quant_step(x) for x in f.items)
+    if isinstance(f, ir.Not):
+        return _quant_step(f.arg)
+    if isinstance(f, (ir.Imp, ir.Iff)):
+        return _quant_step(f.left) or _quant_step(f.right)
+    if isinstance(f, ir.StampF):
+        return _quant_step(f.body)
+    return False
+

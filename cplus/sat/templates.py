@@ -1,0 +1,234 @@
+"""Clause templates for the rigid part, step 0, and one transition.
+
+Template variable space (the same for the three templates):
+
+* ``1..R``: rigid atoms;
+* ``R+1..R+N``: every non-rigid atom at the template's first step (slot 0);
+* ``R+N+1..R+2N``: the same atoms at the next step (slot 1, transitions only);
+* above ``R+2N``: auxiliary variables of this template.
+
+:class:`~cplus.sat.horizon.Horizon` maps them to solver variables per step by adding
+offsets, so a longer horizon only appends clauses.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from cplus.ground.pf import PF, map_lits, mk_and
+from cplus.ground.theory import GroundTheory, initially_free
+from cplus.sat.cnf import ClauseBuilder
+from cplus.signature import GroundConst
+
+__all__ = ["Layout", "Template", "build_templates"]
+
+
+@dataclass
+class Template:
+    clauses: list[list[int]]
+    top: int                      # highest template id used
+    name: str
+
+    @property
+    def aux(self) -> int:
+        return self.top
+
+
+class Layout:
+    """Dense numbering of atoms: rigid ones 1..R, the others by position 0..N-1."""
+
+    def __init__(self, theory: GroundTheory) -> None:
+        atoms = theory.atoms
+        self.theory = theory
+        self.ridx: dict[int, int] = {}
+        self.pos: dict[int, int] = {}
+        self.rigid_atoms: list[int] = []
+        self.step_atoms: list[int] = []
+        for aid in range(1, len(atoms) + 1):
+            gc = atoms.gc_of[aid]
+            assert gc is not None
+            if gc.decl.kind == "rigid":
+                self.ridx[aid] = len(self.rigid_atoms)
+                self.rigid_atoms.append(aid)
+            else:
+                self.pos[aid] = len(self.step_atoms)
+                self.step_atoms.append(aid)
+        self.R = len(self.rigid_atoms)
+        self.N = len(self.step_atoms)
+
+    def tid(self, code: int) -> int:
+        """Template id of a template literal code (see :func:`template_lit`)."""
+        a = code if code > 0 else -code
+        aid, slot = divmod(a - 1, 3)
+        if slot == 2:
+            t = self.ridx[aid] + 1
+        else:
+            t = self.R + slot * self.N + self.pos[aid] + 1
+        return t if code > 0 else -t
+
+    def tid_atom(self, aid: int, slot: int) -> int:
+        if slot == 2:
+            return self.ridx[aid] + 1
+        return self.R + slot * self.N + self.pos[aid] + 1
+
+    @property
+    def base_top(self) -> int:
+        return self.R + 2 * self.N
+
+
+def _to_tids(layout: Layout, f: PF) -> PF:
+    return map_lits(f, layout.tid)
+
+
+def _shift_static(f: PF) -> PF:
+    """Move the slot-0 literals of a static body to slot 1."""
+    def shift(code: int) -> int:
+        return code + 1 if (code - 1) % 3 == 0 else code
+    return map_lits(f, shift)
+
+
+def build_templates(theory: GroundTheory) -> tuple[Layout, Template, Template, Template]:
+    layout = Layout(theory)
+    return layout, _rigid(layout), _initial(layout), _transition(layout)
+
+
+class _Builder:
+    def __init__(self, layout: Layout, name: str) -> None:
+        self.layout = layout
+        self.name = name
+        self.top = layout.base_top
+        self.cb = ClauseBuilder(self._new)
+
+    def _new(self) -> int:
+        self.top += 1
+        return self.top
+
+    def done(self) -> Template:
+        return Template(self.cb.clauses, self.top, self.name)
+
+
+def _heads(theory: GroundTheory, layout: Layout, rules: list[tuple[int, PF]], shift: bool = False) -> dict:
+    out: dict[int, list[PF]] = {}
+    for code, body in rules:
+        if shift:
+            code, body = _shift_static(code), _shift_static(body)  # type: ignore[assignment]
+        out.setdefault(layout.tid(code), []).append(_to_tids(layout, body))
+    return out
+
+
+def _complete_atoms(b: _Builder, gcs: list[GroundConst], slot: int, heads: dict, free_fn=None) -> None:
+    layout = b.layout
+    atoms = layout.theory.atoms
+    for gc in gcs:
+        free = bool(free_fn and free_fn(gc))
+        if gc.boolean:
+            aid = atoms.lit(gc, "true")
+            t = layout.tid_atom(aid, slot)
+            b.cb.complete(t, heads.get(t, ()), free)
+            b.cb.complete(-t, heads.get(-t, ()), free)
+        else:
+            ts = [layout.tid_atom(aid, slot) for aid in atoms.atoms(gc)]
+            for t in ts:
+                b.cb.complete(t, heads.get(t, ()), free)
+            b.cb.exactly_one(ts)
+
+
+def _constraints(b: _Builder, bodies: list[PF], shift: bool = False) -> None:
+    from cplus.ground.pf import neg
+    for body in bodies:
+        if shift:
+            body = _shift_static(body)
+        b.cb.add(neg(_to_tids(b.layout, body)))
+
+
+def _rigid(layout: Layout) -> Template:
+    th = layout.theory
+    b = _Builder(layout, "rigid")
+    gcs = [gc for gc in th.sig.ground if gc.decl.kind == "rigid"]
+    _complete_atoms(b, gcs, 2, _heads(th, layout, th.rules["rigid"]))
+    _constraints(b, th.constraints["rigid"])
+    return b.done()
+
+
+def _fluents(th: GroundTheory, additive: bool) -> list[GroundConst]:
+    return [gc for gc in th.sig.ground if gc.decl.is_fluent and (gc.decl.kind == "additiveFluent") == additive]
+
+
+def _initial(layout: Layout) -> Template:
+    th = layout.theory
+    b = _Builder(layout, "initial")
+    heads = _heads(th, layout, th.rules["static"])
+    free = lambda gc: initially_free(gc.decl)  # noqa: E731
+    _complete_atoms(b, _fluents(th, False), 0, heads, free)
+    for gc in _fluents(th, True):   # additive fluents: free at step 0, one value
+        ts = [layout.tid_atom(aid, 0) for aid in th.atoms.atoms(gc)]
+        b.cb.exactly_one(ts)
+    _constraints(b, th.constraints["static"])
+    return b.done()
+
+
+def _transition(layout: Layout) -> Template:
+    th = layout.theory
+    b = _Builder(layout, "transition")
+    actions = [gc for gc in th.sig.ground if gc.decl.is_action and gc.decl.kind != "additiveAction"]
+    _complete_atoms(b, actions, 0, _heads(th, layout, th.rules["action"]))
+    heads = _heads(th, layout, th.rules["static"], shift=True)
+    for t, bodies in _heads(th, layout, th.rules["dynamic"]).items():
+        heads.setdefault(t, []).extend(bodies)
+    _complete_atoms(b, _fluents(th, False), 1, heads)
+    _constraints(b, th.constraints["static"], shift=True)
+    _constraints(b, th.constraints["dynamic"])
+    _constraints(b, th.constraints["action"])
+    for group in th.noconcurrency:
+        b.cb.at_most_one([_to_tids(layout, g) for g in group])
+    for s in th.sums:
+        _additive(b, s)
+    return b.done()
+
+
+def _additive(b: _Builder, s) -> None:
+    """``target = base + sum(contributions)`` with one-hot partial sums (exact, pruned)."""
+    layout = b.layout
+    atoms = layout.theory.atoms
+    cb = b.cb
+    target: GroundConst = s.target
+    is_fluent = target.decl.kind == "additiveFluent"
+    dom = [v for v in target.domain if isinstance(v, int)]
+    current: dict[int, PF]
+    if is_fluent:
+        current = {v: layout.tid_atom(atoms.lit(target, v), 0) for v in dom}
+    else:
+        current = {0: True}
+    contribs = [[(v, layout.tid_atom(atoms.lit(cg, v), 0)) for v in cg.domain] for cg in s.contributions]
+    lo, hi = min(dom), max(dom)
+    mins = [min(v for v, _ in c) for c in contribs]
+    maxs = [max(v for v, _ in c) for c in contribs]
+    for j, cvals in enumerate(contribs):
+        rest_min, rest_max = sum(mins[j + 1:]), sum(maxs[j + 1:])
+        parts: dict[int, list[PF]] = {}
+        for u, lu in current.items():
+            for w, lw in cvals:
+                v = u + w
+                if lo - rest_max <= v <= hi - rest_min:
+                    parts.setdefault(v, []).append(mk_and((lu, lw)))
+        current = {}
+        for v, ps in parts.items():
+            if len(ps) == 1:
+                current[v] = cb.lit(ps[0]) if ps[0] is not True else True
+            else:
+                current[v] = cb.lit(("|", tuple(ps)))
+    slot = 1 if is_fluent else 0
+    for v in dom:
+        t = layout.tid_atom(atoms.lit(target, v), slot)
+        sv = current.get(v, False)
+        if sv is True:
+            cb.add_clause([t])
+        elif sv is False:
+            cb.add_clause([-t])
+        else:
+            cb.add_clause([-t, sv])      # type: ignore[list-item]
+            cb.add_clause([t, -sv])      # type: ignore[operator]
+    for v, sv in current.items():
+        if v not in target.domain and sv is not False:
+            cb.add(-sv if type(sv) is int else False)  # type: ignore[operator]
+    ts = [layout.tid_atom(atoms.lit(target, v), slot) for v in dom]
+    cb.exactly_one(ts)
