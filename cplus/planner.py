@@ -12,10 +12,9 @@
 """
 from __future__ import annotations
 
-import time
 from dataclasses import dataclass, field
 from enum import Enum
-from typing import Callable
+from typing import Callable, Iterator
 
 from cplus.ground.theory import GroundTheory
 from cplus.history import History, decode_history
@@ -23,7 +22,8 @@ from cplus.program import QuerySpec
 from cplus.sat.horizon import HorizonStats, QuerySession
 from cplus.sat.solver import DEFAULT_SOLVER
 
-__all__ = ["PlanStatus", "QueryResult", "run_query", "states_query", "QuerySession"]
+__all__ = ["PlanStatus", "QueryResult", "run_query", "find_horizon", "iter_histories", "states_query",
+           "QuerySession"]
 
 
 class PlanStatus(Enum):
@@ -57,30 +57,44 @@ def run_query(theory: GroundTheory, query: QuerySpec, solutions: int = 1, solver
     histories there (0 = all of them).  Histories are distinct as histories: two models
     that differ only in auxiliary variables count once."""
     session = QuerySession(theory, query, solver, max_horizon)
+    failed = find_horizon(session, on_horizon)
+    if session.found is None:
+        status = PlanStatus.NO_PLAN if query.hi is not None else PlanStatus.HORIZON_LIMIT
+        return QueryResult(query.label, status, None, [], failed, session.stats, session.horizon.template_s)
+    histories: list[History] = []
+    for hist in iter_histories(session):
+        histories.append(hist)
+        if on_history:
+            on_history(hist)
+        if solutions and len(histories) >= solutions:
+            break
+    session.stats[-1].models = len(histories)
+    return QueryResult(query.label, PlanStatus.FOUND, session.found, histories, failed, session.stats,
+                       session.horizon.template_s)
+
+
+def find_horizon(session: QuerySession,
+                 on_horizon: Callable[[HorizonStats], None] | None = None) -> list[int]:
+    """Try the horizons of the query upwards; stop at the first with a history
+    (``session.found``).  Returns the horizons without one."""
     failed: list[int] = []
+    session.found = None
     for m in session.horizons():
         ok = session.solve_at(m)
         if on_horizon:
             on_horizon(session.stats[-1])
-        if not ok:
-            failed.append(m)
-            continue
-        histories: list[History] = []
-        while True:
-            hist = decode_history(session)
-            histories.append(hist)
-            if on_history:
-                on_history(hist)
-            if solutions and len(histories) >= solutions:
-                break
-            session.block_current()
-            t0 = time.perf_counter()
-            more = session.horizon.solver.solve([session.act])  # type: ignore[list-item]
-            session.stats[-1].solve_s += time.perf_counter() - t0
-            if not more:
-                break
-        session.stats[-1].models = len(histories)
-        return QueryResult(query.label, PlanStatus.FOUND, m, histories, failed, session.stats,
-                           session.horizon.template_s)
-    status = PlanStatus.NO_PLAN if query.hi is not None else PlanStatus.HORIZON_LIMIT
-    return QueryResult(query.label, status, None, [], failed, session.stats, session.horizon.template_s)
+        if ok:
+            session.found = m
+            break
+        failed.append(m)
+    return failed
+
+
+def iter_histories(session: QuerySession) -> Iterator[History]:
+    """Every history at the session's current horizon, each once (the solver must have
+    just found a model there)."""
+    while True:
+        yield decode_history(session)
+        session.block_current()
+        if not session.resolve():
+            return

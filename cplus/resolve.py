@@ -20,7 +20,7 @@ from cplus.program import BasicLaw, IncrementLaw, Pattern, Program, QuerySpec
 from cplus.signature import (ACTION_KINDS, FLUENT_KINDS, USER_KINDS, ConstDecl, KindSort,
                              NamedSort, RangeSort, Signature, SortExpr, StepSort)
 
-__all__ = ["resolve", "Externals", "BUILTIN_EXTERNALS", "Reader"]
+__all__ = ["resolve", "External", "Externals", "BUILTIN_EXTERNALS", "Reader"]
 
 Reader = Callable[[str, Location | None], ast.ParsedFile]
 """``read(path, loc)`` returns the parsed statements of a file or raises a CPlusError."""
@@ -28,10 +28,12 @@ Reader = Callable[[str, Location | None], ast.ParsedFile]
 
 @dataclass(frozen=True)
 class External:
+    """``predicate`` True: formulas only; False: terms only; None: either."""
+
     name: str
     arity: int
     fn: Callable[..., object]
-    predicate: bool
+    predicate: bool | None
 
 
 class Externals:
@@ -40,11 +42,11 @@ class Externals:
     def __init__(self, items: Iterable[External] = ()) -> None:
         self._items: dict[tuple[str, int], External] = {(e.name, e.arity): e for e in items}
 
-    def add_predicate(self, name: str, arity: int, fn: Callable[..., object]) -> None:
-        self._items[(name, arity)] = External(name, arity, fn, True)
+    def add(self, ext: External) -> None:
+        self._items[(ext.name, ext.arity)] = ext
 
-    def add_function(self, name: str, arity: int, fn: Callable[..., object]) -> None:
-        self._items[(name, arity)] = External(name, arity, fn, False)
+    def add_predicate(self, name: str, arity: int, fn: Callable[..., object]) -> None:
+        self.add(External(name, arity, fn, True))
 
     def get(self, name: str, arity: int) -> External | None:
         return self._items.get((name, arity))
@@ -534,7 +536,7 @@ class _Resolver:
         ext = self.externals.get(name, n)
         if ext is not None:
             args = tuple(self._term_x(a, scope) for a in e.args)
-            if ext.predicate:
+            if ext.predicate is True:
                 raise ResolveError(f"'{name}/{n}' is an external predicate, not a function", e.loc)
             return ir.Ext(name, ext.fn, args, e.loc)
         known = self.sig.constants_named(name)
@@ -613,7 +615,7 @@ class _Resolver:
             decl = self.sig.lookup(name, n)
             if decl is None:
                 ext = self.externals.get(name, n)
-                if ext is not None and ext.predicate:
+                if ext is not None and ext.predicate is not False:
                     return ir.ExtPred(name, ext.fn, tuple(self._term_x(a, scope) for a in e.args), e.loc)
         t = self._name_term(e, scope)
         if isinstance(t, ir.Cst):

@@ -41,12 +41,12 @@ class HorizonStats:
 class Horizon:
     """The clauses of D_m for growing m in one incremental solver."""
 
-    def __init__(self, theory: GroundTheory, solver: str = DEFAULT_SOLVER) -> None:
+    def __init__(self, theory: GroundTheory, solver: str = DEFAULT_SOLVER, solver_factory=SatSolver) -> None:
         t0 = time.perf_counter()
         self.theory = theory
         self.layout, self.t_rigid, self.t_init, self.t_trans = build_templates(theory)
         self.template_s = time.perf_counter() - t0
-        self.solver = SatSolver(solver)
+        self.solver = solver_factory(solver)
         L = self.layout
         self.top = L.R
         self.blocks: list[int] = []
@@ -124,10 +124,10 @@ class QuerySession:
     """Answer one query: horizons in ascending order, then models at the first good one."""
 
     def __init__(self, theory: GroundTheory, query: QuerySpec, solver: str = DEFAULT_SOLVER,
-                 max_horizon: int | None = None) -> None:
+                 max_horizon: int | None = None, solver_factory=SatSolver) -> None:
         self.theory = theory
         self.query = query
-        self.horizon = Horizon(theory, solver)
+        self.horizon = Horizon(theory, solver, solver_factory)
         self.max_horizon = max_horizon
         self.sig = theory.sig
         self.atoms = theory.atoms
@@ -139,6 +139,7 @@ class QuerySession:
             self.items.append([formula, loc, compile_formula(formula, self.ctx), dynamic, False])
         self.stats: list[HorizonStats] = []
         self.act: int | None = None
+        self.found: int | None = None
         self.out_of_range: list = []
         self._projection: list[tuple[int, int | None]] | None = None
 
@@ -191,6 +192,12 @@ class QuerySession:
                 h.builder.add(pf)
                 item[4] = True
 
+    def assert_items(self, m: int) -> None:
+        """Add every query condition at horizon m unconditionally (for a fixed horizon)."""
+        for item in self.items:
+            pf, _ = self._ground_item(item, m)
+            self.horizon.builder.add(pf)
+
     # ------------------------------------------------------------------ search
     def horizons(self) -> Iterator[int]:
         q = self.query
@@ -213,7 +220,7 @@ class QuerySession:
         t1 = time.perf_counter()
         ok = h.solver.solve([self.act])  # type: ignore[list-item]
         t2 = time.perf_counter()
-        self.stats.append(HorizonStats(m, h.top, h.solver.clauses, t1 - t0, t2 - t1, ok, 1 if ok else 0))
+        self.stats.append(HorizonStats(m, h.top, h.solver.count, t1 - t0, t2 - t1, ok, 1 if ok else 0))
         return ok
 
     def resolve(self) -> bool:

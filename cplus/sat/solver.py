@@ -27,12 +27,11 @@ class SatSolver:
             raise CPlusError(f"unknown SAT solver '{name}' (choose one of: {', '.join(SOLVERS)})") from None
         self.name = name
         self._model: list[int] | None = None
-        self.clauses = 0
-        self.top = 0
+        self.count = 0
 
     def add_clause(self, clause: list[int]) -> None:
         self._s.add_clause(clause)
-        self.clauses += 1
+        self.count += 1
 
     def solve(self, assumptions: list[int] = ()) -> bool:  # type: ignore[assignment]
         ok = self._s.solve(assumptions=list(assumptions))

@@ -1,0 +1,110 @@
+"""The Python API: load a domain, run its queries, iterate over plans.
+
+>>> from cplus import Domain
+>>> d = Domain.from_text('''
+... :- constants lit :: inertialFluent; flip :: exogenousAction.
+... flip causes lit.
+... :- query label :: on; maxstep :: 0..3; 0: -lit; maxstep: lit.''')
+>>> d.labels
+['on']
+>>> r = d.solve("on")
+>>> r.maxstep, [a.text for a in r.histories[0].actions[0] if r.histories[0].actions[0][a] == "true"]
+(1, ['flip'])
+>>> print(d.format(r).strip())
+No solution with maxstep 0.
+<BLANKLINE>
+<BLANKLINE>
+0:
+<BLANKLINE>
+ACTIONS:  flip
+<BLANKLINE>
+1:  lit
+"""
+from __future__ import annotations
+
+import time
+from typing import Callable, Iterator
+
+from cplus.errors import Diagnostics, QueryError
+from cplus.ground.theory import GroundTheory, ground_program
+from cplus.history import History
+from cplus.load import load_program, load_text
+from cplus.output import Display, format_result, result_json
+from cplus.planner import QueryResult, QuerySession, find_horizon, iter_histories, run_query, states_query
+from cplus.program import Program, QuerySpec
+from cplus.resolve import Externals
+from cplus.sat.solver import DEFAULT_SOLVER
+
+__all__ = ["Domain"]
+
+
+class Domain:
+    """A C+ domain description with its queries, grounded on first use."""
+
+    def __init__(self, program: Program, path: str) -> None:
+        self.program = program
+        self.path = path
+        self._theory: GroundTheory | None = None
+        self.load_s = 0.0
+
+    @classmethod
+    def load(cls, path: str, externals: Externals | None = None) -> "Domain":
+        """Read a C+ file (and its includes); raises :class:`~cplus.errors.CPlusError`."""
+        t0 = time.perf_counter()
+        d = cls(load_program(path, externals), path)
+        d.load_s = time.perf_counter() - t0
+        return d
+
+    @classmethod
+    def from_text(cls, text: str, name: str = "<input>", externals: Externals | None = None) -> "Domain":
+        return cls(load_text(text, name, externals), name)
+
+    @property
+    def diagnostics(self) -> Diagnostics:
+        return self.program.diagnostics
+
+    @property
+    def theory(self) -> GroundTheory:
+        if self._theory is None:
+            self._theory = ground_program(self.program)
+        return self._theory
+
+    @property
+    def labels(self) -> list[str]:
+        return [q.label for q in self.program.queries]
+
+    def query(self, label: str) -> QuerySpec:
+        """The query with this label; ``"states"`` is every state (maxstep 0, no conditions)."""
+        q = self.program.query(label)
+        if q is not None:
+            return q
+        if label == "states":
+            return states_query()
+        known = ", ".join(self.labels) or "none"
+        raise QueryError(f"no query with label '{label}' (this file's labels: {known})")
+
+    def solve(self, label: str = "0", solutions: int = 1, solver: str = DEFAULT_SOLVER,
+              max_horizon: int | None = None, on_horizon: Callable | None = None) -> QueryResult:
+        """Run a query: the shortest maxstep in its range with a history, and up to
+        ``solutions`` histories there (0 = all)."""
+        return run_query(self.theory, self.query(label), solutions, solver, max_horizon, on_horizon)
+
+    def plans(self, label: str = "0", solver: str = DEFAULT_SOLVER,
+              max_horizon: int | None = None) -> Iterator[History]:
+        """Every history at the shortest maxstep with one, lazily."""
+        session = QuerySession(self.theory, self.query(label), solver, max_horizon)
+        find_horizon(session)
+        if session.found is not None:
+            yield from iter_histories(session)
+
+    def session(self, label: str = "0", solver: str = DEFAULT_SOLVER,
+                max_horizon: int | None = None) -> QuerySession:
+        """A live solver for a query, for callers that add constraints between solves."""
+        return QuerySession(self.theory, self.query(label), solver, max_horizon)
+
+    def format(self, result: QueryResult, numbered: bool = False) -> str:
+        """CCALC's text for a result."""
+        return format_result(Display(self.program), result.failed, result.histories, numbered)
+
+    def to_json(self, result: QueryResult) -> dict:
+        return result_json(self.path, result, self.query(result.label))

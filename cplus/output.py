@@ -1,0 +1,206 @@
+"""Print histories as CCALC does, and as versioned JSON (``cplus.plan/1``).
+
+CCALC's layout (language reference E.2-E.5): an optional line of rigid atoms, then
+``i:  atom  atom`` for each state and ``ACTIONS:  ...`` between states, blank lines between
+all of them.  Attributes are printed inside their action (``move(b1,destination=table)``);
+``:- show``/``:- hide`` choose what is displayed.  JSON holds the whole history whatever
+is shown.
+"""
+from __future__ import annotations
+
+from typing import Iterable
+
+from cplus.history import History, executed_actions
+from cplus.program import Pattern, Program
+from cplus.signature import GroundConst, NamedSort, RangeSort, Signature, render_value
+from cplus import ir
+
+__all__ = ["Display", "format_history", "format_result", "result_json", "PLAN_FORMAT"]
+
+PLAN_FORMAT = "cplus.plan/1"
+
+
+class Display:
+    """Which atoms are displayed, and in which order (E.4, E.5)."""
+
+    def __init__(self, program: Program) -> None:
+        self.program = program
+        self.sig: Signature = program.signature
+        self._order: dict[int, tuple] = {}
+
+    # -- show / hide ---------------------------------------------------------------
+    def _matches(self, p: Pattern, gc: GroundConst, value: object) -> bool:
+        if p.decl is not gc.decl:
+            return False
+        for a, v in zip(p.args, gc.args):
+            if isinstance(a, ir.Var):
+                if not self._in_sort(a, v):
+                    return False
+            elif a != v:
+                return False
+        if p.negated:
+            return gc.boolean and value == "false"
+        if p.value is None:
+            return not gc.boolean or value == "true"
+        if isinstance(p.value, ir.Var):
+            return self._in_sort(p.value, value)
+        return p.value == value
+
+    def _in_sort(self, var: ir.Var, value: object) -> bool:
+        try:
+            return self.sig.contains(var.sort, value)
+        except TypeError:
+            return True
+
+    def shown(self, gc: GroundConst, value: object) -> bool:
+        d = gc.decl
+        if d.hidden or d.kind == "abAction":
+            return False
+        if gc.boolean and value != "true":
+            return False
+        prog = self.program
+        if any(self._matches(p, gc, value) for p in prog.hide):
+            return False
+        if prog.hide_all:
+            return any(self._matches(p, gc, value) for p in prog.show)
+        if prog.show_given and not d.is_action:
+            return any(self._matches(p, gc, value) for p in prog.show)
+        return True
+
+    # -- order ---------------------------------------------------------------------
+    def key(self, gc: GroundConst) -> tuple:
+        k = self._order.get(gc.id)
+        if k is None:
+            d = gc.decl
+            if d.is_action:
+                family = 2
+            elif d.kind == "sdFluent":
+                family = 1
+            else:
+                family = 0
+            dom = d.domain
+            if isinstance(dom, NamedSort):
+                sort_key: tuple = (0, str(dom))
+            elif isinstance(dom, RangeSort):
+                sort_key = (1, dom.lo, dom.hi)
+            else:
+                sort_key = (2,)
+            sub = 0 if d.kind in ("simpleFluent", "sdFluent", "rigid") else 1
+            if family == 2:
+                sort_key, sub = (0,), 0
+            order = self.sig.object_order
+            args = tuple((0, a, 0) if isinstance(a, int) else (1, 0, order.get(a, 1 << 30)) for a in gc.args)
+            k = self._order[gc.id] = (family, sort_key, sub, d.order, args)
+        return k
+
+    # -- rendering -----------------------------------------------------------------
+    def atom_text(self, gc: GroundConst, value: object) -> str:
+        if gc.boolean:
+            return gc.text
+        return f"{gc.text}={render_value(value)}"
+
+    def state_atoms(self, table: dict[GroundConst, object]) -> list[str]:
+        gcs = sorted((gc for gc, v in table.items() if self.shown(gc, v)), key=self.key)
+        return [self.atom_text(gc, table[gc]) for gc in gcs]
+
+    def action_atoms(self, table: dict[GroundConst, object]) -> list[str]:
+        out = []
+        for gc in sorted(table, key=self.key):
+            d = gc.decl
+            if d.kind == "attribute" or not self.shown(gc, table[gc]):
+                continue
+            attrs = self._attributes(gc, table)
+            if gc.boolean:
+                if table[gc] != "true":
+                    continue
+                if attrs:
+                    inner = ",".join([render_value(a) for a in gc.args] + attrs)
+                    out.append(f"{d.name}({inner})")
+                else:
+                    out.append(gc.text)
+            else:
+                out.append(self.atom_text(gc, table[gc]))
+        return out
+
+    def _attributes(self, gc: GroundConst, table: dict) -> list[str]:
+        items = []
+        for ad in gc.decl.attributes:
+            for ag, v in table.items():
+                if ag.decl is not ad or ag.args[:gc.decl.arity] != gc.args:
+                    continue
+                if v == "none" or not self.shown(ag, v):
+                    continue
+                rest = ag.args[gc.decl.arity:]
+                name = ad.name + (f"({','.join(render_value(a) for a in rest)})" if rest else "")
+                shown_v = render_value(v)
+                if isinstance(v, int) and v < 0:
+                    shown_v = " " + shown_v
+                items.append(((ad.order, self.key(ag)), f"{name}={shown_v}"))
+        return [t for _, t in sorted(items)]
+
+
+def format_history(display: Display, hist: History) -> str:
+    lines: list[str] = []
+    rigid = display.state_atoms(hist.rigid)
+    if rigid:
+        lines.append("  ".join(rigid))
+    for t, state in enumerate(hist.states):
+        lines.append(f"{t}:  " + "  ".join(display.state_atoms(state)))
+        if t < len(hist.actions):
+            acts = display.action_atoms(hist.actions[t])
+            if acts:
+                lines.append("ACTIONS:  " + "  ".join(acts))
+    return "\n" + "\n\n".join(line.rstrip() for line in lines) + "\n\n\n"
+
+
+def format_result(display: Display, failed: Iterable[int], histories: list[History], numbered: bool) -> str:
+    parts = [f"\nNo solution with maxstep {m}.\n\n" for m in failed]
+    for k, h in enumerate(histories, start=1):
+        if numbered:
+            parts.append(f"Solution {k}:\n")
+        parts.append(format_history(display, h))
+    return "".join(parts)
+
+
+def _json_value(gc: GroundConst, v: object):
+    if gc.boolean:
+        return v == "true"
+    if isinstance(v, (int, str)):
+        return v
+    return render_value(v)
+
+
+def history_json(hist: History) -> dict:
+    def table(t: dict) -> dict:
+        return {gc.text: _json_value(gc, v) for gc, v in sorted(t.items(), key=lambda kv: kv[0].id)}
+    steps = []
+    for a in hist.actions:
+        done = []
+        for gc in sorted(executed_actions(a), key=lambda g: g.id):
+            entry: dict = {"action": gc.text}
+            if not gc.boolean:
+                entry["value"] = _json_value(gc, a[gc])
+            attrs = {ag.text: _json_value(ag, v) for ag, v in a.items()
+                     if ag.decl.parent is gc.decl and ag.args[:gc.decl.arity] == gc.args and v != "none"}
+            if attrs:
+                entry["attributes"] = attrs
+            done.append(entry)
+        steps.append(done)
+    return {"maxstep": hist.maxstep, "rigid": table(hist.rigid),
+            "states": [table(s) for s in hist.states], "actions": steps}
+
+
+def result_json(program_path: str, result, query) -> dict:
+    """The ``cplus.plan/1`` document of one query's result."""
+    return {
+        "format": PLAN_FORMAT,
+        "file": program_path,
+        "query": {"label": result.label, "min_maxstep": query.lo, "max_maxstep": query.hi},
+        "status": result.status.value,
+        "maxstep": result.maxstep,
+        "no_solution_with_maxstep": list(result.failed),
+        "histories": [history_json(h) for h in result.histories],
+        "stats": [{"maxstep": s.maxstep, "variables": s.variables, "clauses": s.clauses,
+                   "encode_s": round(s.encode_s, 6), "solve_s": round(s.solve_s, 6),
+                   "satisfiable": s.satisfiable} for s in result.stats],
+    }
