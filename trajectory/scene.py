@@ -442,8 +442,8 @@ class _Reader:
                             f"({_fmt(points[0][0])}, {_fmt(points[0][1])}); repeat the first point "
                             "at the end")
         polygon = Polygon(points)
-        if polygon.area <= 0.0:
-            raise self.fail(path, f"obstacle {name!r} has zero area")
+        if polygon.convex_hull.area <= 0.0:
+            raise self.fail(path, f"obstacle {name!r} has zero area: its corners are on one line")
         if not polygon.is_valid:
             reason = explain_validity(polygon)
             m = re.match(r"(.*)\[([-\d.e+]+) ([-\d.e+]+)\]", reason)

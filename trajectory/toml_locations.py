@@ -191,7 +191,8 @@ class _Scanner:
             path: KeyPath = own + (index,)
         else:
             path = self.resolve(keys)
-        self.record(path, where)
+        for end in range(1, len(path) + 1):  # parents first defined by this header
+            self.record(path[:end], where)
         return path
 
     def document(self) -> dict[KeyPath, tuple[int, int]]:
