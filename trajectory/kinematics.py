@@ -153,10 +153,18 @@ def _reach_slack(arm: Arm) -> float:
     return EPS * arm.scale
 
 
+def _reach_root(arm: Arm, across: FloatArray) -> FloatArray:
+    """``sqrt(l^2 - across^2)``, computed as ``sqrt((l - |a|)(l + |a|))`` for accuracy at full reach."""
+    a = np.abs(across)
+    return np.sqrt(np.maximum((arm.length - a) * (arm.length + a), 0.0))
+
+
 def _branch_angle(arm: Arm, branch: int, across: FloatArray) -> FloatArray:
-    ratio = np.clip(across / arm.length, -1.0, 1.0)
-    base = np.arcsin(ratio)
-    return base if branch == 1 else math.pi - base
+    """The lifted branch angle: in [-90, 90] deg for ``+1``, in [90, 270] deg for ``-1``."""
+    angle = np.arctan2(across, branch * _reach_root(arm, across))
+    if branch == -1:
+        angle = np.where(angle < 0.0, angle + _TWO_PI, angle)
+    return angle
 
 
 def inverse(arm: Arm, x: ArrayLike, y: ArrayLike, choice: BranchChoice) -> tuple[FloatArray, FloatArray]:
@@ -181,7 +189,7 @@ def inverse(arm: Arm, x: ArrayLike, y: ArrayLike, choice: BranchChoice) -> tuple
             f"point ({_fmt(xs.flat[k])}, {_fmt(ys.flat[k])}) is out of reach: it is "
             f"{_fmt(abs(float(across.flat[k])))} from the rail, the arm is {_fmt(arm.length)} long"
         )
-    reach = np.sqrt(np.maximum(arm.length**2 - across**2, 0.0)) * choice.branch
+    reach = _reach_root(arm, across) * choice.branch
     theta = _branch_angle(arm, choice.branch, across) + _TWO_PI * choice.turns
     return along - reach, theta
 

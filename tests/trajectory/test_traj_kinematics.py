@@ -1,0 +1,157 @@
+"""Kinematics: FK(IK(p)) = p, the paper's equations, branches, limits along segments."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from hypothesis import assume, given, settings
+from hypothesis import strategies as st
+
+from trajectory import Arm, BranchChoice, UnreachableError, forward, ik_solutions, inverse
+from trajectory.kinematics import choices_at, point_problem, segment_exit
+
+PAPER_ARM = Arm((0.0, 0.0), (1.0, 0.0), 6.0, (-20.0, 20.0), (math.radians(-179), math.radians(179)))
+
+
+@st.composite
+def arms(draw: st.DrawFn) -> Arm:
+    angle = draw(st.floats(0, 2 * math.pi))
+    return Arm((draw(st.floats(-10, 10)), draw(st.floats(-10, 10))), (math.cos(angle), math.sin(angle)),
+               draw(st.floats(0.5, 10)), (-50.0, 50.0), (-4.0, 2.0))
+
+
+class TestInverse:
+    def test_paper_equations(self) -> None:
+        """s = x -+ sqrt(l^2 - y^2), theta = atan2(y, +-sqrt(l^2 - y^2)) with coupled signs."""
+        x, y, l = 2.0, 3.0, 6.0
+        root = math.sqrt(l * l - y * y)
+        plus, minus = ik_solutions(PAPER_ARM, x, y)
+        assert plus.s == pytest.approx(x - root)
+        assert plus.theta_rad == pytest.approx(math.atan2(y, root))
+        assert minus.s == pytest.approx(x + root)
+        assert minus.theta_rad == pytest.approx(math.atan2(y, -root))
+        for sol in (plus, minus):  # (1) and (2)
+            assert sol.s + l * math.cos(sol.theta_rad) == pytest.approx(x)
+            assert l * math.sin(sol.theta_rad) == pytest.approx(y)
+
+    def test_branches_meet_at_full_reach(self) -> None:
+        plus, minus = ik_solutions(PAPER_ARM, 1.0, 6.0)
+        assert plus.s == pytest.approx(minus.s) == pytest.approx(1.0)
+        assert plus.theta_rad == pytest.approx(minus.theta_rad) == pytest.approx(math.pi / 2)
+
+    @settings(max_examples=300, deadline=None)
+    @given(arms(), st.floats(-30, 30), st.floats(-1, 1), st.sampled_from([1, -1]), st.integers(-2, 2))
+    def test_fk_of_ik_is_identity(self, arm: Arm, along: float, frac: float, branch: int,
+                                  turns: int) -> None:
+        """Any point within reach, on either branch and any lift: FK(IK(p)) = p."""
+        (dx, dy), (nx, ny) = arm.rail_dir, arm.rail_normal
+        across = frac * arm.length
+        x = arm.rail_origin[0] + along * dx + across * nx
+        y = arm.rail_origin[1] + along * dy + across * ny
+        s, theta = inverse(arm, x, y, BranchChoice(branch, turns))
+        fx, fy = forward(arm, s, theta)
+        assert float(fx) == pytest.approx(x, abs=1e-9 * max(1.0, abs(x)))
+        assert float(fy) == pytest.approx(y, abs=1e-9 * max(1.0, abs(y)))
+        assert math.cos(float(theta)) * branch >= -1e-12  # the branch is the sign of cos(theta)
+
+    @given(arms(), st.floats(-30, 30), st.floats(1.001, 50), st.sampled_from([1, -1]))
+    def test_out_of_reach_raises_never_nan(self, arm: Arm, along: float, frac: float, branch: int) -> None:
+        (dx, dy), (nx, ny) = arm.rail_dir, arm.rail_normal
+        across = frac * arm.length
+        assume(across - arm.length > 1e-6 * max(1.0, arm.length))
+        x = arm.rail_origin[0] + along * dx + across * nx
+        y = arm.rail_origin[1] + along * dy + across * ny
+        with pytest.raises(UnreachableError, match=r"out of reach: it is .* from the rail, the arm is"):
+            inverse(arm, x, y, BranchChoice(branch))
+
+    def test_vectorised_and_a_rounding_hair_beyond_reach(self) -> None:
+        xs = np.array([0.0, 1.0, 2.0])
+        ys = np.array([0.0, 6.0 + 1e-12, -3.0])
+        s, theta = inverse(PAPER_ARM, xs, ys, BranchChoice(1))
+        assert not np.isnan(s).any() and not np.isnan(theta).any()
+        assert theta[1] == pytest.approx(math.pi / 2)
+
+    def test_rotated_rail(self) -> None:
+        """A vertical rail at x = 3 running up, arm angle from the rail direction."""
+        arm = Arm((3.0, 0.0), (0.0, 1.0), 2.0, (-10.0, 10.0), (-3.0, 3.0))
+        s, theta = inverse(arm, 2.0, 5.0, BranchChoice(1))
+        # the normal points to -x; across = 1, so theta = 30 deg and s = 5 - sqrt(3)
+        assert float(theta) == pytest.approx(math.pi / 6)
+        assert float(s) == pytest.approx(5 - math.sqrt(3))
+
+
+class TestLimits:
+    ARM = Arm((0.0, -1.0), (1.0, 0.0), 3.0, (-4.0, 10.0), (math.radians(5), math.radians(175)))
+
+    def test_choices_at(self) -> None:
+        assert choices_at(self.ARM, 4, 1) == (BranchChoice(1, 0), BranchChoice(-1, 0))
+        assert choices_at(self.ARM, -4, 1) == (BranchChoice(-1, 0),)   # +1 needs s < -4
+        assert choices_at(self.ARM, 4, 3) == ()                        # beyond reach
+        assert choices_at(self.ARM, 4, -1) == ()                       # theta = 0 or 180
+        assert point_problem(self.ARM, 4, 3, 1) == (True, "4 from the rail, beyond the arm's 3")
+
+    def test_lifted_angles_for_an_arm_pointing_down(self) -> None:
+        arm = Arm((0.0, 5.0), (1.0, 0.0), 3.0, (-4.0, 10.0), (math.radians(-175), math.radians(-5)))
+        assert choices_at(arm, 4, 3) == (BranchChoice(1, 0), BranchChoice(-1, -1))
+        s, theta = inverse(arm, 4, 3, BranchChoice(-1, -1))
+        assert math.degrees(float(theta)) == pytest.approx(-180 + math.degrees(math.asin(2 / 3)))
+
+    def test_segment_leaving_s_limit_mid_way(self) -> None:
+        """Branch -1 puts the carriage ahead of the hand: s hits 10 before the hand does."""
+        exit_ = segment_exit(self.ARM, (4.0, 0.0), (9.0, 0.0), BranchChoice(-1))
+        root = math.sqrt(9 - 1)
+        assert exit_ is not None and not exit_.out_of_reach
+        assert exit_.u == pytest.approx((10 - root - 4) / 5)
+        assert exit_.point[0] == pytest.approx(10 - root)
+        assert "s leaves its limits [-4, 10]" in exit_.reason
+        assert segment_exit(self.ARM, (4.0, 0.0), (9.0, 0.0), BranchChoice(1)) is None
+
+    def test_s_leaves_its_limit_only_between_two_feasible_ends(self) -> None:
+        """On branch +1, s(u) = along(u) - sqrt(l^2 - across(u)^2) is convex: its minimum
+        can lie strictly inside the segment, below s_min, while both ends are fine."""
+        p0, p1 = (-3.2, 1.9), (-0.5, -0.7)
+        assert BranchChoice(1) in choices_at(self.ARM, *p0)
+        assert BranchChoice(1) in choices_at(self.ARM, *p1)
+        exit_ = segment_exit(self.ARM, p0, p1, BranchChoice(1))
+        assert exit_ is not None and not exit_.out_of_reach
+        assert 0.0 < exit_.u < 0.5 and "s leaves its limits [-4, 10]" in exit_.reason
+        s, _ = inverse(self.ARM, *exit_.point, BranchChoice(1))
+        assert float(s) == pytest.approx(-4.0)  # the exit is exactly where s reaches its limit
+
+    def test_theta_cannot_wrap_through_the_limit(self) -> None:
+        """Limits [-170, 170]: passing from above the rail to below on branch -1 crosses 180."""
+        arm = Arm((0.0, 0.0), (1.0, 0.0), 3.0, (-10.0, 10.0), (math.radians(-170), math.radians(170)))
+        above, below = (-2.0, 1.0), (-2.0, -1.0)
+        assert BranchChoice(-1, 0) in choices_at(arm, *above)
+        exit_ = segment_exit(arm, above, below, BranchChoice(-1, 0))
+        assert exit_ is not None and "theta leaves its limits [-170, 170]" in exit_.reason
+        assert exit_.point[1] == pytest.approx(3 * math.sin(math.radians(10)))
+        assert segment_exit(arm, above, below, BranchChoice(1, 0)) is None  # through 0 deg: fine
+
+    @settings(max_examples=300, deadline=None)
+    @given(st.tuples(st.floats(-6, 14), st.floats(-1.5, 2.5)), st.tuples(st.floats(-6, 14), st.floats(-1.5, 2.5)),
+           st.sampled_from([1, -1]))
+    def test_segment_exit_against_sampling(self, p0, p1, branch) -> None:
+        """Exact exit vs 1000 samples: never misses an infeasible sample, never reports early."""
+        arm = self.ARM
+        choice = BranchChoice(branch)
+        exit_ = segment_exit(arm, p0, p1, choice)
+        lo_t, hi_t = arm.theta_limits_rad
+
+        def feasible(u: float) -> bool:
+            x, y = p0[0] + u * (p1[0] - p0[0]), p0[1] + u * (p1[1] - p0[1])
+            _, across = arm.rail_frame(x, y)
+            if abs(float(across)) > arm.length + 1e-9:
+                return False
+            s, theta = inverse(arm, x, y, choice)
+            return (arm.s_limits[0] - 1e-9 <= float(s) <= arm.s_limits[1] + 1e-9
+                    and lo_t - 1e-9 <= float(theta) <= hi_t + 1e-9)
+
+        us = np.linspace(0, 1, 1001)
+        ok = [feasible(u) for u in us]
+        if exit_ is None:
+            assert all(ok)
+        else:
+            assert all(o for u, o in zip(us, ok) if u < exit_.u - 1e-7)
