@@ -39,9 +39,9 @@ _SAMPLE_FIELDS = ("t_s", "step", "x", "y", "s", "theta_deg")
 
 
 def _num(v: float) -> float | int:
-    """JSON numbers: integers stay integers, floats are rounded to 1e-12 to keep files stable."""
+    """JSON numbers: whole values as integers, others as the shortest exact decimal."""
     f = float(v)
-    return int(f) if f.is_integer() and abs(f) < 2**53 else round(f, 12)
+    return int(f) if f.is_integer() and abs(f) < 2**53 else f
 
 
 def trajectory_to_dict(traj: Trajectory) -> dict[str, Any]:

@@ -17,6 +17,7 @@ import textwrap
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 
+import matplotlib
 import numpy as np
 import numpy.typing as npt
 import shapely
@@ -83,25 +84,35 @@ def _draw_scene(ax: Axes, scene: Scene) -> None:
     ax.set_ylim(g.y_min - 1.5, g.y_max + 1.5)
 
 
-def _draw_states(ax: Axes, scene: Scene, states: Sequence[StepState], big: bool) -> None:
+def _draw_states(ax: Axes, scene: Scene, states: Sequence[StepState], *, paths: bool) -> None:
+    """Payload lines and labelled end-effector circles at every state (and the plan's paths)."""
     e1, e2 = scene.end_names
     for i, st in enumerate(states):
         a, b = st.payload[e1], st.payload[e2]
-        ax.plot([a[0], b[0]], [a[1], b[1]], color=PAYLOAD_COLOR, linewidth=2.5 if big else 1.5,
-                alpha=0.9, zorder=3, solid_capstyle="round", label="payload" if i == 0 else None)
+        ax.plot([a[0], b[0]], [a[1], b[1]], color=PAYLOAD_COLOR, linewidth=2.5, alpha=0.9, zorder=3,
+                solid_capstyle="round", label="payload (plan)" if i == 0 else None)
     for k, robot in enumerate(scene.robots):
         pts = np.array([st.robots[robot.name] for st in states])
         color = _color(k)
-        ax.plot(pts[:, 0], pts[:, 1], color=color, linewidth=1.5, zorder=4,
-                label=f"robot {robot.name}")
-        ax.plot(pts[:, 0], pts[:, 1], linestyle="none", marker="o", markersize=11 if big else 7,
+        if paths:
+            ax.plot(pts[:, 0], pts[:, 1], color=color, linewidth=1.5, zorder=4, label=f"robot {robot.name}")
+        ax.plot(pts[:, 0], pts[:, 1], linestyle="none", marker="o", markersize=11,
                 markerfacecolor="white", markeredgecolor=color, markeredgewidth=1.5, zorder=5)
+        steps_at: dict[tuple[float, float], list[int]] = {}
         for i, (x, y) in enumerate(pts):
-            ax.annotate(str(i), (x, y), ha="center", va="center", fontsize=6.5, color=color, zorder=6)
+            steps_at.setdefault((float(x), float(y)), []).append(i)
+        for (x, y), steps in steps_at.items():
+            text = ",".join(str(i) for i in steps) if len(steps) <= 2 else f"{steps[0]}-{steps[-1]}"
+            if len(steps) > 2 and steps != list(range(steps[0], steps[-1] + 1)):
+                text = ",".join(str(i) for i in steps)
+            ax.annotate(text, (x, y), ha="center", va="center", fontsize=6.5 if len(text) < 3 else 5,
+                        color=color, zorder=6)
 
 
 def _save(fig: Figure, path: Path) -> Path:
-    fig.savefig(path, format=_format_of(path), dpi=150, bbox_inches="tight")
+    # SVG keeps its text as text (searchable, editable) instead of glyph outlines
+    with matplotlib.rc_context({"svg.fonttype": "none"}):
+        fig.savefig(path, format=_format_of(path), dpi=150, bbox_inches="tight")
     return path
 
 
@@ -119,7 +130,7 @@ def plot_plan(scene: Scene, states: Sequence[StepState], violation: Violation | 
     fig = Figure(figsize=(8, 6))
     ax = fig.add_subplot()
     _draw_scene(ax, scene)
-    _draw_states(ax, scene, states, big=True)
+    _draw_states(ax, scene, states, paths=True)
     if violation is not None:
         i = violation.step
         a, b = states[min(i, len(states) - 1)], states[min(i + 1, len(states) - 1)]
@@ -139,7 +150,8 @@ def plot_plan(scene: Scene, states: Sequence[StepState], violation: Violation | 
                 label=f"first violation ({violation.kind.value})")
         fig.text(0.5, 0.005, "\n".join(textwrap.wrap(violation.message, 110)), ha="center", va="bottom",
                  fontsize=7.5, color="crimson")
-    ax.set_title(title or f"{scene.name}: plan of {len(states) - 1} steps")
+    m = len(states) - 1
+    ax.set_title(title or f"{scene.name}: plan of {m} step{'' if m == 1 else 's'}")
     ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8, frameon=False)
     return _save(fig, out)
 
@@ -162,7 +174,7 @@ def plot_execution(scene: Scene, planned_paths: Mapping[str, npt.ArrayLike],
     ax = fig.add_subplot()
     _draw_scene(ax, scene)
     if states:
-        _draw_states(ax, scene, states, big=True)
+        _draw_states(ax, scene, states, paths=False)
     names = list(scene.robot_names)
     for name in [*planned_paths, *executed_paths]:
         if name not in names:

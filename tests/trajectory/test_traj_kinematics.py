@@ -140,18 +140,14 @@ class TestLimits:
         exit_ = segment_exit(arm, p0, p1, choice)
         lo_t, hi_t = arm.theta_limits_rad
 
-        def feasible(u: float) -> bool:
-            x, y = p0[0] + u * (p1[0] - p0[0]), p0[1] + u * (p1[1] - p0[1])
-            _, across = arm.rail_frame(x, y)
-            if abs(float(across)) > arm.length + 1e-9:
-                return False
-            s, theta = inverse(arm, x, y, choice)
-            return (arm.s_limits[0] - 1e-9 <= float(s) <= arm.s_limits[1] + 1e-9
-                    and lo_t - 1e-9 <= float(theta) <= hi_t + 1e-9)
-
         us = np.linspace(0, 1, 1001)
-        ok = [feasible(u) for u in us]
+        xs, ys = p0[0] + us * (p1[0] - p0[0]), p0[1] + us * (p1[1] - p0[1])
+        _, across = arm.rail_frame(xs, ys)
+        ok = np.abs(across) <= arm.length + 1e-9
+        s, theta = inverse(arm, xs[ok], ys[ok], choice)
+        ok[ok] = ((arm.s_limits[0] - 1e-9 <= s) & (s <= arm.s_limits[1] + 1e-9)
+                  & (lo_t - 1e-9 <= theta) & (theta <= hi_t + 1e-9))
         if exit_ is None:
-            assert all(ok)
+            assert ok.all()
         else:
-            assert all(o for u, o in zip(us, ok) if u < exit_.u - 1e-7)
+            assert ok[us < exit_.u - 1e-7].all()

@@ -25,6 +25,7 @@ from trajectory import (
 from trajectory.scene import EXAMPLE_SCENE
 
 PAYLOAD_TEXT = PAYLOAD_SCENE.read_text(encoding="utf-8")
+SCENE = load_scene(PAYLOAD_SCENE)  # one instance: its collision table is built once
 
 
 class TestPayloadScene:
@@ -101,7 +102,7 @@ class TestCollisionExternal:
     @settings(max_examples=300, deadline=None)
     @given(st.integers(-3, 15), st.integers(-3, 9), st.integers(-3, 15), st.integers(-3, 9))
     def test_table_agrees_with_shapely(self, x1: int, y1: int, x2: int, y2: int) -> None:
-        scene = load_scene(PAYLOAD_SCENE)
+        scene = SCENE
         seg = shapely.Point(x1, y1) if (x1, y1) == (x2, y2) else shapely.LineString([(x1, y1), (x2, y2)])
         expected = any(shapely.intersects(seg, o.polygon) for o in scene.obstacles)
         assert scene.collision(x1, y1, x2, y2) is expected
