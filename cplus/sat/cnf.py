@@ -154,7 +154,7 @@ class ClauseBuilder:
 
 def _without(body: PF, head: int) -> PF | None:
     """``body`` minus the conjunct ``head``; None when head is not a conjunct of body."""
-    if body == head:
+    if type(body) is int and body == head:   # (True == 1 in Python: compare ints only)
         return True
     if type(body) is tuple and body[0] == "&" and head in body[1]:
         return mk_and(g for g in body[1] if g != head)
