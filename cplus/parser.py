@@ -153,7 +153,14 @@ _READABLE = {
 }
 
 
+_DIRECTIVES = {"sorts", "objects", "constants", "variables", "macros", "include", "show", "hide", "query",
+               "maxAdditive"}
+_DIRECTIVE = re.compile(r"\s*:-\s*([A-Za-z][A-Za-z0-9_]*)")
+
+
 def _describe(name: str) -> str:
+    if "END" in name.upper() and name.startswith(("$", "<")):
+        return "the end of the statement"
     if name in _READABLE:
         return _READABLE[name]
     for term in _lark().terminals:
@@ -165,6 +172,11 @@ def _describe(name: str) -> str:
 
 def _syntax_error(exc: UnexpectedInput, source: Source, begin: int, end: int,
                   chunk: str) -> CPlusSyntaxError:
+    directive = _DIRECTIVE.match(_strip_comments(chunk))
+    if directive and directive.group(1) not in _DIRECTIVES:
+        at = begin + chunk.index(directive.group(1))
+        return CPlusSyntaxError(f"unknown directive ':- {directive.group(1)}' (known: "
+                                f"{', '.join(sorted(_DIRECTIVES))})", Location(source, at, at + len(directive.group(1))))
     if isinstance(exc, UnexpectedEOF) or (
             isinstance(exc, UnexpectedToken) and exc.token.type == "$END"):
         expected = sorted({_describe(t) for t in getattr(exc, "expected", ())})

@@ -156,7 +156,7 @@ class _Resolver:
             self.sig.add_sort(d.name, d.loc)
             if d.parent is not None:
                 if self.sig.is_subsort(d.parent, d.name) and d.parent != d.name:
-                    raise SortError(f"'{d.name} >> {d.parent}' would make the sorts a cycle", d.loc)
+                    raise SortError(f"'{d.parent} >> {d.name}' would make the sorts a cycle", d.loc)
                 self.sig.add_subsort(d.parent, d.name)
 
     def _check_new_sort_name(self, name: str, loc: Location) -> None:
@@ -658,6 +658,7 @@ class _Resolver:
             self._frame_law(law, scope)
             return
         f = lambda x: None if x is None else self._formula(x, scope)  # noqa: E731
+        action = f(law.action) if law.kind != "increments" else None   # first in the text
         head = f(law.head) if law.kind != "increments" else None
         if_ = f(law.if_) or ir.TRUE
         after = f(law.after)
@@ -668,7 +669,6 @@ class _Resolver:
         if kind == "increments":
             self._increment_law(law, scope, if_, where)
             return
-        action = f(law.action)
         if kind in ("caused", "fact"):
             self._add(law, head, if_, after, where, "caused")
         elif kind == "default":
