@@ -55,10 +55,10 @@ def interpolate_path(waypoints: npt.ArrayLike, points_per_step: int) -> tuple[Fl
     m = len(wp) - 1
     k = np.arange(m * points_per_step + 1)
     step = np.minimum(k // points_per_step, max(m, 0))
-    u = (k - step * points_per_step) / points_per_step
+    j = (k - step * points_per_step).astype(float)
     left = wp[step]
     right = wp[np.minimum(step + 1, m)]
-    samples = left + (right - left) * u[:, None]
+    samples = left + (right - left) * j[:, None] / points_per_step  # multiply first: 0.3, not 0.30000000000000004
     return samples, step.astype(np.int64)
 
 
@@ -218,7 +218,7 @@ def build_trajectory(
     for robot in scene.robots:
         waypoints = [st.robots[robot.name] for st in states]
         samples, step = interpolate_path(waypoints, points_per_step)
-        t_s = np.arange(len(samples)) * (tick_ms / 1000.0)
+        t_s = np.arange(len(samples)) * tick_ms / 1000.0
         robots.append(_robot_trajectory(robot, samples, step, t_s, waypoints))
     info: dict[str, Any] = dict(source or {})
     info["plan_length"] = m
