@@ -1,0 +1,167 @@
+"""The command line: exit codes, CCALC's output format, JSON, statistics, DIMACS export."""
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+
+import pytest
+from pysat.solvers import Solver
+
+from cplus.cli import main
+
+LAMP = """:- constants lit :: inertialFluent; flip :: exogenousAction.
+flip causes lit.
+:- query label :: on; maxstep :: 0..2; 0: -lit; maxstep: lit.
+:- query label :: never; maxstep :: 1; 0: -lit; 1: -lit & [\\/X | X = 1]; 0: flip.
+"""
+
+
+@pytest.fixture
+def lamp(tmp_path):
+    p = tmp_path / "lamp.cp"
+    p.write_text(LAMP.replace("[\\/X | X = 1]", "true"))
+    return str(p)
+
+
+def run(argv, capsys):
+    code = main(argv)
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+def test_plan_prints_ccalc_text(lamp, capsys):
+    code, out, err = run(["plan", lamp, "--query", "on"], capsys)
+    assert code == 0
+    assert out == ("\nNo solution with maxstep 0.\n\n"
+                   "\n0:\n\nACTIONS:  flip\n\n1:  lit\n\n\n")
+
+
+def test_no_solution_has_its_own_exit_code(lamp, capsys):
+    code, out, _ = run(["plan", lamp, "--query", "never"], capsys)
+    assert code == 1
+    assert out.strip() == "No solution with maxstep 1."
+
+
+def test_every_query_runs_in_order(lamp, capsys):
+    code, out, _ = run(["plan", lamp], capsys)
+    assert code == 1
+    assert out.index("% query on") < out.index("% query never")
+
+
+def test_numbered_solutions_and_all(lamp, capsys, tmp_path):
+    p = tmp_path / "two.cp"
+    p.write_text(":- constants p, q :: inertialFluent. :- query maxstep :: 0.")
+    code, out, _ = run(["plan", str(p), "-n", "0"], capsys)
+    assert code == 0
+    assert [line for line in out.splitlines() if line.startswith("Solution")] == [
+        f"Solution {k}:" for k in range(1, 5)]
+    code, out, _ = run(["plan", str(p), "-n", "2"], capsys)
+    assert out.count("Solution") == 2
+
+
+def test_json_schema(lamp, capsys):
+    code, out, _ = run(["plan", lamp, "--query", "on", "--json"], capsys)
+    doc = json.loads(out)
+    assert doc["format"] == "cplus.plan/1"
+    (res,) = doc["results"]
+    assert res["status"] == "found" and res["maxstep"] == 1
+    assert res["no_solution_with_maxstep"] == [0]
+    hist = res["histories"][0]
+    assert hist["states"] == [{"lit": False}, {"lit": True}]
+    assert hist["actions"] == [[{"action": "flip"}]]
+    assert [s["maxstep"] for s in res["stats"]] == [0, 1]
+
+
+def test_stats_go_to_stderr(lamp, capsys):
+    code, out, err = run(["plan", lamp, "--query", "on", "--stats"], capsys)
+    assert "% maxstep 0:" in err and "% maxstep 1:" in err and "clauses" in err and "solve" in err
+    assert "grounded" in err and "%" not in out
+
+
+def test_states_query(tmp_path, capsys):
+    p = tmp_path / "s.cp"
+    p.write_text(":- constants p :: inertialFluent; q :: sdFluent. caused q if p. default -q.")
+    code, out, _ = run(["plan", str(p), "--query", "states", "-n", "0"], capsys)
+    assert code == 0 and out.count("Solution") == 2
+
+
+@pytest.mark.parametrize("argv, fragment", [
+    (["plan", "/no/such.cp"], "no such file"),
+    (["plan", "LAMP", "--query", "missing"], "no query with label 'missing'"),
+    (["plan", "LAMP", "-n", "-1"], "non-negative"),
+    (["plan", "LAMP", "--solver", "nope"], "unknown SAT solver"),
+    (["ground", "LAMP", "--maxstep", "x", "--dimacs", "-"], "non-negative"),
+])
+def test_bad_command_lines(argv, fragment, lamp, capsys):
+    argv = [lamp if a == "LAMP" else a for a in argv]
+    try:
+        code = main(argv)
+    except SystemExit as exc:   # argparse usage errors
+        code = exc.code
+    out, err = capsys.readouterr()
+    assert code == 2
+    assert fragment in err
+    assert "Traceback" not in err
+
+
+def test_missing_label_is_located(lamp, capsys):
+    code, _, err = run(["plan", lamp, "--query", "x"], capsys)
+    assert err.startswith(f"{lamp}:1:1: error: no query with label 'x'")
+
+
+def test_console_script_runs_as_a_process(lamp):
+    proc = subprocess.run([sys.executable, "-m", "cplus", "plan", lamp, "--query", "on"],
+                          capture_output=True, text=True, timeout=60)
+    assert proc.returncode == 0 and "ACTIONS:  flip" in proc.stdout
+
+
+def _count_models(nvars: int, clauses: list[list[int]]) -> int:
+    n = 0
+    with Solver(name="glucose4", bootstrap_with=clauses) as s:
+        while s.solve():
+            model = s.get_model()
+            n += 1
+            s.add_clause([-lit for lit in model[:nvars]])
+    return n
+
+
+def _read_dimacs(text: str):
+    clauses, nvars = [], 0
+    for line in text.splitlines():
+        if line.startswith("p cnf"):
+            nvars = int(line.split()[2])
+        elif line and not line.startswith("c"):
+            clauses.append([int(x) for x in line.split()[:-1]])
+    return nvars, clauses
+
+
+@pytest.mark.parametrize("text, query, maxstep", [
+    (LAMP.replace("[\\/X | X = 1]", "true"), None, 2),
+    (LAMP.replace("[\\/X | X = 1]", "true"), "on", 1),
+    (":- maxAdditive :: 4. :- constants n :: additiveFluent(0..4); a, b :: exogenousAction; "
+     "k :: attribute(1..2) of a. :- variables K :: 1..2. a increments n by K if k=K. "
+     "b increments n by 1. :- query maxstep :: 2; 0: n=0.", "0", 2),
+    (":- sorts s. :- objects x, y, z :: s. :- variables S :: s. :- constants at :: inertialFluent(s); "
+     "go(s) :: exogenousAction. go(S) causes at=S. noconcurrency. nonexecutable go(S) if at=S. "
+     ":- query maxstep :: 2.", None, 2),
+])
+def test_dimacs_models_are_the_histories(tmp_path, capsys, text, query, maxstep):
+    """Models of the written CNF correspond one to one to the histories cplus plan counts."""
+    p = tmp_path / "d.cp"
+    p.write_text(text)
+    out = tmp_path / "d.cnf"
+    argv = ["ground", str(p), "--maxstep", str(maxstep), "--dimacs", str(out)]
+    if query:
+        argv += ["--query", query]
+    code, _, err = run(argv, capsys)
+    assert code == 0 and "wrote" in err
+    nvars, clauses = _read_dimacs(out.read_text())
+    from cplus import Domain
+    from cplus.program import QuerySpec
+    from cplus.planner import run_query
+    d = Domain.load(str(p))
+    q = d.query(query) if query else QuerySpec("all", maxstep, maxstep, (), None)
+    q = QuerySpec(q.label, maxstep, maxstep, q.items, q.loc)
+    histories = run_query(d.theory, q, solutions=0).histories
+    assert _count_models(nvars, clauses) == len(histories) > 0
