@@ -342,6 +342,9 @@ def _exhausted(query: QuerySpec, max_horizon: int | None) -> str:
 
 def _export(task: RobotTask, states: list, violation, args: argparse.Namespace, domain_path: str) -> None:
     import trajectory
+    for out in (args.plot, args.trajectory, args.csv):
+        if out:
+            os.makedirs(os.path.dirname(os.path.abspath(out)), exist_ok=True)
     try:
         if args.plot:
             trajectory.plot_plan(task.scene, states, violation, path=args.plot,
