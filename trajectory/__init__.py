@@ -13,6 +13,8 @@ The pipeline from a plan to motion, as the planner's glue calls it::
 as `cplus.trajectory/1` files. See ``docs/trajectory.md``.
 """
 
+from typing import TYPE_CHECKING, Any
+
 from .build import build_trajectory, interpolate_path
 from .checker import Violation, ViolationKind, all_violations, check_motion, first_violation
 from .errors import (
@@ -30,8 +32,6 @@ from .kinematics import Arm, BranchChoice, JointState, forward, ik_solutions, in
 from .model import TRAJECTORY_FORMAT, MotorChannel, RobotTrajectory, Trajectory
 from .scene import SCENE_FORMAT, Scene, check_reachable, load_scene, parse_scene
 from .states import StepState
-
-from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
     from .plots import plot_execution, plot_plan

@@ -41,7 +41,9 @@ _log = logging.getLogger(__name__)
 FloatArray = npt.NDArray[np.float64]
 
 
-def interpolate_path(waypoints: npt.ArrayLike, points_per_step: int) -> tuple[FloatArray, npt.NDArray[np.int64]]:
+def interpolate_path(
+    waypoints: npt.ArrayLike, points_per_step: int
+) -> tuple[FloatArray, npt.NDArray[np.int64]]:
     """Linear samples along a waypoint path: ``points_per_step`` per segment, plus the last point.
 
     Returns ``(samples, step)``: shape (m * points_per_step + 1, 2) and, per sample, the index
@@ -58,7 +60,8 @@ def interpolate_path(waypoints: npt.ArrayLike, points_per_step: int) -> tuple[Fl
     j = (k - step * points_per_step).astype(float)
     left = wp[step]
     right = wp[np.minimum(step + 1, m)]
-    samples = left + (right - left) * j[:, None] / points_per_step  # multiply first: 0.3, not 0.30000000000000004
+    # multiply first, divide last: 0.3 rather than 0.30000000000000004
+    samples = left + (right - left) * j[:, None] / points_per_step
     return samples, step.astype(np.int64)
 
 
@@ -122,7 +125,9 @@ def _motor_channels(robot: Robot, s0: float, theta0_deg: float) -> tuple[MotorCh
     return tuple(out)
 
 
-def _setpoints(channels: Sequence[MotorChannel], s: FloatArray, theta_deg: FloatArray) -> npt.NDArray[np.int64]:
+def _setpoints(
+    channels: Sequence[MotorChannel], s: FloatArray, theta_deg: FloatArray
+) -> npt.NDArray[np.int64]:
     cols = []
     for ch in channels:
         raw = ch.motor_deg(s if ch.joint == "s" else theta_deg)

@@ -51,7 +51,7 @@ import numpy.typing as npt
 
 from ._format import fmt as _fmt
 from .errors import TrajectoryError, UnreachableError
-from .geometry import EPS, Point2, first_failing_interval, quadratic_roots, Quadratic, lerp
+from .geometry import EPS, Point2, Quadratic, first_failing_interval, lerp, quadratic_roots
 
 __all__ = [
     "Arm",
@@ -264,7 +264,7 @@ def segment_exit(arm: Arm, p0: Point2, p1: Point2, choice: BranchChoice) -> Segm
     classified by its midpoint.
     """
     b = choice.branch
-    l = arm.length
+    arm_len = arm.length
     (al0, al1), (ac0, ac1) = (tuple(float(c) for c in arr) for arr in arm.rail_frame(
         [p0[0], p1[0]], [p0[1], p1[1]]))
     alpha, beta = al1 - al0, ac1 - ac0
@@ -276,20 +276,20 @@ def segment_exit(arm: Arm, p0: Point2, p1: Point2, choice: BranchChoice) -> Segm
     if t_lo > t_hi + EPS:
         v_lo, v_hi = math.inf, -math.inf  # no admissible angle on this branch at all
     else:
-        v_lo, v_hi = sorted((l * math.sin(t_lo), l * math.sin(t_hi)))
+        v_lo, v_hi = sorted((arm_len * math.sin(t_lo), arm_len * math.sin(t_hi)))
         # theta's limit reached exactly at a branch end: the bound is the reach itself
-        v_lo, v_hi = max(v_lo, -l), min(v_hi, l)
+        v_lo, v_hi = max(v_lo, -arm_len), min(v_hi, arm_len)
 
     breaks: list[float] = []
     if beta != 0.0:
-        for target in (-l, l, v_lo, v_hi):
+        for target in (-arm_len, arm_len, v_lo, v_hi):
             if math.isfinite(target):
                 breaks.append((target - ac0) / beta)
     s_lo, s_hi = arm.s_limits
     for bound in (s_lo, s_hi):
         c0 = al0 - bound
         q = Quadratic(alpha * alpha + beta * beta, 2.0 * (alpha * c0 + beta * ac0),
-                      c0 * c0 + ac0 * ac0 - l * l)
+                      c0 * c0 + ac0 * ac0 - arm_len * arm_len)
         roots = quadratic_roots(q, EPS * arm.scale**2)
         if roots:
             breaks.extend(roots)
@@ -300,13 +300,13 @@ def segment_exit(arm: Arm, p0: Point2, p1: Point2, choice: BranchChoice) -> Segm
         """What is broken at ``u`` (a probe inside a failing interval), with the value there."""
         across = ac0 + beta * u
         at = f"u = {_fmt(round(u, 4))}"
-        if abs(across) > l + tol:
-            return True, (f"the point leaves the arm's reach {_fmt(l)} from the rail "
+        if abs(across) > arm_len + tol:
+            return True, (f"the point leaves the arm's reach {_fmt(arm_len)} from the rail "
                           f"({_fmt(abs(across))} at {at})")
         if not v_lo - tol <= across <= v_hi + tol:
             theta = math.degrees(float(_branch_angle(arm, b, np.asarray(across))) + _TWO_PI * choice.turns)
             return False, f"theta leaves its limits [{lo_deg}, {hi_deg}] deg ({_fmt(theta)} at {at})"
-        s = al0 + alpha * u - b * math.sqrt(max(l * l - across * across, 0.0))
+        s = al0 + alpha * u - b * math.sqrt(max(arm_len * arm_len - across * across, 0.0))
         if not s_lo - tol <= s <= s_hi + tol:
             return False, f"s leaves its limits [{_fmt(s_lo)}, {_fmt(s_hi)}] ({_fmt(s)} at {at})"
         return None

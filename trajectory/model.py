@@ -37,7 +37,7 @@ IntArray = npt.NDArray[np.int64]
 
 def frozen_array(values: npt.ArrayLike, dtype: type = float) -> npt.NDArray[Any]:
     """A read-only copy, so a frozen dataclass holding it stays immutable."""
-    arr = np.array(values, dtype=dtype)
+    arr: npt.NDArray[Any] = np.array(values, dtype=dtype)
     arr.setflags(write=False)
     return arr
 

@@ -21,8 +21,8 @@ import matplotlib
 import numpy as np
 import numpy.typing as npt
 import shapely
-from matplotlib.figure import Figure
 from matplotlib.axes import Axes
+from matplotlib.figure import Figure
 from matplotlib.patches import Polygon as PolygonPatch
 
 from .checker import Violation

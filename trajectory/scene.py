@@ -22,7 +22,7 @@ from __future__ import annotations
 import math
 import re
 import tomllib
-from collections.abc import Mapping, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -33,7 +33,6 @@ from shapely.validation import explain_validity
 
 from ._format import fmt as _fmt
 from .errors import JointLimitError, Location, SceneError, UnreachableError
-from .geometry import Point2
 from .kinematics import Arm, choices_at, point_problem
 from .toml_locations import KeyPath, locate_keys, nearest_location
 from .workspace import Workspace

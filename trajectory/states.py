@@ -26,7 +26,7 @@ __all__ = ["StepState", "validate_states"]
 def _point(name: str, value: object) -> Point2:
     try:
         x, y = value  # type: ignore[misc]
-        point = (float(x), float(y))
+        point = (float(x), float(y))  # type: ignore[has-type]
     except (TypeError, ValueError):
         raise PlanStateError(f"position of {name} must be a pair of numbers, not {value!r}") from None
     if not all(math.isfinite(c) for c in point):

@@ -81,7 +81,8 @@ def test_csv(traj: Trajectory, tmp_path: Path) -> None:
 
 
 def test_csv_leaves_missing_ports_empty(payload_scene: Scene) -> None:
-    src = Path(payload_scene.file).read_text().replace('[[robots.r2.motors]]\nport = "B"\njoint = "s"\ndeg_per_unit = 81.82\n', "")
+    r2_motor_b = '[[robots.r2.motors]]\nport = "B"\njoint = "s"\ndeg_per_unit = 81.82\n'
+    src = Path(payload_scene.file).read_text().replace(r2_motor_b, "")
     scene = parse_scene(src, "fewer.toml")
     t = build_trajectory(scene, plan(*CLEAN_PAYLOAD_PLAN[:3]), points_per_step=2, step_time_s=0.2)
     rows = list(csv.DictReader(io.StringIO(to_csv_text(t))))

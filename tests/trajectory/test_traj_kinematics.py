@@ -25,16 +25,16 @@ def arms(draw: st.DrawFn) -> Arm:
 class TestInverse:
     def test_paper_equations(self) -> None:
         """s = x -+ sqrt(l^2 - y^2), theta = atan2(y, +-sqrt(l^2 - y^2)) with coupled signs."""
-        x, y, l = 2.0, 3.0, 6.0
-        root = math.sqrt(l * l - y * y)
+        x, y, arm_len = 2.0, 3.0, 6.0
+        root = math.sqrt(arm_len * arm_len - y * y)
         plus, minus = ik_solutions(PAPER_ARM, x, y)
         assert plus.s == pytest.approx(x - root)
         assert plus.theta_rad == pytest.approx(math.atan2(y, root))
         assert minus.s == pytest.approx(x + root)
         assert minus.theta_rad == pytest.approx(math.atan2(y, -root))
         for sol in (plus, minus):  # (1) and (2)
-            assert sol.s + l * math.cos(sol.theta_rad) == pytest.approx(x)
-            assert l * math.sin(sol.theta_rad) == pytest.approx(y)
+            assert sol.s + arm_len * math.cos(sol.theta_rad) == pytest.approx(x)
+            assert arm_len * math.sin(sol.theta_rad) == pytest.approx(y)
 
     def test_branches_meet_at_full_reach(self) -> None:
         plus, minus = ik_solutions(PAPER_ARM, 1.0, 6.0)
@@ -131,7 +131,8 @@ class TestLimits:
         assert segment_exit(arm, above, below, BranchChoice(1, 0)) is None  # through 0 deg: fine
 
     @settings(max_examples=300, deadline=None)
-    @given(st.tuples(st.floats(-6, 14), st.floats(-1.5, 2.5)), st.tuples(st.floats(-6, 14), st.floats(-1.5, 2.5)),
+    @given(st.tuples(st.floats(-6, 14), st.floats(-1.5, 2.5)),
+           st.tuples(st.floats(-6, 14), st.floats(-1.5, 2.5)),
            st.sampled_from([1, -1]))
     def test_segment_exit_against_sampling(self, p0, p1, branch) -> None:
         """Exact exit vs 1000 samples: never misses an infeasible sample, never reports early."""

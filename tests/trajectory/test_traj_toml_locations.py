@@ -92,8 +92,11 @@ def test_missing_keys_fall_back_to_their_table() -> None:
 _keys = st.text(alphabet=string.ascii_lowercase + "_", min_size=1, max_size=8)
 
 
-@given(st.dictionaries(_keys, st.dictionaries(_keys, st.integers(-99, 99) | st.lists(st.integers(0, 9), max_size=3), min_size=1, max_size=4), min_size=1, max_size=4),
-       st.integers(0, 3))
+_values = st.integers(-99, 99) | st.lists(st.integers(0, 9), max_size=3)
+_tables = st.dictionaries(_keys, _values, min_size=1, max_size=4)
+
+
+@given(st.dictionaries(_keys, _tables, min_size=1, max_size=4), st.integers(0, 3))
 def test_generated_documents(tables: dict[str, dict[str, object]], indent: int) -> None:
     """Every key of a generated document is found at its line and column."""
     lines: list[str] = []
