@@ -49,6 +49,12 @@ def test_json_round_trip(traj: Trajectory, tmp_path: Path) -> None:
         np.testing.assert_array_equal(a.step, b.step)
         np.testing.assert_array_equal(a.setpoints_deg, b.setpoints_deg)
     assert trajectory_to_dict(back) == data  # stable: saving the loaded file changes nothing
+    # the file alone (its kinematics and joint values) gives back the plan's grid points
+    for k, r in enumerate(back.robots):
+        at_steps = slice(None, None, back.points_per_step)
+        x, y = r.forward(r.s[at_steps], np.radians(r.theta_deg[at_steps]))
+        expected = np.array([pair[k] for pair in CLEAN_PAYLOAD_PLAN], dtype=float)
+        np.testing.assert_allclose(np.column_stack([x, y]), expected, atol=1e-9)
 
 
 def test_loaded_trajectory_maps_logged_motor_angles_to_positions(traj: Trajectory, tmp_path: Path) -> None:
