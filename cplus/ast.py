@@ -2,26 +2,24 @@
 
 Formulas and terms share one expression type because CCALC's grammar does too: whether
 ``p(X)`` is an atom, an object or a macro call is only known once declarations are read
-(:mod:`cplus.resolve`).  Every node carries its :class:`~cplus.errors.Location`.
+(:mod:`cplus.resolve`).  Every node carries its :class:`~cplus.errors.Location`.  Nodes are named tuples: immutable,
+hashable, and cheap to define (start-up time counts for a command-line planner).
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
-from typing import Union
+from typing import NamedTuple, Union
 
 from cplus.errors import Location
 
 # ----------------------------------------------------------------------- expressions
 
 
-@dataclass(frozen=True, slots=True)
-class Num:
+class Num(NamedTuple):
     loc: Location
     value: int
 
 
-@dataclass(frozen=True, slots=True)
-class Name:
+class Name(NamedTuple):
     """An identifier, possibly applied to arguments: ``p``, ``X``, ``move(B,table)``."""
 
     loc: Location
@@ -29,21 +27,18 @@ class Name:
     args: tuple["Expr", ...] = ()
 
 
-@dataclass(frozen=True, slots=True)
-class Param:
+class Param(NamedTuple):
     """A macro parameter ``#k`` (only inside macro bodies)."""
 
     loc: Location
     index: int
 
 
-@dataclass(frozen=True, slots=True)
-class MaxStep:
+class MaxStep(NamedTuple):
     loc: Location
 
 
-@dataclass(frozen=True, slots=True)
-class Unary:
+class Unary(NamedTuple):
     """``op`` is ``"not"`` (formula negation), ``"-"`` (unary minus) or ``"abs"``."""
 
     loc: Location
@@ -51,8 +46,7 @@ class Unary:
     arg: "Expr"
 
 
-@dataclass(frozen=True, slots=True)
-class Binary:
+class Binary(NamedTuple):
     """Arithmetic (``+ - * // mod``), comparisons (``= \\= == < ... @>=``) and
     connectives (``& , && ++ || ->> <->>``)."""
 
@@ -62,15 +56,13 @@ class Binary:
     right: "Expr"
 
 
-@dataclass(frozen=True, slots=True)
-class QuantVar:
+class QuantVar(NamedTuple):
     loc: Location
     exists: bool
     name: str
 
 
-@dataclass(frozen=True, slots=True)
-class Quant:
+class Quant(NamedTuple):
     """``[\\/X /\\Y | body]``: variables bind left to right."""
 
     loc: Location
@@ -78,8 +70,7 @@ class Quant:
     body: "Expr"
 
 
-@dataclass(frozen=True, slots=True)
-class Stamp:
+class Stamp(NamedTuple):
     """``time: body`` (queries only)."""
 
     loc: Location
@@ -87,8 +78,7 @@ class Stamp:
     body: "Expr"
 
 
-@dataclass(frozen=True, slots=True)
-class Range:
+class Range(NamedTuple):
     """``lo..hi`` in declarations."""
 
     loc: Location
@@ -105,8 +95,7 @@ CONNECTIVES = frozenset({"&", ",", "&&", "++", "||", "->>", "<->>"})
 # ----------------------------------------------------------------------- sorts
 
 
-@dataclass(frozen=True, slots=True)
-class SortRef:
+class SortRef(NamedTuple):
     """A sort written in a declaration: ``loc``, ``disk*`` / ``disk+none`` (star)."""
 
     loc: Location
@@ -119,42 +108,36 @@ SortSpec = Union[SortRef, Range]
 # ----------------------------------------------------------------------- statements
 
 
-@dataclass(frozen=True, slots=True)
-class SortDecl:
+class SortDecl(NamedTuple):
     loc: Location
     name: str
     parent: str | None
 
 
-@dataclass(frozen=True, slots=True)
-class Sorts:
+class Sorts(NamedTuple):
     loc: Location
     decls: tuple[SortDecl, ...]
 
 
-@dataclass(frozen=True, slots=True)
-class ObjectItem:
+class ObjectItem(NamedTuple):
     loc: Location
     terms: tuple[Expr, ...]
     sort: str
     sort_loc: Location
 
 
-@dataclass(frozen=True, slots=True)
-class Objects:
+class Objects(NamedTuple):
     loc: Location
     items: tuple[ObjectItem, ...]
 
 
-@dataclass(frozen=True, slots=True)
-class ConstName:
+class ConstName(NamedTuple):
     loc: Location
     name: str
     args: tuple[SortSpec, ...]
 
 
-@dataclass(frozen=True, slots=True)
-class ConstSpec:
+class ConstSpec(NamedTuple):
     """``kind`` is None for a rigid constant written ``c :: D``; ``parent`` is set for
     attributes (``attribute(D) of parent``)."""
 
@@ -164,54 +147,46 @@ class ConstSpec:
     parent: ConstName | None = None
 
 
-@dataclass(frozen=True, slots=True)
-class ConstantItem:
+class ConstantItem(NamedTuple):
     loc: Location
     names: tuple[ConstName, ...]
     spec: ConstSpec
 
 
-@dataclass(frozen=True, slots=True)
-class Constants:
+class Constants(NamedTuple):
     loc: Location
     items: tuple[ConstantItem, ...]
 
 
-@dataclass(frozen=True, slots=True)
-class VariableItem:
+class VariableItem(NamedTuple):
     loc: Location
     names: tuple[tuple[str, Location], ...]
     sort: SortSpec
 
 
-@dataclass(frozen=True, slots=True)
-class Variables:
+class Variables(NamedTuple):
     loc: Location
     items: tuple[VariableItem, ...]
 
 
-@dataclass(frozen=True, slots=True)
-class MacroDef:
+class MacroDef(NamedTuple):
     loc: Location
     name: str
     arity: int
     body: Expr
 
 
-@dataclass(frozen=True, slots=True)
-class Macros:
+class Macros(NamedTuple):
     loc: Location
     items: tuple[MacroDef, ...]
 
 
-@dataclass(frozen=True, slots=True)
-class Include:
+class Include(NamedTuple):
     loc: Location
     paths: tuple[tuple[str, Location], ...]
 
 
-@dataclass(frozen=True, slots=True)
-class ShowHide:
+class ShowHide(NamedTuple):
     """``patterns`` holds atom patterns; ``all_`` is true for ``show all``/``hide all``."""
 
     loc: Location
@@ -220,14 +195,12 @@ class ShowHide:
     patterns: tuple[Expr, ...]
 
 
-@dataclass(frozen=True, slots=True)
-class QueryLabel:
+class QueryLabel(NamedTuple):
     loc: Location
     label: str
 
 
-@dataclass(frozen=True, slots=True)
-class QueryMaxstep:
+class QueryMaxstep(NamedTuple):
     """``maxstep :: lo`` (hi is lo), ``lo..hi``, or ``lo..infinity`` (hi None)."""
 
     loc: Location
@@ -236,32 +209,27 @@ class QueryMaxstep:
     exact: bool
 
 
-@dataclass(frozen=True, slots=True)
-class QueryItem:
+class QueryItem(NamedTuple):
     loc: Location
     formula: Expr
 
 
-@dataclass(frozen=True, slots=True)
-class Query:
+class Query(NamedTuple):
     loc: Location
     items: tuple[QueryLabel | QueryMaxstep | QueryItem, ...]
 
 
-@dataclass(frozen=True, slots=True)
-class MaxAdditive:
+class MaxAdditive(NamedTuple):
     loc: Location
     value: Expr
 
 
-@dataclass(frozen=True, slots=True)
-class NoConcurrency:
+class NoConcurrency(NamedTuple):
     loc: Location
     strong: bool
 
 
-@dataclass(frozen=True, slots=True)
-class Law:
+class Law(NamedTuple):
     """One causal law as written.
 
     ``kind`` is one of ``caused`` (also facts and ``possibly caused`` -> ``default``),
@@ -288,8 +256,7 @@ Statement = Union[Sorts, Objects, Constants, Variables, Macros, Include, ShowHid
                   MaxAdditive, NoConcurrency, Law]
 
 
-@dataclass(frozen=True, slots=True)
-class ParsedFile:
+class ParsedFile(NamedTuple):
     """The statements of one file, in order (includes not yet followed)."""
 
     source: object

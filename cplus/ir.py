@@ -6,8 +6,7 @@ objects (see :mod:`cplus.signature`); formulas to propositional formulas over at
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
-from typing import Callable, Union
+from typing import Callable, NamedTuple, Union
 
 from cplus.errors import Location
 from cplus.signature import ConstDecl, SortExpr
@@ -15,22 +14,19 @@ from cplus.signature import ConstDecl, SortExpr
 # ---------------------------------------------------------------------------- terms
 
 
-@dataclass(frozen=True, slots=True)
-class Lit:
+class Lit(NamedTuple):
     """A ground object (or an integer)."""
 
     value: object
 
 
-@dataclass(frozen=True, slots=True)
-class Var:
+class Var(NamedTuple):
     name: str
     sort: SortExpr
     loc: Location
 
 
-@dataclass(frozen=True, slots=True)
-class Obj:
+class Obj(NamedTuple):
     """A constructor object with non-ground arguments: ``cell(I+1)``."""
 
     name: str
@@ -38,8 +34,7 @@ class Obj:
     loc: Location
 
 
-@dataclass(frozen=True, slots=True)
-class Arith:
+class Arith(NamedTuple):
     """``op`` in ``+ - * // mod neg abs min max``."""
 
     op: str
@@ -47,8 +42,7 @@ class Arith:
     loc: Location
 
 
-@dataclass(frozen=True, slots=True)
-class Cst:
+class Cst(NamedTuple):
     """An occurrence of a constant; as a term it stands for the constant's value."""
 
     decl: ConstDecl
@@ -56,20 +50,17 @@ class Cst:
     loc: Location
 
 
-@dataclass(frozen=True, slots=True)
-class MaxStepT:
+class MaxStepT(NamedTuple):
     loc: Location
 
 
-@dataclass(frozen=True, slots=True)
-class StampT:
+class StampT(NamedTuple):
     time: "Term"
     term: "Term"
     loc: Location
 
 
-@dataclass(frozen=True, slots=True)
-class Ext:
+class Ext(NamedTuple):
     """A call of an external function (registry), evaluated at grounding time."""
 
     name: str
@@ -83,13 +74,11 @@ Term = Union[Lit, Var, Obj, Arith, Cst, MaxStepT, StampT, Ext]
 # ---------------------------------------------------------------------------- formulas
 
 
-@dataclass(frozen=True, slots=True)
-class Truth:
+class Truth(NamedTuple):
     value: bool
 
 
-@dataclass(frozen=True, slots=True)
-class Atom:
+class Atom(NamedTuple):
     """``c(args)=value``; ``cst`` may be a variable over a constant kind (``A``)."""
 
     cst: Union[Cst, Var]
@@ -97,57 +86,48 @@ class Atom:
     loc: Location
 
 
-@dataclass(frozen=True, slots=True)
-class Cmp:
+class Cmp(NamedTuple):
     op: str
     left: Term
     right: Term
     loc: Location
 
 
-@dataclass(frozen=True, slots=True)
-class Not:
+class Not(NamedTuple):
     arg: "Formula"
 
 
-@dataclass(frozen=True, slots=True)
-class And:
+class And(NamedTuple):
     items: tuple["Formula", ...]
 
 
-@dataclass(frozen=True, slots=True)
-class Or:
+class Or(NamedTuple):
     items: tuple["Formula", ...]
 
 
-@dataclass(frozen=True, slots=True)
-class Imp:
+class Imp(NamedTuple):
     left: "Formula"
     right: "Formula"
 
 
-@dataclass(frozen=True, slots=True)
-class Iff:
+class Iff(NamedTuple):
     left: "Formula"
     right: "Formula"
 
 
-@dataclass(frozen=True, slots=True)
-class Quant:
+class Quant(NamedTuple):
     exists: bool
     var: Var
     body: "Formula"
 
 
-@dataclass(frozen=True, slots=True)
-class StampF:
+class StampF(NamedTuple):
     time: Term
     body: "Formula"
     loc: Location
 
 
-@dataclass(frozen=True, slots=True)
-class ExtPred:
+class ExtPred(NamedTuple):
     """An external predicate (``collision(X1,Y1,X2,Y2)``), decided at grounding time."""
 
     name: str

@@ -14,6 +14,7 @@ read at the end of a file.
 """
 from __future__ import annotations
 
+import os
 import re
 from functools import lru_cache
 from pathlib import Path
@@ -35,8 +36,24 @@ _WORD = re.compile(r"[A-Za-z][A-Za-z0-9_]*")
 
 @lru_cache(maxsize=1)
 def _lark() -> Lark:
-    return Lark(_GRAMMAR.read_text(encoding="utf-8"), parser="lalr", propagate_positions=True,
-                maybe_placeholders=False)
+    """The LALR parser.  Building its tables takes a fifth of a second, so lark keeps them in
+    the user's cache directory (keyed by a hash of the grammar and options); when that
+    directory is not writable the tables are simply built each time."""
+    text = _GRAMMAR.read_text(encoding="utf-8")
+    options = dict(parser="lalr", propagate_positions=True, maybe_placeholders=False)
+    cache_dir = Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "cplus"
+    try:
+        cache_dir.mkdir(parents=True, exist_ok=True)
+        return Lark(text, cache=str(cache_dir / f"grammar-{_lark_version()}.cache"), **options)
+    except OSError:
+        return Lark(text, **options)
+
+
+def _lark_version() -> str:
+    import hashlib
+    import lark
+    digest = hashlib.sha256(_GRAMMAR.read_bytes() + lark.__version__.encode()).hexdigest()
+    return digest[:16]
 
 
 def _strip_comments(text: str) -> str:
