@@ -43,9 +43,10 @@ def in_process(path: str, label: str, solver: str) -> dict:
 
 
 def command_wall(path: str, label: str, solver: str) -> float:
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONDONTWRITEBYTECODE"}  # as installed: .pyc kept
     t0 = time.perf_counter()
     proc = subprocess.run([sys.executable, "-m", "cplus", "plan", path, "--query", label, "--solver", solver],
-                          capture_output=True, text=True)
+                          capture_output=True, text=True, env=env)
     wall = time.perf_counter() - t0
     if proc.returncode != 0:
         raise SystemExit(f"cplus failed on {path}: {proc.stderr.strip()}")
@@ -68,9 +69,10 @@ def main() -> int:
     print("-" * len(head))
     for c in cases:
         name = c["id"].split("/")[-1].split("-benchmark")[0]
-        runs = 1 if any(s in c["id"] for s in SLOW) else args.runs
-        if args.skip_slow and runs == 1:
+        slow = any(s in c["id"] for s in SLOW)
+        if args.skip_slow and slow:
             continue
+        runs = 1 if slow else args.runs
         path = str(CORPUS / "domains" / c["path"])
         label = c["query_label"]
         parts = [in_process(path, label, args.solver) for _ in range(runs)]

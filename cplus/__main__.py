@@ -1,3 +1,3 @@
-from cplus.cli import main
+from cplus.cli import run
 
-raise SystemExit(main())
+run()

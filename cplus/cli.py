@@ -8,6 +8,7 @@ range (CCALC's "No solution with maxstep N." lines are printed); 2 bad input or 
 from __future__ import annotations
 
 import argparse
+import gc
 import json
 import os
 import sys
@@ -248,6 +249,9 @@ def main(argv: list[str] | None = None) -> int:
         parser.print_help(sys.stderr)
         return EXIT_INPUT
     from cplus.errors import CPlusError
+    # A planning command is a short process that allocates millions of small objects and
+    # creates almost no reference cycles: the cyclic collector only costs time here.
+    gc.disable()
     try:
         return args.func(args)
     except CPlusError as exc:
@@ -262,7 +266,21 @@ def main(argv: list[str] | None = None) -> int:
         except OSError:  # pragma: no cover
             pass
         return EXIT_OK
+    finally:
+        gc.enable()
+
+
+def run() -> None:  # pragma: no cover - the console script; tests call main()
+    """Entry point of the ``cplus`` script: run, flush, and leave without tearing down the
+    grounded theory object by object (a tenth of a second on large domains)."""
+    code = main()
+    try:
+        sys.stdout.flush()
+        sys.stderr.flush()
+    except BrokenPipeError:
+        pass
+    os._exit(code)
 
 
 if __name__ == "__main__":  # pragma: no cover
-    raise SystemExit(main())
+    run()

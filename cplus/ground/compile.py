@@ -357,6 +357,30 @@ def _compile_atom(f: ir.Atom, ctx: Ctx) -> Callable:
             return lit(gc0, v, time)
         return atom0
 
+    simple = [a for a in f.cst.args if isinstance(a, (ir.Var, ir.Lit))]
+    if len(simple) == len(fns):
+        # the common case: arguments are variables and objects; no constant inside
+        getters = [(True, a.name) if isinstance(a, ir.Var) else (False, a.value) for a in f.cst.args]
+        value_name = f.value.name if isinstance(f.value, ir.Var) else None
+        value_lit = f.value.value if isinstance(f.value, ir.Lit) else None
+        fixed = value_name is not None or isinstance(f.value, ir.Lit)
+
+        def atom_simple(env, time):
+            gc = instances.get(tuple([env[x] if is_var else x for is_var, x in getters]))
+            if gc is None:
+                return False
+            if fixed:
+                v = env[value_name] if value_name is not None else value_lit
+            else:
+                v = vf(env, time)
+                if type(v) is Cases:
+                    return mk_or(mk_and((c, lit(gc, w, time))) for c, w in v)
+                if v is UNDEF:
+                    return False
+            aid = lit_of(gc, v)
+            return mklit(aid, time) if aid else False
+        return atom_simple
+
     def atom(env, time):
         args = [g(env, time) for g in fns]
         v = vf(env, time)

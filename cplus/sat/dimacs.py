@@ -27,6 +27,9 @@ class ClauseCollector:
     def add_clause(self, clause: list[int]) -> None:
         self.clauses.append(list(clause))
 
+    def add_clauses(self, clauses) -> None:
+        self.clauses.extend(list(c) for c in clauses)
+
     @property
     def count(self) -> int:
         return len(self.clauses)

@@ -26,6 +26,8 @@ from cplus.sat.templates import Template, build_templates
 
 __all__ = ["Horizon", "QuerySession", "HorizonStats"]
 
+_VECTORIZE_FROM = 20000   # clauses; below this, numpy's import and set-up cost more than they save
+
 
 @dataclass
 class HorizonStats:
@@ -87,9 +89,15 @@ class Horizon:
         off.extend(range(b0, b0 + L.N))
         off.extend(range(b1, b1 + L.N))
         off.extend(range(aux, aux + n_aux))
-        add = self.solver.add_clause
-        for c in tpl.clauses:
-            add([off[x] if x > 0 else -off[-x] for x in c])
+        if len(tpl.clauses) < _VECTORIZE_FROM:
+            self.solver.add_clauses([off[x] if x > 0 else -off[-x] for x in c] for c in tpl.clauses)
+            return
+        # large templates: rename every literal at once with numpy, then cut into clauses
+        import numpy as np
+        flat, ends = tpl.flat()
+        mapped = (np.asarray(off, dtype=np.int64)[np.abs(flat)] * np.sign(flat)).tolist()
+        starts = [0] + ends[:-1]
+        self.solver.add_clauses(mapped[a:b] for a, b in zip(starts, ends))
 
     def extend_to(self, m: int) -> None:
         """Add transitions until the horizon is m."""

@@ -7,6 +7,8 @@
 """
 from __future__ import annotations
 
+import functools
+
 from pysat.solvers import Solver, SolverNames
 
 from cplus.errors import CPlusError
@@ -15,6 +17,15 @@ __all__ = ["SatSolver", "SOLVERS", "DEFAULT_SOLVER"]
 
 DEFAULT_SOLVER = "glucose4"
 SOLVERS = tuple(sorted(n for n, aliases in vars(SolverNames).items() if not n.startswith("_")))
+
+
+# pysat's backends add a clause through two Python layers around one C call; for the
+# hundreds of thousands of clauses of a long horizon we call the C function directly.
+_RAW_ADD = {
+    "Glucose4": ("glucose41_add_cl", "glucose"), "Glucose3": ("glucose3_add_cl", "glucose"),
+    "Cadical195": ("cadical195_add_cl", "cadical"), "Cadical153": ("cadical153_add_cl", "cadical"),
+    "Minisat22": ("minisat22_add_cl", "minisat"), "MinisatGH": ("minisatgh_add_cl", "minisat"),
+}
 
 
 class SatSolver:
@@ -28,10 +39,32 @@ class SatSolver:
         self.name = name
         self._model: list[int] | None = None
         self.count = 0
+        self._raw = self._raw_adder()
+
+    def _raw_adder(self):
+        backend = self._s.solver
+        spec = _RAW_ADD.get(type(backend).__name__)
+        if spec is None:
+            return backend.add_clause
+        import pysolvers
+        fn = getattr(pysolvers, spec[0], None)
+        handle = getattr(backend, spec[1], None)
+        if fn is None or handle is None:
+            return backend.add_clause
+        return functools.partial(fn, handle)
 
     def add_clause(self, clause: list[int]) -> None:
-        self._s.add_clause(clause)
+        self._raw(clause)
         self.count += 1
+
+    def add_clauses(self, clauses) -> None:
+        """Add many clauses (any iterable of integer lists)."""
+        raw = self._raw
+        n = 0
+        for c in clauses:
+            raw(c)
+            n += 1
+        self.count += n
 
     def solve(self, assumptions: list[int] = ()) -> bool:  # type: ignore[assignment]
         ok = self._s.solve(assumptions=list(assumptions))

@@ -27,10 +27,16 @@ class Template:
     clauses: list[list[int]]
     top: int                      # highest template id used
     name: str
+    _flat: tuple | None = None
 
-    @property
-    def aux(self) -> int:
-        return self.top
+    def flat(self) -> tuple:
+        """All literals in one numpy array, and the end offset of each clause (cached)."""
+        if self._flat is None:
+            import numpy as np
+            from itertools import accumulate, chain
+            ends = list(accumulate(len(c) for c in self.clauses))
+            self._flat = (np.fromiter(chain.from_iterable(self.clauses), dtype=np.int64, count=ends[-1]), ends)
+        return self._flat
 
 
 class Layout:
@@ -64,6 +70,14 @@ class Layout:
         else:
             t = self.R + slot * self.N + self.pos[aid] + 1
         return t if code > 0 else -t
+
+    def atom_of_tid(self, t: int) -> tuple[int, int]:
+        """The (atom, slot) behind a template id of an atom."""
+        if t <= self.R:
+            return self.rigid_atoms[t - 1], 2
+        if t <= self.R + self.N:
+            return self.step_atoms[t - self.R - 1], 0
+        return self.step_atoms[t - self.R - self.N - 1], 1
 
     def tid_atom(self, aid: int, slot: int) -> int:
         if slot == 2:
@@ -120,6 +134,8 @@ def _complete_atoms(b: _Builder, gcs: list[GroundConst], slot: int, heads: dict,
     atoms = layout.theory.atoms
     for gc in gcs:
         free = bool(free_fn and free_fn(gc))
+        if not free and _table_completion(b, gc, slot, heads):
+            continue
         if gc.boolean:
             aid = atoms.lit(gc, "true")
             t = layout.tid_atom(aid, slot)
@@ -130,6 +146,105 @@ def _complete_atoms(b: _Builder, gcs: list[GroundConst], slot: int, heads: dict,
             for t in ts:
                 b.cb.complete(t, heads.get(t, ()), free)
             b.cb.exactly_one(ts)
+
+
+_TABLE_LIMIT = 60000     # full assignments of the body constants we are willing to enumerate
+
+
+def _table_completion(b: _Builder, gc: GroundConst, slot: int, heads: dict) -> bool:
+    """Completion of a constant whose rules are tables over other constants.
+
+    When every rule for ``gc`` at this slot has a body that is a conjunction of atoms
+    ``d=w`` of other constants (at most one atom per constant), the completion of all of
+    gc's values together says: some rule fires.  Given the soundness clauses (body -> head)
+    and gc's exactly-one axiom this is equivalent to literal completion, and it needs no
+    auxiliary variable per rule: it forbids each assignment of the body constants that no
+    rule covers (a physics law over three integer fluents, say, becomes a few thousand short
+    clauses instead of a defined variable per rule).  Returns False when the rules do not
+    have that shape or the assignments are too many to enumerate; the caller then writes the
+    ordinary completion.
+    """
+    layout = b.layout
+    atoms = layout.theory.atoms
+    lits = atoms.head_lits(gc)
+    head_tids = []
+    for aid, _ in lits:
+        t = layout.tid_atom(abs(aid), slot)
+        head_tids.append(t if aid > 0 else -t)
+    cubes: list[tuple[int, dict]] = []
+    keys: set = set()
+    for h in head_tids:
+        for body in heads.get(h, ()):
+            cube = _cube(layout, body, gc, slot)
+            if cube is None:
+                return False
+            cubes.append((h, cube))
+            keys.update(cube)
+    if not cubes:
+        return False
+    order = sorted(keys, key=lambda k: (k[0].id, k[1]))
+    size = 1
+    for key in order:
+        size *= len(key[0].domain)
+        if size > _TABLE_LIMIT:
+            return False
+    cb = b.cb
+    lit = {k: _value_lits(layout, k) for k in order}
+    covered: dict[tuple, set] = {}
+    for h, cube in cubes:
+        cb.add_clause([-lit[k][v] for k, v in cube.items()] + [h])
+        pattern = tuple(k for k in order if k in cube)
+        covered.setdefault(pattern, set()).add(tuple(cube[k] for k in pattern))
+    from itertools import product
+    choices = [[(v, -lit[k][v]) for v in k[0].domain] for k in order]
+    if len(covered) == 1 and len(next(iter(covered))) == len(order):   # every cube is full
+        full_set = next(iter(covered.values()))
+        for combo in product(*choices):
+            if tuple(c[0] for c in combo) not in full_set:
+                cb.add_clause([c[1] for c in combo])
+    else:
+        index = {k: i for i, k in enumerate(order)}
+        patterns = [(tuple(index[k] for k in p), vals) for p, vals in covered.items()]
+        for combo in product(*choices):
+            full = tuple(c[0] for c in combo)
+            if not any(tuple(full[i] for i in idx) in vals for idx, vals in patterns):
+                cb.add_clause([c[1] for c in combo])
+    if not gc.boolean:
+        cb.exactly_one(head_tids)
+    return True
+
+
+def _value_lits(layout: Layout, key: tuple) -> dict:
+    """Template literal of ``constant=value`` at a slot, for every value."""
+    other, s = key
+    atoms = layout.theory.atoms
+    if other.boolean:
+        t = layout.tid_atom(atoms.lit(other, "true"), s)
+        return {"true": t, "false": -t}
+    return {v: layout.tid_atom(atoms.lit(other, v), s) for v in other.domain}
+
+
+def _cube(layout: Layout, body: PF, gc: GroundConst, slot: int) -> dict | None:
+    """``{(constant, slot): value}`` when ``body`` is a conjunction of atoms of constants
+    other than gc@slot, each at most once; None otherwise."""
+    items = body[1] if type(body) is tuple and body[0] == "&" else (body,)
+    atoms = layout.theory.atoms
+    cube: dict = {}
+    for lit in items:
+        if type(lit) is not int or abs(lit) > layout.base_top:
+            return None
+        aid, s = layout.atom_of_tid(abs(lit))
+        other = atoms.gc_of[aid]
+        value = atoms.value_of[aid]
+        if value is None:
+            value = "true" if lit > 0 else "false"
+        elif lit < 0:
+            return None
+        key = (other, s)
+        if (other is gc and s == slot) or key in cube:
+            return None
+        cube[key] = value
+    return cube
 
 
 def _constraints(b: _Builder, bodies: list[PF], shift: bool = False) -> None:
