@@ -8,9 +8,10 @@ without parsing them, and mirrors what CCALC's Prolog reader does with a clause 
 read at the end of a file.
 
 >>> from cplus.parser import parse_program
->>> prog = parse_program("p :- q.".replace(":- q", ""), "x.cp")
->>> type(prog.statements[0]).__name__
-'Law'
+>>> prog = parse_program("flip causes lit.  % a comment", "x.cp")
+>>> law = prog.statements[0]
+>>> law.kind, law.action.name, law.head.name
+('causes', 'flip', 'lit')
 """
 from __future__ import annotations
 

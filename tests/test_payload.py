@@ -1,0 +1,156 @@
+"""The payload task end to end: domain + scene -> refined plan -> trajectory -> FK check."""
+from __future__ import annotations
+
+import json
+import math
+import shutil
+from pathlib import Path
+
+import pytest
+
+import trajectory
+from cplus.cli import main
+from cplus.pipeline import RobotTask, TaskError, refine
+
+ROOT = Path(__file__).resolve().parent.parent
+DOMAIN = ROOT / "domains" / "payload" / "payload.cp"
+SCENE = ROOT / "domains" / "payload" / "scene.toml"
+
+
+@pytest.fixture(scope="module")
+def task() -> RobotTask:
+    return RobotTask.load(str(DOMAIN), str(SCENE))
+
+
+@pytest.fixture(scope="module")
+def refined(task):
+    return refine(task, "0")
+
+
+def test_the_first_plan_passes_the_grid_but_not_the_continuous_check(refined):
+    assert refined.first_violation is not None
+    assert refined.first_violation.kind.value in ("payload-collision", "payload-length")
+    assert len(refined.iterations) > 3          # refinement needs several iterations
+
+
+def test_the_refined_plan_is_collision_free(task, refined):
+    assert refined.found
+    states = task.states(refined.history)
+    assert trajectory.first_violation(task.scene, states) is None
+    assert trajectory.all_violations(task.scene, states) == ()
+    goal = states[-1].payload
+    assert goal["pl1"] == (10.0, 0.0) and goal["pl2"] == (10.0, 5.0)
+    assert states[0].payload["pl1"] == (0.0, 0.0) and states[0].payload["pl2"] == (0.0, 5.0)
+    assert refined.history.maxstep >= refined.first_history.maxstep
+
+
+def test_every_iteration_forbids_something_new(refined):
+    seen = set()
+    for it in refined.iterations[:-1]:
+        key = (it.violation.step, tuple(it.actions), tuple(it.where))
+        assert it.actions and key not in seen
+        seen.add(key)
+    assert refined.iterations[-1].violation is None
+
+
+def test_the_plan_respects_the_cost_bound_and_the_payload_length(task, refined):
+    hist = refined.history
+    for t, state in enumerate(hist.states):
+        assert hist.value("cost", t) <= 2
+        p1 = (hist.value("xpay(pl1)", t), hist.value("ypay(pl1)", t))
+        p2 = (hist.value("xpay(pl2)", t), hist.value("ypay(pl2)", t))
+        assert 23 <= (p1[0] - p2[0]) ** 2 + (p1[1] - p2[1]) ** 2 <= 27
+
+
+def test_the_trajectory_reproduces_the_grid_points(task, refined, tmp_path):
+    states = task.states(refined.history)
+    traj = trajectory.build_trajectory(task.scene, states, points_per_step=10, step_time_s=1.0)
+    out = tmp_path / "t.json"
+    trajectory.save_json(traj, out)
+    loaded = trajectory.load_trajectory(out)
+    for robot in loaded.robots:
+        xs, ys = robot.xy_from_motor_deg(robot.setpoints_deg)
+        for k, state in enumerate(states):
+            x, y = xs[k * 10], ys[k * 10]
+            gx, gy = state.robots[robot.name]
+            # motor setpoints are whole degrees: a fraction of a grid unit at most
+            assert math.hypot(x - gx, y - gy) < 0.05, (robot.name, k)
+
+
+def test_cli_runs_refinement_and_exports(tmp_path, capsys):
+    code = main(["plan", str(DOMAIN), "--plot", str(tmp_path / "p.png"), "--trajectory",
+                 str(tmp_path / "t.json"), "--csv", str(tmp_path / "t.csv"), "--json"])
+    out, err = capsys.readouterr()
+    assert code == 0
+    doc = json.loads(out)
+    res = doc["results"][0]
+    assert res["status"] == "found"
+    assert res["refinement"][-1]["violation"] is None
+    assert res["refinement"][0]["violation"]["kind"] in ("payload-collision", "payload-length")
+    assert "% refinement 1:" in err
+    assert (tmp_path / "p.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert json.loads((tmp_path / "t.json").read_text())["format"] == "cplus.trajectory/1"
+    assert (tmp_path / "t.csv").read_text().startswith("robot,tick,")
+
+
+def test_no_refine_shows_the_raw_first_plan(capsys):
+    code = main(["plan", str(DOMAIN), "--no-refine"])
+    out, err = capsys.readouterr()
+    assert code == 0
+    assert "ACTIONS:" in out and "% refinement 1:" in err and "between steps" in err
+
+
+def test_refusing_to_export_an_unsafe_plan(tmp_path, capsys):
+    code = main(["plan", str(DOMAIN), "--no-refine", "--trajectory", str(tmp_path / "t.json")])
+    _, err = capsys.readouterr()
+    assert code == 2 and "not collision-free" in err
+    assert not (tmp_path / "t.json").exists()
+
+
+def test_iteration_limit(capsys):
+    code = main(["plan", str(DOMAIN), "--max-iterations", "2"])
+    out, err = capsys.readouterr()
+    assert code == 4
+    assert "no collision-free plan after 2 refinement iterations" in err
+
+
+def _copy_task(tmp_path, scene_edit=None, domain_edit=None) -> Path:
+    d = tmp_path / "task"
+    d.mkdir()
+    shutil.copy(DOMAIN, d / "payload.cp")
+    shutil.copy(SCENE, d / "scene.toml")
+    if scene_edit:
+        p = d / "scene.toml"
+        p.write_text(scene_edit(p.read_text()))
+    if domain_edit:
+        p = d / "payload.cp"
+        p.write_text(domain_edit(p.read_text()))
+    return d / "payload.cp"
+
+
+def test_a_binding_naming_an_unknown_fluent_is_located(tmp_path, capsys):
+    path = _copy_task(tmp_path, lambda s: s.replace('x = "xpos(r1)"', 'x = "xpoz(r1)"'))
+    code = main(["plan", str(path)])
+    _, err = capsys.readouterr()
+    assert code == 2
+    line = next(i for i, t in enumerate((path.parent / "scene.toml").read_text().splitlines(), 1)
+                if "xpoz" in t)
+    assert f"scene.toml:{line}:" in err and "unknown fluent 'xpoz(r1)'" in err
+
+
+def test_an_unreachable_start_is_reported_before_planning(tmp_path, capsys):
+    path = _copy_task(tmp_path, domain_edit=lambda s: s.replace("xpos(r2)=0, ypos(r2)=5,",
+                                                                  "xpos(r2)=0, ypos(r2)=-1,"))
+    code = main(["plan", str(path)])
+    _, err = capsys.readouterr()
+    assert code == 2
+    assert "robot r2 cannot reach the start" in err and "payload.cp:" in err
+
+
+def test_a_broken_scene_is_located(tmp_path, capsys):
+    bowtie = "[[4.5, -3.0], [5.5, 1.5], [5.5, -3.0], [4.5, 1.5], [4.5, -3.0]]"
+    path = _copy_task(tmp_path, lambda s: s.replace(
+        "[[4.5, -3.0], [5.5, -3.0], [5.5, 1.5], [4.5, 1.5], [4.5, -3.0]]", bowtie))
+    code = main(["plan", str(path)])
+    _, err = capsys.readouterr()
+    assert code == 2 and "scene.toml:" in err and "error:" in err and "self-intersect" in err
