@@ -170,6 +170,27 @@ def conjuncts(f: "Formula | None") -> list:
 # ---------------------------------------------------------------------------- queries over the tree
 
 
+def children(node) -> tuple:
+    """The direct sub-terms and sub-formulas of a node (a quantifier's variable excluded)."""
+    if isinstance(node, (Obj, Arith, Ext, ExtPred, Cst)):
+        return node.args
+    if isinstance(node, Atom):
+        return (node.cst, node.value)
+    if isinstance(node, (Cmp, Imp, Iff)):
+        return (node.left, node.right)
+    if isinstance(node, Not):
+        return (node.arg,)
+    if isinstance(node, (And, Or)):
+        return node.items
+    if isinstance(node, Quant):
+        return (node.body,)
+    if isinstance(node, StampF):
+        return (node.time, node.body)
+    if isinstance(node, StampT):
+        return (node.time, node.term)
+    return ()
+
+
 def free_vars(node, bound: frozenset = frozenset()) -> dict[str, Var]:
     """Free variables of a term or formula, by name (first occurrence wins)."""
     out: dict[str, Var] = {}
@@ -183,92 +204,28 @@ def _free(node, bound, out) -> None:
             out.setdefault(node.name, node)
     elif isinstance(node, Quant):
         _free(node.body, bound | {node.var.name}, out)
-    elif isinstance(node, (Lit, Truth, MaxStepT)):
-        return
-    elif isinstance(node, (Obj, Arith, Ext, ExtPred, Cst)):
-        for a in node.args:
-            _free(a, bound, out)
-    elif isinstance(node, Atom):
-        _free(node.cst, bound, out)
-        _free(node.value, bound, out)
-    elif isinstance(node, Cmp):
-        _free(node.left, bound, out)
-        _free(node.right, bound, out)
-    elif isinstance(node, Not):
-        _free(node.arg, bound, out)
-    elif isinstance(node, (And, Or)):
-        for x in node.items:
-            _free(x, bound, out)
-    elif isinstance(node, (Imp, Iff)):
-        _free(node.left, bound, out)
-        _free(node.right, bound, out)
-    elif isinstance(node, StampF):
-        _free(node.time, bound, out)
-        _free(node.body, bound, out)
-    elif isinstance(node, StampT):
-        _free(node.time, bound, out)
-        _free(node.term, bound, out)
-    else:  # pragma: no cover - exhaustive
-        raise TypeError(node)
+    else:
+        for child in children(node):
+            _free(child, bound, out)
 
 
 def constants_in(node, acc: list | None = None) -> list:
-    """Every constant occurrence (:class:`Cst`, or a variable over a constant kind)."""
+    """Every constant occurrence (:class:`Cst`, or a variable over a constant kind used as
+    an atom); constants compared by name (``==``) do not count."""
     acc = [] if acc is None else acc
     if isinstance(node, Cst):
         acc.append(node)
-        for a in node.args:
-            constants_in(a, acc)
-    elif isinstance(node, Atom):
-        if isinstance(node.cst, Var):
-            acc.append(node.cst)
-        else:
-            constants_in(node.cst, acc)
-        constants_in(node.value, acc)
-    elif isinstance(node, (Obj, Arith, Ext, ExtPred)):
-        for a in node.args:
-            constants_in(a, acc)
-    elif isinstance(node, Cmp):
-        if node.op not in ("==", "\\=="):
-            constants_in(node.left, acc)
-            constants_in(node.right, acc)
-    elif isinstance(node, Not):
-        constants_in(node.arg, acc)
-    elif isinstance(node, (And, Or)):
-        for x in node.items:
-            constants_in(x, acc)
-    elif isinstance(node, (Imp, Iff)):
-        constants_in(node.left, acc)
-        constants_in(node.right, acc)
-    elif isinstance(node, Quant):
-        constants_in(node.body, acc)
-    elif isinstance(node, StampF):
-        constants_in(node.body, acc)
-    elif isinstance(node, StampT):
-        constants_in(node.term, acc)
+    elif isinstance(node, Atom) and isinstance(node.cst, Var):
+        acc.append(node.cst)
+    elif isinstance(node, Cmp) and node.op in ("==", "\\=="):
+        return acc
+    for child in children(node):
+        constants_in(child, acc)
     return acc
 
 
 def mentions(node, kinds: tuple[type, ...]) -> bool:
-    """Whether any node of the given types occurs (quantifiers and stamps included)."""
-    if isinstance(node, kinds):
+    """Whether any node of the given types occurs (quantified variables included)."""
+    if isinstance(node, kinds) or (isinstance(node, Quant) and isinstance(node.var, kinds)):
         return True
-    if isinstance(node, (Obj, Arith, Ext, ExtPred, Cst)):
-        return any(mentions(a, kinds) for a in node.args)
-    if isinstance(node, Atom):
-        return mentions(node.cst, kinds) or mentions(node.value, kinds)
-    if isinstance(node, Cmp):
-        return mentions(node.left, kinds) or mentions(node.right, kinds)
-    if isinstance(node, Not):
-        return mentions(node.arg, kinds)
-    if isinstance(node, (And, Or)):
-        return any(mentions(x, kinds) for x in node.items)
-    if isinstance(node, (Imp, Iff)):
-        return mentions(node.left, kinds) or mentions(node.right, kinds)
-    if isinstance(node, Quant):
-        return mentions(node.var, kinds) or mentions(node.body, kinds)
-    if isinstance(node, StampF):
-        return mentions(node.time, kinds) or mentions(node.body, kinds)
-    if isinstance(node, StampT):
-        return mentions(node.time, kinds) or mentions(node.term, kinds)
-    return False
+    return any(mentions(child, kinds) for child in children(node))

@@ -987,37 +987,11 @@ class _Validator:
                             and self.sig.objects_of(a.sort):
                         raise SortError(f"variable {a.name} of sort '{a.sort}' can never be an argument of "
                                         f"sort '{sort}' of '{node.decl.name}'", a.loc)
-            for a in node.args:
-                self.walk(a)
-        elif isinstance(node, ir.Atom):
-            self.walk(node.cst)
-            self.walk(node.value)
-            if isinstance(node.cst, ir.Cst) and isinstance(node.value, ir.Lit):
-                dom = self.sig.objects_of(node.cst.decl.domain)
-                v = node.value.value
-                if v not in dom and not (v == "none" and node.cst.decl.kind in ("attribute", "abAction")):
-                    raise SortError(f"'{_show(v)}' is not in the domain {node.cst.decl.domain} of "
-                                    f"'{node.cst.decl.name}'", node.loc)
-        elif isinstance(node, (ir.Obj, ir.Arith, ir.Ext, ir.ExtPred)):
-            for a in node.args:
-                self.walk(a)
-        elif isinstance(node, ir.Cmp):
-            self.walk(node.left)
-            self.walk(node.right)
-        elif isinstance(node, ir.Not):
-            self.walk(node.arg)
-        elif isinstance(node, (ir.And, ir.Or)):
-            for x in node.items:
-                self.walk(x)
-        elif isinstance(node, (ir.Imp, ir.Iff)):
-            self.walk(node.left)
-            self.walk(node.right)
-        elif isinstance(node, ir.Quant):
-            self.walk(node.body)
-        elif isinstance(node, ir.StampF):
-            self.walk(node.time)
-            self.walk(node.body)
-        elif isinstance(node, ir.StampT):
-            self.walk(node.time)
-            self.walk(node.term)
-
+        elif isinstance(node, ir.Atom) and isinstance(node.cst, ir.Cst) and isinstance(node.value, ir.Lit):
+            dom = self.sig.objects_of(node.cst.decl.domain)
+            v = node.value.value
+            if v not in dom and not (v == "none" and node.cst.decl.kind in ("attribute", "abAction")):
+                raise SortError(f"'{_show(v)}' is not in the domain {node.cst.decl.domain} of "
+                                f"'{node.cst.decl.name}'", node.loc)
+        for child in ir.children(node):
+            self.walk(child)

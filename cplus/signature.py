@@ -17,7 +17,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from itertools import product
-from typing import Iterable, Union
+from typing import Union
 
 from cplus.errors import Location
 
@@ -321,9 +321,3 @@ class Signature:
 
     def constants_named(self, name: str) -> list[ConstDecl]:
         return [d for (n, _), d in self.constants.items() if n == name]
-
-    def value_sort_name(self, decl: ConstDecl) -> str:
-        return str(decl.domain)
-
-    def sort_of_values(self, values: Iterable[Value]) -> None:  # pragma: no cover - debug aid
-        pass

@@ -21,7 +21,7 @@ from cplus.ground.atoms import AtomTable
 from cplus.ground.pf import PF, mk_and, mk_or, neg
 from cplus.signature import GroundConst, Signature, StepSort, order_key, render_value
 
-__all__ = ["Cases", "UNDEF", "Ctx", "compile_term", "compile_formula", "domain_of", "bind"]
+__all__ = ["Cases", "UNDEF", "Ctx", "compile_term", "compile_formula", "evaluate_all", "domain_of", "bind"]
 
 
 class Cases(list):
@@ -257,32 +257,8 @@ def compile_formula(f: ir.Formula, ctx: Ctx) -> Callable:
     if isinstance(f, ir.Not):
         inner = compile_formula(f.arg, ctx)
         return lambda env, time: neg(inner(env, time))
-    if isinstance(f, ir.And):
-        fns = [compile_formula(x, ctx) for x in f.items]
-
-        def conj(env, time):
-            parts = []
-            for g in fns:
-                r = g(env, time)
-                if r is False:
-                    return False
-                if r is not True:
-                    parts.append(r)
-            return mk_and(parts) if parts else True
-        return conj
-    if isinstance(f, ir.Or):
-        fns = [compile_formula(x, ctx) for x in f.items]
-
-        def disj(env, time):
-            parts = []
-            for g in fns:
-                r = g(env, time)
-                if r is True:
-                    return True
-                if r is not False:
-                    parts.append(r)
-            return mk_or(parts) if parts else False
-        return disj
+    if isinstance(f, (ir.And, ir.Or)):
+        return evaluate_all([compile_formula(x, ctx) for x in f.items], isinstance(f, ir.And))
     if isinstance(f, ir.Imp):
         a, b = compile_formula(f.left, ctx), compile_formula(f.right, ctx)
 
@@ -317,6 +293,24 @@ def compile_formula(f: ir.Formula, ctx: Ctx) -> Callable:
             return bool(_call_external(fn, name, args, loc))
         return ext
     raise TypeError(f)  # pragma: no cover
+
+
+def evaluate_all(fns: list[Callable], conjunction: bool) -> Callable:
+    """``fn(env, time)``: the conjunction (or disjunction) of the compiled ``fns``, stopping at
+    the first False (True)."""
+    unit, build = (True, mk_and) if conjunction else (False, mk_or)
+    absorbing = not unit
+
+    def nary(env, time):
+        parts = []
+        for g in fns:
+            r = g(env, time)
+            if r is absorbing:
+                return absorbing
+            if r is not unit:
+                parts.append(r)
+        return build(parts) if parts else unit
+    return nary
 
 
 def _compile_atom(f: ir.Atom, ctx: Ctx) -> Callable:

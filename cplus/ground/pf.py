@@ -21,56 +21,37 @@ PF = Union[bool, int, tuple]
 __all__ = ["PF", "mk_and", "mk_or", "neg", "map_lits", "lits_of"]
 
 
-def mk_and(items: Iterable[PF]) -> PF:
+def _nary(op: str, unit: bool, items: Iterable[PF]) -> PF:
+    """``op`` ("&" with unit True, "|" with unit False): flatten, drop the unit, stop at the
+    absorbing element or at complementary literals."""
     out: list = []
     seen: set = set()
     for f in items:
-        if f is True:
+        if f is unit:
             continue
-        if f is False:
-            return False
-        if type(f) is tuple and f[0] == "&":
-            sub = f[1]
-        else:
-            sub = (f,)
+        if f is (not unit):
+            return not unit
+        sub = f[1] if type(f) is tuple and f[0] == op else (f,)
         for g in sub:
             if g in seen:
                 continue
             if type(g) is int and -g in seen:
-                return False
+                return not unit
             seen.add(g)
             out.append(g)
     if not out:
-        return True
+        return unit
     if len(out) == 1:
         return out[0]
-    return ("&", tuple(out))
+    return (op, tuple(out))
+
+
+def mk_and(items: Iterable[PF]) -> PF:
+    return _nary("&", True, items)
 
 
 def mk_or(items: Iterable[PF]) -> PF:
-    out: list = []
-    seen: set = set()
-    for f in items:
-        if f is False:
-            continue
-        if f is True:
-            return True
-        if type(f) is tuple and f[0] == "|":
-            sub = f[1]
-        else:
-            sub = (f,)
-        for g in sub:
-            if g in seen:
-                continue
-            if type(g) is int and -g in seen:
-                return True
-            seen.add(g)
-            out.append(g)
-    if not out:
-        return False
-    if len(out) == 1:
-        return out[0]
-    return ("|", tuple(out))
+    return _nary("|", False, items)
 
 
 def neg(f: PF) -> PF:

@@ -23,7 +23,7 @@ from dataclasses import dataclass, field
 from cplus import ir
 from cplus.errors import GroundingError, Location, SortError
 from cplus.ground.atoms import AtomTable
-from cplus.ground.compile import Cases, Ctx, UNDEF, bind, compile_formula, compile_term
+from cplus.ground.compile import Cases, Ctx, UNDEF, bind, compile_formula, compile_term, evaluate_all
 from cplus.ground.pf import PF, mk_and, neg
 from cplus.program import BasicLaw, IncrementLaw, Program
 from cplus.signature import ConstDecl, GroundConst, RangeSort, SIMPLE_KINDS, StepSort
@@ -106,13 +106,14 @@ class _Grounder:
 
     # ------------------------------------------------------------------ helpers
     def _split(self, formula: ir.Formula | None, slot: int, filters: list, parts: list) -> None:
-        """Constant-free conjuncts become binding filters; the rest is compiled at ``slot``."""
+        """Constant-free conjuncts become binding filters; the rest is compiled to be read at
+        ``slot`` (each part is then ``fn(env, any)``)."""
         for c in ir.conjuncts(formula):
+            fn = compile_formula(c, self.ctx)
             if not ir.constants_in(c) and not ir.mentions(c, (ir.MaxStepT, ir.StampF, ir.StampT)):
-                filters.append((compile_formula(c, self.ctx), set(ir.free_vars(c))))
+                filters.append((fn, set(ir.free_vars(c))))
             else:
-                fn = compile_formula(c, self.ctx)
-                parts.append((fn, slot))
+                parts.append(lambda env, _t, fn=fn, slot=slot: fn(env, slot))
 
     def _variables(self, law_loc: Location, *nodes) -> dict[str, ir.Var]:
         out: dict[str, ir.Var] = {}
@@ -125,16 +126,6 @@ class _Grounder:
                 raise GroundingError(f"variable {v.name} ranges over steps, which exist only in queries", v.loc)
         return out
 
-    @staticmethod
-    def _eval_parts(parts: list, env: dict) -> PF:
-        acc = []
-        for fn, slot in parts:
-            r = fn(env, slot)
-            if r is False:
-                return False
-            if r is not True:
-                acc.append(r)
-        return mk_and(acc) if acc else True
 
     # ------------------------------------------------------------------ laws
     def _law(self, law: BasicLaw) -> None:
@@ -156,10 +147,10 @@ class _Grounder:
         heads = [self._head_fn(h) for h in ir.conjuncts(law.head)] if law.head is not None else None
         if heads == []:   # head `true`
             return
-        eval_parts = self._eval_parts
+        body_of = evaluate_all(parts, True)
 
         def leaf(env: dict) -> None:
-            body = eval_parts(parts, env)
+            body = body_of(env, 0)
             if body is False:
                 return
             if heads is None:
@@ -230,14 +221,14 @@ class _Grounder:
         gc_fn = compile_term(law.frame_cst, self.ctx, names=True)
         ctx_values = self.ctx.values
         mklit = self.mklit
-        eval_parts = self._eval_parts
+        body_of = evaluate_all(parts, True)
         frame = law.frame
 
         def leaf(env: dict) -> None:
             gc = gc_fn(env, 0)
             if gc is UNDEF or type(gc) is Cases:
                 return
-            body = eval_parts(parts, env)
+            body = body_of(env, 0)
             if body is False:
                 return
             for aid, _ in ctx_values(gc):
@@ -329,7 +320,7 @@ class _Grounder:
         target_fn = compile_term(inc.target, self.ctx, names=True)
         amount_fn = compile_term(inc.amount, self.ctx)
         sign = -1 if inc.decrement else 1
-        eval_parts = self._eval_parts
+        body_of = evaluate_all(parts, True)
 
         def leaf(env: dict) -> None:
             target = target_fn(env, 0)
@@ -341,7 +332,7 @@ class _Grounder:
             action = action_fn(env, SLOT_NOW)
             if action is False:
                 return
-            body = eval_parts(parts, env)
+            body = body_of(env, 0)
             if body is False:
                 return
             key = (target.id, action)
