@@ -824,6 +824,9 @@ class _Resolver:
             t = self._term_x(item.arg if neg else item, scope)
             if not isinstance(t, ir.Cst) or neg:
                 raise ResolveError(f"'{law.kind}' takes constants, e.g. '{law.kind} c(X)'", item.loc)
+            if any(ir.constants_in(a) for a in t.args):
+                raise ResolveError(f"the arguments of '{t.decl.name}' in '{law.kind}' may not mention constants",
+                                   item.loc)
             kind = t.decl.kind
             if law.kind == "exogenous":
                 if after is not None:
@@ -850,6 +853,9 @@ class _Resolver:
         target = self._term(law.head, scope)  # type: ignore[arg-type]
         if not isinstance(target, ir.Cst) or target.decl.kind not in ("additiveFluent", "additiveAction"):
             raise SortError("'increments'/'decrements' apply to additive constants", law.head.loc)  # type: ignore
+        if any(ir.constants_in(a) for a in target.args):
+            raise ResolveError(f"the arguments of '{target.decl.name}' in 'increments' may not mention constants",
+                               law.head.loc)  # type: ignore[union-attr]
         action = self._formula(law.action, scope)  # type: ignore[arg-type]
         if not self._mentions_actions(action):
             raise ResolveError("the left side of 'increments' must be an action", law.loc)

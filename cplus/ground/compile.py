@@ -21,7 +21,8 @@ from cplus.ground.atoms import AtomTable
 from cplus.ground.pf import PF, mk_and, mk_or, neg
 from cplus.signature import GroundConst, Signature, StepSort, order_key, render_value
 
-__all__ = ["Cases", "UNDEF", "Ctx", "compile_term", "compile_formula", "evaluate_all", "domain_of", "bind"]
+__all__ = ["Cases", "UNDEF", "Ctx", "compile_term", "compile_formula", "evaluate_all", "domain_of", "bind",
+           "combine"]
 
 
 class Cases(list):
@@ -69,7 +70,7 @@ def domain_of(sig: Signature, var: ir.Var, env: dict) -> tuple:
     return sig.objects_of(var.sort)
 
 
-def _combine(vals: list, fn: Callable[[list], object]) -> Cases:
+def combine(vals: list, fn: Callable[[list], object]) -> Cases:
     """Apply ``fn`` to every combination of the possible values of ``vals``."""
     combos: list[tuple[PF, list]] = [(True, [])]
     for v in vals:
@@ -110,7 +111,7 @@ def compile_term(t: ir.Term, ctx: Ctx, names: bool = False) -> Callable:
         def obj(env, time):
             vals = [f(env, time) for f in fns]
             if any(type(v) is Cases for v in vals):
-                return _combine(vals, lambda a: (head,) + tuple(a))
+                return combine(vals, lambda a: (head,) + tuple(a))
             return (head,) + tuple(vals)
         return obj
     if isinstance(t, ir.MaxStepT):
@@ -182,14 +183,14 @@ def _compile_arith(t: ir.Arith, ctx: Ctx, names: bool) -> Callable:
                 except ZeroDivisionError:
                     raise GroundingError("division by zero", loc) from None
             if type(a) is Cases or type(b) is Cases:
-                return _combine([a, b], apply)
+                return combine([a, b], apply)
             return UNDEF
         return arith2
 
     def arith(env, time):
         vals = [f(env, time) for f in fns]
         if any(type(v) is Cases for v in vals):
-            return _combine(vals, apply)
+            return combine(vals, apply)
         return apply(vals)
     return arith
 
@@ -203,7 +204,7 @@ def _compile_cst_term(t: ir.Cst, ctx: Ctx, names: bool) -> Callable:
     def gc_of(env, time):
         args = [f(env, time) for f in fns]
         if any(type(a) is Cases for a in args):
-            return _combine(args, lambda a: instances.get(tuple(a), UNDEF))
+            return combine(args, lambda a: instances.get(tuple(a), UNDEF))
         return instances.get(tuple(args), UNDEF)
 
     if names:
@@ -386,7 +387,7 @@ def _compile_atom(f: ir.Atom, ctx: Ctx) -> Callable:
             if type(v) is Cases:
                 return mk_or(mk_and((c, lit(gc, w, time))) for c, w in v)
             return lit(gc, v, time)
-        gcs = _combine(args, lambda a: instances.get(tuple(a), UNDEF))
+        gcs = combine(args, lambda a: instances.get(tuple(a), UNDEF))
         vals = v if type(v) is Cases else [(True, v)]
         return mk_or(mk_and((cg, cv, lit(g, w, time))) for cg, g in gcs for cv, w in vals)
     return atom

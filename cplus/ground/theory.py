@@ -23,7 +23,8 @@ from dataclasses import dataclass, field
 from cplus import ir
 from cplus.errors import GroundingError, Location, SortError
 from cplus.ground.atoms import AtomTable
-from cplus.ground.compile import Cases, Ctx, UNDEF, bind, compile_formula, compile_term, evaluate_all
+from cplus.ground.compile import (Cases, Ctx, UNDEF, combine, bind, compile_formula, compile_term,
+                                  evaluate_all)
 from cplus.ground.pf import PF, mk_and, neg
 from cplus.program import BasicLaw, IncrementLaw, Program
 from cplus.signature import ConstDecl, GroundConst, RangeSort, SIMPLE_KINDS, StepSort
@@ -181,8 +182,33 @@ class _Grounder:
         if isinstance(atom.cst, ir.Var):
             name = atom.cst.name
             gc_fn = lambda env, slot: env[name]  # noqa: E731
-        else:
+        elif all(isinstance(a, (ir.Var, ir.Lit)) for a in atom.cst.args):
+            instances = atom.cst.decl.instances
+            getters = [(True, a.name) if isinstance(a, ir.Var) else (False, a.value) for a in atom.cst.args]
+            plain_value = isinstance(atom.value, (ir.Var, ir.Lit))
+
+            def head_simple(env, slot):   # the common case: no constant inside the head
+                gc = instances.get(tuple([env[x] if is_var else x for is_var, x in getters]))
+                if gc is None:
+                    return []
+                v = value_fn(env, slot)
+                if plain_value or (type(v) is not Cases and v is not UNDEF):
+                    aid = lit_of(gc, v)
+                    if aid:
+                        lit = mklit(aid, slot)
+                        return [(neg(lit) if negated else lit, True)]
+                return head(env, slot)
             gc_fn = compile_term(atom.cst, self.ctx, names=True)
+        else:
+            # a constant inside the head's arguments: one head per value of it (C.8)
+            arg_fns = [compile_term(a, self.ctx) for a in atom.cst.args]
+            instances = atom.cst.decl.instances
+
+            def gc_fn(env, slot):
+                args = [f(env, slot) for f in arg_fns]
+                if any(type(a) is Cases for a in args):
+                    return combine(args, lambda a: instances.get(tuple(a), UNDEF))
+                return instances.get(tuple(args), UNDEF)
 
         def head(env, slot):
             gcs = gc_fn(env, slot)
@@ -205,6 +231,8 @@ class _Grounder:
                     lit = mklit(aid, slot)
                     out.append((neg(lit) if negated else lit, cond))
             return out
+        if isinstance(atom.cst, ir.Cst) and all(isinstance(a, (ir.Var, ir.Lit)) for a in atom.cst.args):
+            return head_simple
         return head
 
     def _warn_domain(self, loc: Location, gc: GroundConst, val) -> None:

@@ -114,6 +114,19 @@ a causes p.
     assert len(keys) == len(set(keys)) == len(models(d.theory, 1))
 
 
+def test_a_constant_inside_a_head_argument():
+    """`caused g(f)` causes g(v) for the value v of f (C.8: the constant moves to the body)."""
+    text = """
+:- sorts s. :- objects a, b :: s. :- variables X :: s.
+:- constants f :: inertialFluent(s); g(s) :: sdFluent.
+caused g(f).
+default -g(X).
+:- query maxstep :: 0; 0: f=a.
+"""
+    (hist,) = Domain.from_text(text).solve(solutions=0).histories
+    assert hist.value("g(a)", 0) == "true" and hist.value("g(b)", 0) == "false"
+
+
 def test_negative_values_and_nested_constants():
     text = """
 :- sorts node. :- objects 1..3 :: node. :- variables X, Y :: node.
