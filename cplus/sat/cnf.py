@@ -16,9 +16,10 @@ from typing import Callable, Iterable
 
 from cplus.ground.pf import PF, mk_and, mk_or, neg
 
-__all__ = ["ClauseBuilder"]
+__all__ = ["ClauseBuilder", "simplify_units"]
 
 _PAIRWISE_MAX = 6
+_UNIT_PASSES = 3
 
 
 class ClauseBuilder:
@@ -150,6 +151,52 @@ class ClauseBuilder:
             add([y, -prev])
             add([y, -x])
             prev = y
+
+
+def simplify_units(clauses: list[list[int]]) -> list[list[int]]:
+    """Unit propagation: drop satisfied clauses and false literals, keep every unit found.
+
+    The result is equivalent to the input (same models over the same variables), usually much
+    smaller: a law like ``nonexecutable cross(S,W) where S+W > 4`` makes most of an action's
+    ground instances false, and every rule and constraint about them disappears.
+    """
+    value: dict[int, bool] = {}
+    for c in clauses:
+        if len(c) == 1:
+            lit = c[0]
+            if value.get(abs(lit), lit > 0) != (lit > 0):
+                return [[1], [-1]]
+            value[abs(lit)] = lit > 0
+    if not value:
+        return clauses
+    current = [c for c in clauses if len(c) > 1]
+    for _ in range(_UNIT_PASSES):   # long chains of units are rare; a few passes get most
+        found = False
+        rest: list[list[int]] = []
+        for c in current:
+            kept = []
+            satisfied = False
+            for lit in c:
+                v = value.get(lit if lit > 0 else -lit)
+                if v is None:
+                    kept.append(lit)
+                elif v == (lit > 0):
+                    satisfied = True
+                    break
+            if satisfied:
+                continue
+            if not kept:
+                return [[1], [-1]]
+            if len(kept) == 1:
+                lit = kept[0]
+                value[abs(lit)] = lit > 0
+                found = True
+                continue
+            rest.append(kept if len(kept) < len(c) else c)
+        current = rest
+        if not found:
+            break
+    return [[v if b else -v] for v, b in value.items()] + current
 
 
 def _without(body: PF, head: int) -> PF | None:

@@ -16,7 +16,7 @@ from dataclasses import dataclass
 
 from cplus.ground.pf import PF, map_lits, mk_and
 from cplus.ground.theory import GroundTheory, initially_free
-from cplus.sat.cnf import ClauseBuilder
+from cplus.sat.cnf import ClauseBuilder, simplify_units
 from cplus.signature import GroundConst
 
 __all__ = ["Layout", "Template", "build_templates"]
@@ -117,7 +117,7 @@ class _Builder:
         return self.top
 
     def done(self) -> Template:
-        return Template(self.cb.clauses, self.top, self.name)
+        return Template(simplify_units(self.cb.clauses), self.top, self.name)
 
 
 def _heads(theory: GroundTheory, layout: Layout, rules: list[tuple[int, PF]], shift: bool = False) -> dict:
