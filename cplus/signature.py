@@ -159,9 +159,10 @@ class ConstDecl:
 
 
 class GroundConst:
-    """A ground constant instance such as ``loc(d1)``, interned per signature."""
+    """A ground constant instance such as ``loc(d1)``, interned per signature: there is one
+    object per instance, so identity is equality (and hashing stays in C)."""
 
-    __slots__ = ("decl", "args", "id", "text", "domain", "boolean", "_hash")
+    __slots__ = ("decl", "args", "id", "text", "domain", "boolean")
 
     def __init__(self, decl: ConstDecl, args: tuple, ident: int, domain: tuple) -> None:
         self.decl = decl
@@ -170,10 +171,6 @@ class GroundConst:
         self.text = decl.name if not args else f"{decl.name}({','.join(render_value(a) for a in args)})"
         self.domain = domain
         self.boolean = domain == ("true", "false")
-        self._hash = hash((decl.name, args))
-
-    def __hash__(self) -> int:
-        return self._hash
 
     def __repr__(self) -> str:
         return self.text

@@ -60,9 +60,16 @@ class Layout:
                 self.step_atoms.append(aid)
         self.R = len(self.rigid_atoms)
         self.N = len(self.step_atoms)
+        self._tids: dict[int, int] = {}
 
     def tid(self, code: int) -> int:
         """Template id of a template literal code (see :func:`template_lit`)."""
+        t = self._tids.get(code)
+        if t is None:
+            t = self._tids[code] = self._tid(code)
+        return t
+
+    def _tid(self, code: int) -> int:
         a = code if code > 0 else -code
         aid, slot = divmod(a - 1, 3)
         if slot == 2:
@@ -196,19 +203,20 @@ def _table_completion(b: _Builder, gc: GroundConst, slot: int, heads: dict) -> b
         pattern = tuple(k for k in order if k in cube)
         covered.setdefault(pattern, set()).add(tuple(cube[k] for k in pattern))
     from itertools import product
-    choices = [[(v, -lit[k][v]) for v in k[0].domain] for k in order]
+    domains = [k[0].domain for k in order]
+    neg = [{v: -lit[k][v] for v in k[0].domain} for k in order]
+    add = cb.add_clause
     if len(covered) == 1 and len(next(iter(covered))) == len(order):   # every cube is full
         full_set = next(iter(covered.values()))
-        for combo in product(*choices):
-            if tuple(c[0] for c in combo) not in full_set:
-                cb.add_clause([c[1] for c in combo])
+        for full in product(*domains):
+            if full not in full_set:
+                add([n[v] for n, v in zip(neg, full)])
     else:
         index = {k: i for i, k in enumerate(order)}
         patterns = [(tuple(index[k] for k in p), vals) for p, vals in covered.items()]
-        for combo in product(*choices):
-            full = tuple(c[0] for c in combo)
+        for full in product(*domains):
             if not any(tuple(full[i] for i in idx) in vals for idx, vals in patterns):
-                cb.add_clause([c[1] for c in combo])
+                add([n[v] for n, v in zip(neg, full)])
     if not gc.boolean:
         cb.exactly_one(head_tids)
     return True
