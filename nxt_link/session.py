@@ -1,0 +1,535 @@
+"""The PC side of the streaming protocol with one brick (see :mod:`~nxt_link.stream_protocol`).
+
+A :class:`BrickSession` drives one brick through the phases of an execution:
+
+1. :meth:`~BrickSession.open` — make sure ``cplus_follow.rxe`` runs (start it
+   if nothing runs), then HELLO with a fresh session id: a reply-required
+   MESSAGEWRITE, so a missing program is a clear error, and a WELCOME back
+   proves the link and the program both work (Algorithm 2: "check for the
+   Bluetooth communication");
+2. :meth:`~BrickSession.upload` — CONFIG and the SETPOINTS messages, go-back-N
+   with a window of 4, no-reply writes for speed, acknowledgements read from
+   the response mailbox; then a QUERY whose checksum must equal the checksum
+   of what was sent (the brick holds exactly the setpoints sent, in order);
+3. :meth:`~BrickSession.prepare` / :meth:`~BrickSession.wait_ready` — the brick
+   moves to the first setpoint (the initial configuration) and holds it;
+4. :meth:`~BrickSession.post_go` / :meth:`~BrickSession.confirm_go` — the start
+   signal, split so the caller can send it to all bricks back to back first;
+5. :meth:`~BrickSession.wait_done` — QUERY polls report progress;
+6. :meth:`~BrickSession.read_log` — LOGREAD requests (window of 4), resumable:
+   rows already received are kept, a second call fetches only what is missing.
+
+Lost frames, lost or duplicated messages and acknowledgements and link drops
+are recovered here or in :class:`~nxt_link.brick.Brick`; what cannot be
+recovered becomes a one-line :class:`~nxt_link.errors.LinkError`.
+"""
+from __future__ import annotations
+
+import logging
+import random
+from dataclasses import dataclass
+from typing import Callable, Sequence
+
+from nxt_link import stream_protocol as sp
+from nxt_link.brick import Brick
+from nxt_link.clock import Deadline
+from nxt_link.errors import (
+    EmptyMailboxError,
+    IllegalValueError,
+    LinkTimeoutError,
+    NoActiveProgramError,
+    StreamError,
+    TelegramError,
+)
+from nxt_link.stream_protocol import Code, State
+
+__all__ = ["ControllerSettings", "SessionTiming", "BrickSession", "PORT_NUMBERS"]
+
+log = logging.getLogger(__name__)
+
+PORT_NUMBERS = {"A": 0, "B": 1, "C": 2}
+WINDOW = 4  # one below the mailbox depth of 5
+_QUERY_ID0 = 0x8000  # ids of unsequenced requests start here, sequenced ones below
+MAX_GO_DELAY_MS = 30000  # echoed in an int16 ACK field
+
+
+@dataclass(frozen=True, slots=True)
+class ControllerSettings:
+    """The brick's P-controller: ``power % = kp_num * error_deg / kp_den``.
+
+    Defaults: gain 2 %/degree (little overshoot with the default motor model,
+    about 1 degree of steady-state error), full power allowed, the initial
+    configuration is reached when every motor is within 3 degrees.
+    """
+
+    kp_num: int = 2
+    kp_den: int = 1
+    max_power: int = 100
+    tolerance_deg: int = 3
+
+    def __post_init__(self) -> None:
+        if not (1 <= self.kp_num <= 255 and 1 <= self.kp_den <= 255):
+            raise ValueError("controller gain: kp_num and kp_den must be in 1..255")
+        if not 1 <= self.max_power <= 100:
+            raise ValueError("controller max_power must be in 1..100")
+        if not 0 <= self.tolerance_deg <= 255:
+            raise ValueError("controller tolerance must be in 0..255 degrees")
+
+
+@dataclass(frozen=True, slots=True)
+class SessionTiming:
+    """Timeouts of the streaming protocol (on the bricks' clock).
+
+    Attributes:
+        ack_timeout_s: no acknowledgement progress for this long -> resend.
+        poll_gap_s: pause before reading an empty response mailbox again.
+        query_interval_s: QUERY period while homing and running.
+        max_silent_s: no useful response at all for this long -> give up.
+        homing_timeout_s: the initial configuration must be reached in time.
+        program_start_timeout_s: STARTPROGRAM until the program answers.
+    """
+
+    ack_timeout_s: float = 0.6
+    poll_gap_s: float = 0.01
+    query_interval_s: float = 0.25
+    max_silent_s: float = 10.0
+    homing_timeout_s: float = 15.0
+    program_start_timeout_s: float = 5.0
+
+
+class BrickSession:
+    """One execution's conversation with one brick.
+
+    Args:
+        brick: the connected brick.
+        ports: port letters, in the order of the values in each row.
+        tick_ms: duration of one setpoint row.
+        rows: the setpoints (already validated by the caller).
+        limits_deg: per port (min, max) the brick enforces again.
+        controller: P-controller settings sent in CONFIG.
+        timing: protocol timeouts.
+        on_event: receives (event, detail) for the execution log.
+        session_id: 1..65535; random by default.
+    """
+
+    def __init__(self, brick: Brick, ports: Sequence[str], tick_ms: int,
+                 rows: Sequence[Sequence[int]], limits_deg: Sequence[tuple[int, int]],
+                 controller: ControllerSettings | None = None,
+                 timing: SessionTiming | None = None,
+                 on_event: Callable[[str, str], None] | None = None,
+                 session_id: int | None = None) -> None:
+        self.brick = brick
+        self.name = brick.name
+        self.ports = tuple(ports)
+        self.port_numbers = tuple(PORT_NUMBERS[p] for p in self.ports)
+        self.tick_ms = tick_ms
+        self.rows = [tuple(r) for r in rows]
+        self.limits = tuple(limits_deg)
+        self.controller = controller or ControllerSettings()
+        self.timing = timing or SessionTiming()
+        self._on_event = on_event
+        self.session = session_id or random.SystemRandom().randrange(1, 0x10000)
+        self.clock = brick.clock
+        self.expected_checksum = sp.setpoint_checksum(v for r in self.rows for v in r)
+        self._next_seq = 1
+        self._next_id = _QUERY_ID0
+        self._log_rows: dict[int, tuple[int, ...]] = {}
+        self.state: int | None = None
+        self.logged = 0
+        self.retransmissions = 0
+        self.damaged_responses = 0
+        self._go_seq: int | None = None
+        self._go_first_sent = 0.0
+        self._go_last_sent = 0.0
+        self._go_start_at = 0.0
+        self._go_copies: dict[int, float] = {}  # delay_ms -> when that GO copy was sent
+
+    # -- plumbing -------------------------------------------------------------------
+
+    def _event(self, event: str, detail: str = "") -> None:
+        log.info("%s: %s %s", self.name, event, detail)
+        if self._on_event is not None:
+            self._on_event(event, detail)
+
+    def _post(self, req: sp.Request, *, reply: bool = False) -> None:
+        self.brick.message_write(sp.CMD_INBOX, sp.encode_request(req), reply=reply)
+
+    def _poll(self) -> sp.Response | None:
+        """Read one response of this session, or None (empty box, stale or damaged)."""
+        try:
+            raw = self.brick.message_read(sp.RESPONSE_MAILBOX, 0, True)
+        except EmptyMailboxError:
+            return None
+        except LinkTimeoutError as exc:
+            # the protocol recovers lost reads; only a long silence is fatal (_silent)
+            self._event("read timeout", str(exc))
+            return None
+        except NoActiveProgramError:
+            raise StreamError(f"brick {self.name}: the program {sp.PROGRAM_NAME} is no longer "
+                              "running") from None
+        try:
+            resp = sp.decode_response(raw)
+        except TelegramError as exc:
+            self.damaged_responses += 1
+            self._event("damaged response", str(exc))
+            return None
+        if resp.session != self.session:
+            return None
+        self.state = resp.state
+        if isinstance(resp, sp.Ack):
+            self.logged = resp.logged
+        return resp
+
+    def _new_id(self) -> int:
+        self._next_id = _QUERY_ID0 + ((self._next_id - _QUERY_ID0 + 1) % 0x7FFF)
+        return self._next_id
+
+    def _silent(self, since: float) -> None:
+        if self.clock.now() - since > self.timing.max_silent_s:
+            try:
+                self.brick.get_current_program_name()
+            except NoActiveProgramError:
+                raise StreamError(f"brick {self.name}: the program {sp.PROGRAM_NAME} is no "
+                                  "longer running") from None
+            raise LinkTimeoutError(f"brick {self.name}: no answer from the brick program for "
+                                   f"{self.timing.max_silent_s:g} s")
+
+    def _exchange_unsequenced(self, make: Callable[[int], sp.Request],
+                              accept: Callable[[sp.Response], bool]) -> sp.Response:
+        """Send an unsequenced request until a matching response arrives."""
+        start = self.clock.now()
+        while True:
+            rid = self._new_id()
+            self._post(make(rid))
+            deadline = Deadline(self.clock, self.timing.ack_timeout_s)
+            while not deadline.expired():
+                resp = self._poll()
+                if resp is None:
+                    self.clock.sleep(self.timing.poll_gap_s)
+                    continue
+                if resp.seq == rid and accept(resp):
+                    return resp
+            self.retransmissions += 1
+            self._silent(start)
+
+    # -- 1. program and handshake --------------------------------------------------------
+
+    def ensure_program(self, replace: bool = False) -> None:
+        """Make sure the brick program runs; start it when nothing runs."""
+        try:
+            running = self.brick.get_current_program_name()
+        except NoActiveProgramError:
+            running = None
+        if running == sp.PROGRAM_NAME:
+            return
+        if running is not None:
+            if not replace:
+                raise StreamError(f"brick {self.name} is running {running!r}, not "
+                                  f"{sp.PROGRAM_NAME!r}; stop it on the brick first")
+            self.brick.stop_program()
+            self.clock.sleep(1.0)  # as nxt-python's MotorControl helper does
+        try:
+            self.brick.start_program(sp.PROGRAM_NAME)
+        except IllegalValueError:
+            raise StreamError(
+                f"brick {self.name} has no {sp.PROGRAM_NAME}: compile nxt_link/nxc/"
+                f"cplus_follow.nxc with nbc and download it (nbc -d ...)") from None
+        self._event("program started", sp.PROGRAM_NAME)
+        deadline = Deadline(self.clock, self.timing.program_start_timeout_s)
+        while True:
+            try:
+                if self.brick.get_current_program_name() == sp.PROGRAM_NAME:
+                    return
+            except NoActiveProgramError:
+                pass
+            if deadline.expired():
+                raise StreamError(f"brick {self.name}: {sp.PROGRAM_NAME} did not start within "
+                                  f"{self.timing.program_start_timeout_s:g} s")
+            self.clock.sleep(0.1)
+
+    def open(self, *, start_program: bool = True, replace_program: bool = False) -> sp.Welcome:
+        """Ensure the program runs, then HELLO until WELCOME. Returns the WELCOME."""
+        if start_program:
+            self.ensure_program(replace_program)
+        start = self.clock.now()
+        while True:
+            hello = sp.Hello(self.session, 0)
+            try:
+                self._post(hello, reply=True)  # reply required: a missing program is an error
+            except NoActiveProgramError:
+                raise StreamError(f"brick {self.name}: no program is running (start "
+                                  f"{sp.PROGRAM_NAME} on the brick)") from None
+            except LinkTimeoutError:
+                if self.clock.now() - start > self.timing.max_silent_s:
+                    raise
+                continue
+            deadline = Deadline(self.clock, self.timing.ack_timeout_s)
+            while not deadline.expired():
+                resp = self._poll()
+                if resp is None:
+                    self.clock.sleep(self.timing.poll_gap_s)
+                    continue
+                if isinstance(resp, sp.Welcome):
+                    if resp.code == Code.BAD_VERSION:
+                        raise StreamError(
+                            f"brick {self.name}: its program speaks protocol version "
+                            f"{resp.version}, this client {sp.PROTOCOL_VERSION}")
+                    if resp.state != State.IDLE or resp.expected_seq != 1:
+                        # our random session id is the brick's current one: pick another
+                        self.session = self.session % 0xFFFF + 1
+                        break
+                    self._event("link ok", f"session {self.session}, program protocol "
+                                           f"v{resp.version}")
+                    return resp
+            self.retransmissions += 1
+            self._silent(start)
+
+    # -- 2. upload ------------------------------------------------------------------------
+
+    def _messages(self) -> list[sp.Request]:
+        c = self.controller
+        msgs: list[sp.Request] = [sp.Config(
+            self.session, 0, self.port_numbers, len(self.rows), self.tick_ms, c.kp_num, c.kp_den,
+            c.max_power, c.tolerance_deg, tuple(lo for lo, _ in self.limits),
+            tuple(hi for _, hi in self.limits))]
+        per = sp.rows_per_setpoint_message(len(self.ports))
+        for first in range(0, len(self.rows), per):
+            chunk = self.rows[first:first + per]
+            msgs.append(sp.Setpoints(self.session, 0, first, tuple(v for r in chunk for v in r)))
+        return msgs
+
+    def _run_sequenced(self, msgs: list[sp.Request],
+                       progress: Callable[[int, int], None] | None = None) -> sp.Ack:
+        """Deliver ``msgs`` in order exactly once (go-back-N); return the last ACK."""
+        base = self._next_seq
+        msgs = [_with_seq(m, base + i) for i, m in enumerate(msgs)]
+        n = len(msgs)
+        acked = 0
+        next_i = 0
+        last_ack: sp.Ack | None = None
+        progress_at = goback_at = self.clock.now()
+        gap_armed = True  # one immediate go-back per loss; later GAPs may be stale
+        while acked < n:
+            while next_i < n and next_i < acked + WINDOW:
+                self._post(msgs[next_i])
+                next_i += 1
+            resp = self._poll()
+            now = self.clock.now()
+            if isinstance(resp, sp.Ack) and base <= resp.seq < base + n:
+                done = min(n, max(0, resp.expected_seq - base))
+                if resp.code not in (Code.OK, Code.DUPLICATE, Code.GAP):
+                    if resp.seq == base + done:
+                        raise StreamError(_refusal(self.name, msgs[done], resp.code))
+                    continue
+                if done > acked:
+                    acked = done
+                    last_ack = resp
+                    progress_at = goback_at = now
+                    gap_armed = True
+                    if progress is not None:
+                        progress(acked, n)
+                if resp.code == Code.GAP and gap_armed and next_i > acked:
+                    next_i = acked  # the brick missed one: go back at once
+                    goback_at = now
+                    gap_armed = False
+                    self.retransmissions += 1
+                continue
+            if resp is None:
+                if now - goback_at > self.timing.ack_timeout_s:
+                    self._silent(progress_at)
+                    next_i = acked  # nothing acknowledged for a while: go back
+                    goback_at = now
+                    gap_armed = True
+                    self.retransmissions += 1
+                self.clock.sleep(self.timing.poll_gap_s)
+        self._next_seq = base + n
+        assert last_ack is not None
+        return last_ack
+
+    def upload(self, progress: Callable[[int, int], None] | None = None) -> None:
+        """Send CONFIG and all setpoints; verify the brick's checksum of them.
+
+        Args:
+            progress: called with (rows acknowledged, rows total).
+        """
+        msgs = self._messages()
+        per = sp.rows_per_setpoint_message(len(self.ports))
+        total = len(self.rows)
+
+        def report(done_msgs: int, _n: int) -> None:
+            if progress is not None:
+                progress(min(total, max(0, (done_msgs - 1) * per)), total)
+
+        self._run_sequenced(msgs, report)
+        check = self.query()
+        if check.rows_stored != total or check.checksum != self.expected_checksum:
+            raise StreamError(
+                f"brick {self.name} holds {check.rows_stored} rows with checksum "
+                f"0x{check.checksum:04X}, sent {total} rows with checksum "
+                f"0x{self.expected_checksum:04X}")
+        self._event("upload verified", f"{total} rows, checksum 0x{check.checksum:04X}, "
+                                       f"{self.retransmissions} retransmission(s)")
+
+    def query(self) -> sp.Ack:
+        """QUERY: the brick's state, progress, checksum and current largest error."""
+        resp = self._exchange_unsequenced(lambda rid: sp.Query(self.session, rid),
+                                          lambda r: isinstance(r, sp.Ack))
+        assert isinstance(resp, sp.Ack)
+        return resp
+
+    # -- 3. initial configuration ------------------------------------------------------------
+
+    def prepare(self) -> None:
+        """PREPARE: the brick starts moving to the first setpoint."""
+        self._run_sequenced([sp.Prepare(self.session, 0)])
+        self._event("homing", f"to {self.rows[0]}")
+
+    def wait_ready(self) -> None:
+        """Poll until the brick holds the initial configuration (or fail with its error)."""
+        deadline = Deadline(self.clock, self.timing.homing_timeout_s)
+        while True:
+            ack = self.query()
+            if ack.state == State.READY:
+                self._event("ready", f"largest error {ack.value} deg")
+                return
+            if ack.state != State.HOMING:
+                raise StreamError(f"brick {self.name}: unexpected state "
+                                  f"{_state_name(ack.state)} while homing")
+            if deadline.expired():
+                raise StreamError(
+                    f"brick {self.name} did not reach its initial configuration within "
+                    f"{self.timing.homing_timeout_s:g} s (still {ack.value} deg off)")
+            self.clock.sleep(self.timing.query_interval_s)
+
+    # -- 4. start signal --------------------------------------------------------------------------
+
+    def post_go(self, start_at: float) -> None:
+        """Write GO (no reply: fast) telling the brick to start at ``start_at`` (our clock)."""
+        if self._go_seq is None:
+            self._go_seq = self._next_seq
+            self._go_first_sent = self.clock.now()
+        self._go_start_at = start_at
+        now = self.clock.now()
+        delay_ms = max(0, min(MAX_GO_DELAY_MS, round((start_at - now) * 1000.0)))
+        self._go_copies.setdefault(delay_ms, now)
+        self._post(sp.Go(self.session, self._go_seq, delay_ms))
+        self._go_last_sent = now
+        self._event("start sent", f"GO seq {self._go_seq}, start in {delay_ms} ms")
+
+    def confirm_go(self) -> float:
+        """Wait for GO's acknowledgement (resending GO with the time left).
+
+        Returns:
+            The latest time (our clock) at which this brick can have started.
+            The ACK echoes the delay of the copy the brick applied, which
+            identifies when that copy was sent (s); the brick started at
+            max(T, s) plus that copy's one-way delay, which is at most the time
+            from s to the acknowledgement.
+        """
+        assert self._go_seq is not None, "post_go first"
+        start = self.clock.now()
+        while True:
+            resp = self._poll()
+            now = self.clock.now()
+            if isinstance(resp, sp.Ack) and resp.seq == self._go_seq:
+                if resp.code in (Code.OK, Code.DUPLICATE):
+                    self._next_seq = self._go_seq + 1
+                    sent = self._go_copies.get(resp.value, self._go_first_sent)
+                    latest = max(self._go_start_at, sent) + (now - sent)
+                    self._event("start acked", f"GO seq {self._go_seq}, applied the copy with "
+                                               f"{resp.value} ms delay")
+                    return latest
+                if resp.code != Code.GAP:
+                    raise StreamError(_refusal(self.name, sp.Go(self.session, self._go_seq),
+                                               resp.code))
+            if resp is None:
+                if now - self._go_last_sent > self.timing.ack_timeout_s:
+                    self._silent(start)
+                    self.retransmissions += 1
+                    self.post_go(self._go_start_at)
+                self.clock.sleep(self.timing.poll_gap_s)
+
+    # -- 5. run ----------------------------------------------------------------------------------------
+
+    def poll_progress(self) -> sp.Ack:
+        """One QUERY while running: ``logged`` rows so far, state DONE at the end."""
+        ack = self.query()
+        if ack.state not in (State.RUNNING, State.DONE):
+            raise StreamError(f"brick {self.name}: state {_state_name(ack.state)} while running")
+        return ack
+
+    # -- 6. log -------------------------------------------------------------------------------------------
+
+    def read_log(self, progress: Callable[[int, int], None] | None = None
+                 ) -> tuple[tuple[int, ...], ...]:
+        """LOGREAD every measured row (resumable); returns one row per tick."""
+        n = len(self.rows)
+        per = sp.rows_per_log_message(len(self.ports))
+        chunks = [(f, min(per, n - f)) for f in range(0, n, per)]
+        missing = [c for c in chunks if not all(r in self._log_rows for r in range(c[0], c[0] + c[1]))]
+        outstanding: dict[int, tuple[int, float]] = {}  # request id -> (first_row, sent at)
+        progress_at = self.clock.now()
+        while missing or outstanding:
+            now = self.clock.now()
+            while missing and len(outstanding) < WINDOW:
+                first, count = missing.pop(0)
+                rid = self._new_id()
+                self._post(sp.LogRead(self.session, rid, first, count))
+                outstanding[rid] = (first, now)
+            resp = self._poll()
+            if isinstance(resp, sp.LogData) and resp.seq in outstanding:
+                first, _ = outstanding.pop(resp.seq)
+                k = len(self.ports)
+                for i in range(len(resp.values) // k):
+                    self._log_rows[resp.first_row + i] = resp.values[i * k:(i + 1) * k]
+                progress_at = now
+                if progress is not None:
+                    progress(len(self._log_rows), n)
+                continue
+            if isinstance(resp, sp.Ack) and resp.seq in outstanding:
+                raise StreamError(f"brick {self.name} refused LOGREAD: "
+                                  f"{Code(resp.code).name.lower().replace('_', ' ')} "
+                                  f"(it logged {resp.logged} of {n} rows)")
+            if resp is None:
+                for rid, (first, sent) in list(outstanding.items()):
+                    if now - sent > self.timing.ack_timeout_s:
+                        del outstanding[rid]
+                        missing.insert(0, next(c for c in chunks if c[0] == first))
+                        self.retransmissions += 1
+                self._silent(progress_at)
+                self.clock.sleep(self.timing.poll_gap_s)
+        self._event("log read", f"{n} rows")
+        return tuple(self._log_rows[r] for r in range(n))
+
+    def stop(self) -> None:
+        """STOP: the brick program coasts the motors (used when aborting)."""
+        try:
+            self._exchange_unsequenced(lambda rid: sp.Stop(self.session, rid),
+                                       lambda r: isinstance(r, sp.Ack))
+            self._event("stopped")
+        except StreamError:
+            pass
+
+
+def _with_seq(req: sp.Request, seq: int) -> sp.Request:
+    from dataclasses import replace
+
+    return replace(req, seq=seq)
+
+
+def _state_name(state: int) -> str:
+    try:
+        return State(state).name
+    except ValueError:
+        return str(state)
+
+
+def _refusal(brick: str, req: sp.Request, code: int) -> str:
+    try:
+        reason = Code(code).name.lower().replace("_", " ")
+    except ValueError:
+        reason = f"code {code}"
+    what = req.kind.name
+    if isinstance(req, sp.Setpoints):
+        what = f"SETPOINTS from row {req.first_row}"
+    return f"brick {brick} refused {what}: {reason}"
