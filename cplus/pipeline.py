@@ -390,14 +390,15 @@ def plan_command(args: argparse.Namespace, scene_path: str) -> int:
                         on_horizon=_progress(args.stats))
         _warn(domain.diagnostics, seen)  # type: ignore[attr-defined]
         display = Display(domain.program)  # type: ignore[attr-defined]
-        shown = result.history or result.first_history
+        # the result is the refined plan; an unsafe plan is shown only when asked for
+        shown = result.history or (result.first_history if args.no_refine else None)
         states = result.states or result.first_states
         failed = getattr(result, "failed", [])
         if args.json:
             docs.append(_result_json(task, label, result))
         else:
             sys.stdout.write(format_result(display, failed, [shown] if shown else [], False))
-        if shown is None:
+        if result.first_history is None:
             print(f"% {result.reason}", file=sys.stderr)
             code = max(code, EXIT_NO_PLAN)
             continue
@@ -405,6 +406,7 @@ def plan_command(args: argparse.Namespace, scene_path: str) -> int:
             print(f"% {result.reason}", file=sys.stderr)
             if not args.no_refine:
                 code = max(code, EXIT_NO_SAFE_PLAN)
+                continue
         _export(task, states, None if result.history else result.first_violation, args, args.file)
     if args.json:
         from cplus.output import PLAN_FORMAT
@@ -415,10 +417,11 @@ def plan_command(args: argparse.Namespace, scene_path: str) -> int:
 
 def _result_json(task: RobotTask, label: str, result: RefinementResult) -> dict:
     from cplus.output import history_json
-    hist = result.history or result.first_history
+    hist = result.history or (result.first_history if result.reason.startswith("refinement is off") else None)
     return {
         "query": {"label": label},
-        "status": "found" if result.history else ("unsafe" if hist else "no_plan"),
+        "status": "found" if result.history else ("unsafe" if hist else
+                                                  ("no_safe_plan" if result.first_history else "no_plan")),
         "maxstep": hist.maxstep if hist else None,
         "histories": [history_json(hist)] if hist else [],
         "refinement": [{"iteration": it.number, "maxstep": it.maxstep,

@@ -154,3 +154,12 @@ def test_a_broken_scene_is_located(tmp_path, capsys):
     code = main(["plan", str(path)])
     _, err = capsys.readouterr()
     assert code == 2 and "scene.toml:" in err and "error:" in err and "self-intersect" in err
+
+
+def test_horizon_bound(capsys):
+    """The first plans have length 8; with no room to grow, refinement runs out of plans."""
+    code = main(["plan", str(DOMAIN), "--max-horizon", "8"])
+    out, err = capsys.readouterr()
+    assert code == 4
+    assert "no collision-free plan: no plan with maxstep 0..8 (--max-horizon)" in err
+    assert out == ""          # no unsafe plan presented as the result
