@@ -394,6 +394,8 @@ def plan_command(args: argparse.Namespace, scene_path: str) -> int:
         shown = result.history or (result.first_history if args.no_refine else None)
         states = result.states or result.first_states
         failed = getattr(result, "failed", [])
+        if result.history is None and not args.no_refine and result.session is not None:
+            failed = sorted({st.maxstep for st in result.session.stats})   # none of them has a safe plan
         if args.json:
             docs.append(_result_json(task, label, result))
         else:

@@ -162,4 +162,5 @@ def test_horizon_bound(capsys):
     out, err = capsys.readouterr()
     assert code == 4
     assert "no collision-free plan: no plan with maxstep 0..8 (--max-horizon)" in err
-    assert out == ""          # no unsafe plan presented as the result
+    # no unsafe plan presented as the result: no solution at any horizon tried
+    assert [x for x in out.splitlines() if x] == [f"No solution with maxstep {m}." for m in range(9)]
