@@ -272,6 +272,15 @@ class BrickEmulator:
     def next_output_ms(self) -> float | None:
         return self._outbound[0][0] if self._outbound else None
 
+    def next_event_ms(self) -> float | None:
+        """When something next happens on the link: a command processed or a frame out."""
+        times = []
+        if self._inbound:
+            times.append(max(self._inbound[0][0], self._busy_until_ms))
+        if self._outbound:
+            times.append(self._outbound[0][0])
+        return min(times) if times else None
+
     def take_output(self, up_to_ms: float) -> list[bytes]:
         """Frames (prefix included, possibly damaged) delivered by ``up_to_ms``."""
         out = []

@@ -67,6 +67,10 @@ class SerialTransport:
                                        write_timeout=self._write_timeout_s)
         except (serial.SerialException, OSError, ValueError) as exc:
             raise PortOpenError(f"cannot open {self.name}: {_reason(exc)}") from None
+        try:
+            self._port.reset_input_buffer()  # nothing stale from an earlier connection
+        except (serial.SerialException, OSError):
+            pass
         self._decoder.reset()
         self._ready.clear()
         log.info("opened %s", self.name)
