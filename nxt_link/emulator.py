@@ -26,7 +26,7 @@ random generator:
   left intact on purpose: the NXT protocol has no checksum, so a flipped
   opcode could turn a MESSAGEREAD into a STOPPROGRAM — no client can defend
   against that, and real RFCOMM links do not corrupt bytes that way. Message
-  payloads are exactly what the streaming protocol's Fletcher-16 protects;
+  payloads are exactly what the streaming protocol's CRC-16 protects;
 * ``delay_ms``: added to every frame's one-way delay, in both directions;
 * ``disconnect_after``: after that many frames received the link drops once,
   losing whatever was in flight; the host reconnects it (a new pty behind the

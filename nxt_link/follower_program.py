@@ -30,6 +30,7 @@ from nxt_link.stream_protocol import (
     Code,
     Kind,
     State,
+    crc16,
 )
 
 __all__ = ["FollowerProgram", "MAX_BATCH"]
@@ -65,8 +66,7 @@ class FollowerProgram:
         self.max_deg = [0] * MAX_PORTS
         self.rows_stored = 0
         self.logged = 0
-        self.ck1 = 0
-        self.ck2 = 0
+        self.ck = 0xFFFF
         self.t0 = 0
         self.max_err = 0
         self.go_delay = 0
@@ -125,25 +125,18 @@ class FollowerProgram:
         self.out[i + 1] = _div(v, 256) & 0xFF
 
     @staticmethod
-    def fletcher(b: bytes | bytearray, n: int) -> int:
-        s1 = s2 = 0
-        for i in range(n):
-            s1 = (s1 + b[i]) % 255
-            s2 = (s2 + s1) % 255
-        return s1 + s2 * 256
+    def crc16(b: bytes | bytearray, n: int) -> int:
+        return crc16(bytes(b[:n]))
 
     def checksum_add(self, v: int) -> None:
-        lo = v & 0xFF
-        hi = ((v + 65536) // 256) & 0xFF if v < 0 else (v // 256) & 0xFF
-        self.ck1 = (self.ck1 + lo) % 255
-        self.ck2 = (self.ck2 + self.ck1) % 255
-        self.ck1 = (self.ck1 + hi) % 255
-        self.ck2 = (self.ck2 + self.ck1) % 255
+        if v < 0:
+            v += 65536
+        self.ck = crc16(bytes((v & 0xFF, (v // 256) & 0xFF)), self.ck)
 
     # -- responses ------------------------------------------------------------------
 
     def send_out(self, n: int) -> None:
-        c = self.fletcher(self.out, n)
+        c = self.crc16(self.out, n)
         self.wr_16(n, c)
         assert self._host is not None
         self._host.send_response_string(RESPONSE_QUEUE, bytes(self.out))
@@ -162,7 +155,7 @@ class FollowerProgram:
         self.wr_16(9, self.rows_stored)
         self.wr_16(11, self.logged)
         self.wr_16(13, value)
-        self.wr_16(15, self.ck1 + self.ck2 * 256)
+        self.wr_16(15, self.ck)
         self.send_out(17)
 
     def send_welcome(self, code: int) -> None:
@@ -271,8 +264,7 @@ class FollowerProgram:
         self.meas = [0] * nvalues
         self.rows_stored = 0
         self.logged = 0
-        self.ck1 = 0
-        self.ck2 = 0
+        self.ck = 0xFFFF
         self.state = State.LOADING
         return Code.OK
 
@@ -352,7 +344,7 @@ class FollowerProgram:
             self.bad_messages += 1
             return
         n = length - 2
-        if self.fletcher(self.msg, n) != self.rd_u16(n):
+        if self.crc16(self.msg, n) != self.rd_u16(n):
             self.bad_messages += 1
             log.debug("brick program: message failed its check")
             return
@@ -373,8 +365,7 @@ class FollowerProgram:
                 self.nrows = 0
                 self.rows_stored = 0
                 self.logged = 0
-                self.ck1 = 0
-                self.ck2 = 0
+                self.ck = 0xFFFF
                 self.max_err = 0
             self.send_welcome(Code.OK)
             return

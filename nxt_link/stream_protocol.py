@@ -6,8 +6,10 @@ lost or damaged; the link can drop. So every message of this protocol:
 
 * carries a **session** id (16 bits, chosen by the PC at HELLO) and a
   **sequence number** (16 bits);
-* ends with a **Fletcher-16** check over all preceding bytes; the brick
-  silently ignores a message that fails it (the PC then retransmits);
+* ends with a **CRC-16/CCITT** (polynomial 0x1021, initial value 0xFFFF)
+  over all preceding bytes, which catches every single-byte error and every
+  burst up to 16 bits; the brick silently ignores a message that fails it
+  (the PC then retransmits);
 * is answered by exactly one response in the brick's response mailbox
   (NXC ``SendResponseString(RESPONSE_QUEUE, ...)`` = mailbox 11), which echoes
   the session and sequence number, so the PC matches responses to requests and
@@ -56,7 +58,7 @@ __all__ = [
     "Kind",
     "State",
     "Code",
-    "fletcher16",
+    "crc16",
     "Hello",
     "Config",
     "Setpoints",
@@ -150,31 +152,40 @@ class Code(enum.IntEnum):
     BAD_VERSION = 9  # HELLO with a protocol version the program does not speak
 
 
-def fletcher16(data: bytes | bytearray | memoryview) -> int:
-    """Fletcher-16 (sums modulo 255); the NXC program computes the same.
+def _crc_table() -> tuple[int, ...]:
+    table = []
+    for i in range(256):
+        c = i << 8
+        for _ in range(8):
+            c = ((c << 1) ^ 0x1021) & 0xFFFF if c & 0x8000 else (c << 1) & 0xFFFF
+        table.append(c)
+    return tuple(table)
 
-    >>> hex(fletcher16(b"abcde"))
-    '0xc8f0'
+
+_CRC_TABLE = _crc_table()
+
+
+def crc16(data: bytes | bytearray | memoryview, crc: int = 0xFFFF) -> int:
+    """CRC-16/CCITT-FALSE; the NXC program computes the same with the same table.
+
+    >>> hex(crc16(b"123456789"))
+    '0x29b1'
     """
-    s1 = s2 = 0
     for b in data:
-        s1 = (s1 + b) % 255
-        s2 = (s2 + s1) % 255
-    return s1 | (s2 << 8)
+        crc = ((crc << 8) & 0xFFFF) ^ _CRC_TABLE[((crc >> 8) ^ b) & 0xFF]
+    return crc
 
 
 def setpoint_checksum(values: Iterable[int]) -> int:
-    """Fletcher-16 over the little-endian int16 bytes of ``values`` in order.
+    """CRC-16 over the little-endian int16 bytes of ``values`` in order.
 
     The brick keeps the same running checksum over what it stored, so the PC can
     verify that the brick holds exactly the setpoints sent, in order.
     """
-    s1 = s2 = 0
+    crc = 0xFFFF
     for v in values:
-        for b in ((v & 0xFF), ((v >> 8) & 0xFF)):
-            s1 = (s1 + b) % 255
-            s2 = (s2 + s1) % 255
-    return s1 | (s2 << 8)
+        crc = crc16(bytes((v & 0xFF, (v >> 8) & 0xFF)), crc)
+    return crc
 
 
 # ---------------------------------------------------------------------------
@@ -272,14 +283,14 @@ SEQUENCED_KINDS = frozenset({Kind.CONFIG, Kind.SETPOINTS, Kind.PREPARE, Kind.GO}
 def _seal(body: bytes) -> bytes:
     if len(body) + _CHECK > MAX_MESSAGE:
         raise TelegramError(f"message of {len(body) + _CHECK} bytes exceeds {MAX_MESSAGE}")
-    return body + struct.pack("<H", fletcher16(body))
+    return body + struct.pack("<H", crc16(body))
 
 
 def _open(message: bytes) -> bytes:
     if len(message) < _CHECK + 1:
         raise TelegramError("message too short")
     body, check = message[:-_CHECK], struct.unpack("<H", message[-_CHECK:])[0]
-    if fletcher16(body) != check:
+    if crc16(body) != check:
         raise TelegramError("message check failed")
     return body
 
