@@ -46,6 +46,7 @@ from nxt_link.errors import (
     ProtocolError,
     TelegramError,
     UnknownCommandError,
+    UnknownStatusError,
 )
 from nxt_link.transport import Transport
 
@@ -53,9 +54,10 @@ __all__ = ["Brick", "RetryPolicy", "LinkEvent"]
 
 log = logging.getLogger(__name__)
 
-# statuses a correct request cannot get: seen only when the request was damaged
+# statuses a correct request cannot get: seen only when the request or the reply
+# was damaged (an undocumented status byte is a damaged reply)
 _DAMAGE_STATUSES = (UnknownCommandError, BadPacketError, IllegalValueError, InvalidQueueError,
-                    InvalidPortError, InvalidSizeError, BadArgumentsError)
+                    InvalidPortError, InvalidSizeError, BadArgumentsError, UnknownStatusError)
 
 
 @dataclass(frozen=True, slots=True)

@@ -180,17 +180,20 @@ class BrickSession:
             self.logged = resp.logged
         return resp
 
+    def _check_program(self) -> None:
+        try:
+            self.brick.get_current_program_name()
+        except NoActiveProgramError:
+            raise StreamError(f"brick {self.name}: the program {sp.PROGRAM_NAME} is no longer "
+                              "running") from None
+
     def _new_id(self) -> int:
         self._next_id = _QUERY_ID0 + ((self._next_id - _QUERY_ID0 + 1) % 0x7FFF)
         return self._next_id
 
     def _silent(self, since: float) -> None:
         if self.clock.now() - since > self.timing.max_silent_s:
-            try:
-                self.brick.get_current_program_name()
-            except NoActiveProgramError:
-                raise StreamError(f"brick {self.name}: the program {sp.PROGRAM_NAME} is no "
-                                  "longer running") from None
+            self._check_program()
             raise LinkTimeoutError(f"brick {self.name}: no answer from the brick program for "
                                    f"{self.timing.max_silent_s:g} s")
 
@@ -198,8 +201,10 @@ class BrickSession:
                               accept: Callable[[sp.Response], bool]) -> sp.Response:
         """Send an unsequenced request until a matching response arrives."""
         start = self.clock.now()
+        ids: set[int] = set()  # a late answer to an earlier copy is as good
         while True:
             rid = self._new_id()
+            ids.add(rid)
             self._post(make(rid))
             deadline = Deadline(self.clock, self.timing.ack_timeout_s)
             while not deadline.expired():
@@ -207,7 +212,7 @@ class BrickSession:
                 if resp is None:
                     self.clock.sleep(self.timing.poll_gap_s)
                     continue
-                if resp.seq == rid and accept(resp):
+                if resp.seq in ids and accept(resp):
                     return resp
             self.retransmissions += 1
             self._silent(start)
@@ -216,10 +221,7 @@ class BrickSession:
 
     def ensure_program(self, replace: bool = False) -> None:
         """Make sure the brick program runs; start it when nothing runs."""
-        try:
-            running = self.brick.get_current_program_name()
-        except NoActiveProgramError:
-            running = None
+        running = self._running_program()
         if running == sp.PROGRAM_NAME:
             return
         if running is not None:
@@ -246,6 +248,20 @@ class BrickSession:
                 raise StreamError(f"brick {self.name}: {sp.PROGRAM_NAME} did not start within "
                                   f"{self.timing.program_start_timeout_s:g} s")
             self.clock.sleep(0.1)
+
+    def _running_program(self) -> str | None:
+        """The running program's name, or None; asked until two answers agree, since
+        a direct-command reply has no checksum and a damaged name must not be trusted."""
+        answers: list[str | None] = []
+        for _ in range(5):
+            try:
+                name: str | None = self.brick.get_current_program_name()
+            except NoActiveProgramError:
+                name = None
+            if name == sp.PROGRAM_NAME or name in answers:
+                return name
+            answers.append(name)
+        return answers[-1]
 
     def open(self, *, start_program: bool = True, replace_program: bool = False) -> sp.Welcome:
         """Ensure the program runs, then HELLO until WELCOME. Returns the WELCOME."""
@@ -467,33 +483,41 @@ class BrickSession:
         per = sp.rows_per_log_message(len(self.ports))
         chunks = [(f, min(per, n - f)) for f in range(0, n, per)]
         missing = [c for c in chunks if not all(r in self._log_rows for r in range(c[0], c[0] + c[1]))]
-        outstanding: dict[int, tuple[int, float]] = {}  # request id -> (first_row, sent at)
+        outstanding: dict[int, float] = {}  # first_row of a requested chunk -> sent at
+        ids: set[int] = set()
         progress_at = self.clock.now()
+        k = len(self.ports)
         while missing or outstanding:
             now = self.clock.now()
             while missing and len(outstanding) < WINDOW:
                 first, count = missing.pop(0)
                 rid = self._new_id()
+                ids.add(rid)
                 self._post(sp.LogRead(self.session, rid, first, count))
-                outstanding[rid] = (first, now)
+                outstanding[first] = now
             resp = self._poll()
-            if isinstance(resp, sp.LogData) and resp.seq in outstanding:
-                first, _ = outstanding.pop(resp.seq)
-                k = len(self.ports)
-                for i in range(len(resp.values) // k):
+            if isinstance(resp, sp.LogData) and resp.seq in ids:
+                # self-describing: a late answer to an earlier request is as good
+                rows = len(resp.values) // k
+                before = len(self._log_rows)
+                for i in range(rows):
                     self._log_rows[resp.first_row + i] = resp.values[i * k:(i + 1) * k]
-                progress_at = now
+                if len(self._log_rows) > before:
+                    progress_at = now
+                outstanding.pop(resp.first_row, None)
+                missing = [c for c in missing if not all(
+                    r in self._log_rows for r in range(c[0], c[0] + c[1]))]
                 if progress is not None:
                     progress(len(self._log_rows), n)
                 continue
-            if isinstance(resp, sp.Ack) and resp.seq in outstanding:
+            if isinstance(resp, sp.Ack) and resp.seq in ids and resp.code != Code.OK:
                 raise StreamError(f"brick {self.name} refused LOGREAD: "
                                   f"{Code(resp.code).name.lower().replace('_', ' ')} "
                                   f"(it logged {resp.logged} of {n} rows)")
             if resp is None:
-                for rid, (first, sent) in list(outstanding.items()):
+                for first, sent in list(outstanding.items()):
                     if now - sent > self.timing.ack_timeout_s:
-                        del outstanding[rid]
+                        del outstanding[first]
                         missing.insert(0, next(c for c in chunks if c[0] == first))
                         self.retransmissions += 1
                 self._silent(progress_at)

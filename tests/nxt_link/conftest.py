@@ -69,3 +69,8 @@ def wave_rows(n: int, amplitudes: tuple[int, ...], period_ticks: float = 40.0
     return tuple(tuple(int(round(a * math.sin(2 * math.pi * k / (period_ticks * (1 + 0.5 * j)))))
                        for j, a in enumerate(amplitudes))
                  for k in range(n))
+
+
+@pytest.fixture
+def wave():
+    return wave_rows
