@@ -45,19 +45,24 @@ DEFAULT_MAX_HORIZON = 40
 
 
 class TaskError(CPlusError):
-    """A scene and a domain that do not fit together, or a failed trajectory step."""
+    """A scene and a domain that do not fit together, or a failed trajectory step.
 
-    def __init__(self, message: str, loc=None, text: str | None = None) -> None:
-        super().__init__(message, loc if isinstance(loc, Location) else None)
-        self._text = text
+    ``where`` is ``file:line:col`` in the scene (or domain) file, when known."""
+
+    def __init__(self, message: str, where: object | None = None) -> None:
+        super().__init__(message)
+        self.where = None if where is None else str(where)
 
     def render(self) -> str:
-        return self._text if self._text is not None else super().render()
+        return f"{self.where}: error: {self.message}" if self.where else f"error: {self.message}"
+
+    def __str__(self) -> str:
+        return self.render()
 
 
 def _from_trajectory_error(exc) -> TaskError:
-    """Wrap a :class:`trajectory.TrajectoryError` (its ``str`` is already located)."""
-    return TaskError(exc.message, None, str(exc))
+    """Wrap a :class:`trajectory.TrajectoryError` (it carries its own location)."""
+    return TaskError(exc.message, exc.location)
 
 
 @dataclass
@@ -99,12 +104,11 @@ class RobotTask:
             gc = by_text.get(binding.fluent)
             if gc is None or not gc.decl.is_fluent:
                 what = "an unknown fluent" if gc is None else f"a {gc.decl.kind}, not a fluent"
-                raise TaskError(binding.fluent, None,
-                                f"{binding.location}: error: binding names {what} '{binding.fluent}' "
-                                f"(not a ground fluent of {domain.path})")
+                raise TaskError(f"binding names {what} '{binding.fluent}' (not a ground fluent of "
+                                f"{domain.path})", binding.location)
             if not all(isinstance(v, int) for v in gc.domain):
-                raise TaskError("", None, f"{binding.location}: error: '{binding.fluent}' has non-integer "
-                                          "values; a coordinate binding needs an integer fluent")
+                raise TaskError(f"'{binding.fluent}' has non-integer values; a coordinate binding needs an "
+                                "integer fluent", binding.location)
             return gc
 
         robots = {r.name: (fluent(r.x), fluent(r.y)) for r in scene.robots}
@@ -112,14 +116,14 @@ class RobotTask:
         hb = scene.payload.holds
         decl = sig.lookup(hb.fluent, 2)
         if decl is None or not decl.is_fluent or decl.domain != NamedSort("boolean"):
-            raise TaskError("", None, f"{hb.location}: error: 'holds' names '{hb.fluent}', which must be a "
-                                      "Boolean fluent holds(Robot,End) of the domain")
+            raise TaskError(f"'holds' names '{hb.fluent}', which must be a Boolean fluent holds(Robot,End) "
+                            "of the domain", hb.location)
         holds = {}
         for r in robots:
             for e in ends:
                 gc = decl.instances.get((r, e))
                 if gc is None:
-                    raise TaskError("", None, f"{hb.location}: error: the domain has no '{hb.fluent}({r},{e})'")
+                    raise TaskError(f"the domain has no '{hb.fluent}({r},{e})'", hb.location)
                 holds[(r, e)] = gc
         return cls(domain, scene, robots, ends, holds)
 
