@@ -101,7 +101,8 @@ class Brick:
         name: used in messages and events (e.g. the robot name "r1").
         policy: timeouts and retries.
         on_event: called with a :class:`LinkEvent` for every retry, damaged
-            frame, reconnect; default: logged at INFO.
+            frame, reconnect (also settable later as the ``on_event`` attribute);
+            events are logged at INFO in any case.
     """
 
     def __init__(self, transport: Transport, *, name: str | None = None,
@@ -110,7 +111,7 @@ class Brick:
         self.transport = transport
         self.name = name or transport.name
         self.policy = policy or RetryPolicy()
-        self._on_event = on_event
+        self.on_event = on_event
         self._lock = threading.Lock()
         self.clock = transport.clock
 
@@ -128,8 +129,8 @@ class Brick:
     def _event(self, event: str, detail: str = "") -> None:
         ev = LinkEvent(self.clock.now(), self.name, event, detail)
         log.info("%s: %s %s", self.name, event, detail)
-        if self._on_event is not None:
-            self._on_event(ev)
+        if self.on_event is not None:
+            self.on_event(ev)
 
     def reconnect(self) -> None:
         """Reopen the link now (raises LinkDisconnectedError if it stays down)."""

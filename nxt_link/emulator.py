@@ -38,7 +38,7 @@ from __future__ import annotations
 import logging
 import random
 from collections import deque
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 from nxt_link.firmware import Firmware, FirmwareParams
 from nxt_link.follower_program import FollowerProgram
@@ -150,7 +150,7 @@ class BrickEmulator:
         self.config = config or EmulatorConfig()
         fw_params = self.config.firmware
         if fw_params.name != self.config.name:
-            fw_params = FirmwareParams(**{**_asdict(fw_params), "name": self.config.name[:14]})
+            fw_params = replace(fw_params, name=self.config.name[:14])
         self.firmware = Firmware(fw_params, self.config.motors,
                                  programs={PROGRAM_NAME: FollowerProgram})
         if self.config.program_running:
@@ -316,6 +316,3 @@ class BrickEmulator:
         p = self.firmware.program
         return p if isinstance(p, FollowerProgram) else None
 
-
-def _asdict(params: FirmwareParams) -> dict[str, object]:
-    return {name: getattr(params, name) for name in params.__dataclass_fields__}

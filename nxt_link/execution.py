@@ -227,8 +227,7 @@ def execute_streams(streams: Sequence[SetpointStream], bricks: Mapping[str, Bric
     sessions: dict[str, BrickSession] = {}
     for s in streams:
         b = bricks[s.brick]
-        previous_hook = b._on_event
-        b._on_event = _chain(previous_hook, link_event)
+        b.on_event = _chain(b.on_event, link_event)
         sessions[s.brick] = BrickSession(
             b, s.ports, s.tick_ms, s.rows, s.limits, opts.controller, opts.timing,
             on_event=note(s.brick),
@@ -274,7 +273,7 @@ def execute_streams(streams: Sequence[SetpointStream], bricks: Mapping[str, Bric
         raise
     finally:
         for s in streams:
-            bricks[s.brick]._on_event = _unchain(bricks[s.brick]._on_event)
+            bricks[s.brick].on_event = _unchain(bricks[s.brick].on_event)
     for s in streams:
         report(s.brick, "done", 1, 1)
     return ExecutionLog(
