@@ -163,3 +163,12 @@ def test_log_read_back_resumes_where_it_stopped(rig, wave):
     measured = s.read_log(lambda done, total: seen.append(done))
     assert seen[0] > 46  # resumed: the rows already received were not fetched again
     assert list(measured) == rig.emulators["r1"].program.measured_rows()
+
+
+def test_program_not_running_is_a_clear_error_when_not_started_for_us(rig):
+    rig.add("r1", program_running=False)
+    options = ExecutionOptions(timing=TIMING, start_program=False)
+    with pytest.raises(errors.StreamError) as info:
+        execute_streams([SetpointStream("r1", ("A",), 50, ((0,),))], rig.bricks, options=options)
+    assert str(info.value) == ("brick r1: no program is running (start cplus_follow.rxe on the "
+                               "brick)")
