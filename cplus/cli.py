@@ -53,13 +53,18 @@ def _parser() -> argparse.ArgumentParser:
                     help="a Python file whose functions are external predicates/functions")
     gr.set_defaults(func=_cmd_ground)
 
-    rn = sub.add_parser("run", help="the whole payload job: plan, refine, trajectory, execute, plot")
-    rn.add_argument("file", nargs="?", default=None)
+    rn = sub.add_parser("run", help="the whole robot job: plan, refine, trajectory, execute, plot")
+    rn.add_argument("file", help="a robot task: a C+ domain with a scene.toml beside it (or --scene)")
+    rn.add_argument("--query", "-q", metavar="LABEL", default="0", help="the query to plan (default 0)")
+    rn.add_argument("--scene", metavar="FILE", help="scene file (default: scene.toml beside the domain)")
     rn.add_argument("--brick", action="append", default=[], metavar="NAME=PORT",
-                    help="a brick's serial port (default: emulated bricks)")
-    rn.add_argument("--out", default="out", metavar="DIR", help="where to write plan, trajectory, log, plots")
+                    help="a robot's brick port, e.g. r1=/dev/rfcomm0 (default: emulated bricks)")
+    rn.add_argument("--out", default="out", metavar="DIR",
+                    help="where to write the plan, trajectory, execution log and pictures (default out/)")
+    rn.add_argument("--max-iterations", type=_nonneg, default=100, metavar="N")
+    rn.add_argument("--points-per-step", type=_nonneg, default=10, metavar="K")
+    rn.add_argument("--step-time", type=float, default=1.0, metavar="SECONDS")
     _common(rn)
-    _payload_options(rn)
     rn.set_defaults(func=_cmd_run)
     return p
 

@@ -441,10 +441,50 @@ def _result_json(task: RobotTask, label: str, result: RefinementResult) -> dict:
 
 
 def run_command(args: argparse.Namespace) -> int:
-    """``cplus run``: plan, refine, export, execute on bricks (emulated when no port is
-    given), compare and plot."""
-    from cplus.cli import EXIT_INPUT
-    path = args.file or os.path.join(os.path.dirname(__file__), os.pardir, "domains", "payload", "payload.cp")
-    print("cplus run: the execution stage is not available in this build", file=sys.stderr)
-    return EXIT_INPUT
-
+    """``cplus run``: plan and refine, export the trajectory, execute it on the bricks (emulated
+    ones on pseudo-terminals when no ``--brick`` is given), report the tracking error and draw
+    the plan and the execution.  Every product goes to ``--out``."""
+    from cplus.cli import EXIT_NO_PLAN, EXIT_NO_SAFE_PLAN, EXIT_OK, _progress, _warn
+    from cplus.execute import execute_main
+    from cplus.output import PLAN_FORMAT, format_result
+    scene_path = args.scene or os.path.join(os.path.dirname(os.path.abspath(args.file)), "scene.toml")
+    if not os.path.isfile(scene_path):
+        raise TaskError(f"no scene: '{scene_path}' does not exist (give --scene FILE)")
+    out = args.out
+    os.makedirs(out, exist_ok=True)
+    paths = {k: os.path.join(out, name) for k, name in (
+        ("plan", "plan.txt"), ("json", "plan.json"), ("picture", "plan.png"), ("trajectory", "trajectory.json"),
+        ("csv", "trajectory.csv"), ("log", "execution.json"), ("execution", "execution.png"),
+        ("report", "report.txt"))}
+    seen: set = set()
+    task = RobotTask.load(args.file, scene_path, args.extern)
+    _warn(task.domain.diagnostics, seen)  # type: ignore[attr-defined]
+    from cplus.cli import _query
+    _query(task.domain, args.query, args.file)
+    print(f"% planning {args.file} (query {args.query}) with the scene {scene_path}", file=sys.stderr)
+    result = refine(task, args.query, args.max_iterations, args.max_horizon, args.solver,
+                    on_iteration=lambda it: print(it.text(), file=sys.stderr), on_horizon=_progress(False))
+    if result.history is None:
+        print(f"% {result.reason}", file=sys.stderr)
+        return EXIT_NO_SAFE_PLAN if result.first_history is not None else EXIT_NO_PLAN
+    text = format_result(Display(task.domain.program), [], [result.history], False)  # type: ignore
+    sys.stdout.write(text)
+    with open(paths["plan"], "w", encoding="utf-8") as fh:
+        fh.write(text)
+    with open(paths["json"], "w", encoding="utf-8") as fh:
+        json.dump({"format": PLAN_FORMAT, "file": args.file,
+                   "results": [_result_json(task, args.query, result)]}, fh, indent=1)
+    export = argparse.Namespace(plot=paths["picture"], trajectory=paths["trajectory"], csv=paths["csv"],
+                                points_per_step=args.points_per_step, step_time=args.step_time)
+    _export(task, result.states, None, export, args.file)
+    print(f"% executing {paths['trajectory']} on "
+          + ("the bricks " + ", ".join(args.brick) if args.brick else "emulated bricks"), file=sys.stderr)
+    argv = [paths["trajectory"], "--scene", scene_path, "--log", paths["log"], "--plot", paths["execution"],
+            "--report", paths["report"]]
+    for b in args.brick:
+        argv += ["--brick", b]
+    code = execute_main(argv)
+    if code == EXIT_OK and os.path.isfile(paths["report"]):
+        with open(paths["report"], encoding="utf-8") as fh:
+            sys.stdout.write("\n" + fh.read())
+    return code

@@ -164,3 +164,30 @@ def test_horizon_bound(capsys):
     assert "no collision-free plan: no plan with maxstep 0..8 (--max-horizon)" in err
     # no unsafe plan presented as the result: no solution at any horizon tried
     assert [x for x in out.splitlines() if x] == [f"No solution with maxstep {m}." for m in range(9)]
+
+
+def test_cplus_run_the_whole_job_on_emulated_bricks(tmp_path, capsys):
+    """Plan, refine, trajectory, execution on two emulated bricks (through their ptys),
+    tracking report and pictures, all from one command."""
+    out = tmp_path / "out"
+    code = main(["run", str(DOMAIN), "--out", str(out), "--step-time", "0.5", "--points-per-step", "5"])
+    stdout, err = capsys.readouterr()
+    assert code == 0, err
+    assert "ACTIONS:" in stdout and "tracking error" in stdout
+    for name in ("plan.txt", "plan.json", "plan.png", "trajectory.json", "trajectory.csv",
+                 "execution.json", "execution.png", "report.txt"):
+        assert (out / name).stat().st_size > 0, name
+    log = json.loads((out / "execution.json").read_text())
+    assert log["format"] == "cplus.execlog/1"
+    report = (out / "report.txt").read_text()
+    rows = [line.split() for line in report.splitlines() if line.strip().startswith(("r1 ", "r2 "))]
+    grid_errors = [float(r[1]) for r in rows if len(r) >= 3 and r[0] in ("r1", "r2") and "mm)" in " ".join(r)]
+    assert grid_errors and max(grid_errors) < 0.5   # the arms follow the plan within half a cell
+
+
+def test_cplus_run_needs_a_scene(tmp_path, capsys):
+    lone = tmp_path / "lone.cp"
+    lone.write_text(":- constants p :: inertialFluent. :- query maxstep :: 0.")
+    code = main(["run", str(lone), "--out", str(tmp_path / "o")])
+    _, err = capsys.readouterr()
+    assert code == 2 and "no scene" in err
