@@ -19,7 +19,7 @@ from cplus.ground.pf import PF, mk_and, mk_or, neg
 __all__ = ["ClauseBuilder", "simplify_units"]
 
 _PAIRWISE_MAX = 6
-_UNIT_PASSES = 3
+_UNIT_PASSES = 100
 
 
 class ClauseBuilder:
@@ -153,12 +153,14 @@ class ClauseBuilder:
             prev = y
 
 
-def simplify_units(clauses: list[list[int]]) -> list[list[int]]:
-    """Unit propagation: drop satisfied clauses and false literals, keep every unit found.
+def simplify_units(clauses: list[list[int]], keep: int | None = None) -> list[list[int]]:
+    """Unit propagation: drop satisfied clauses and false literals, keep the units found.
 
-    The result is equivalent to the input (same models over the same variables), usually much
-    smaller: a law like ``nonexecutable cross(S,W) where S+W > 4`` makes most of an action's
-    ground instances false, and every rule and constraint about them disappears.
+    The result is equivalent to the input, usually much smaller: a law like
+    ``nonexecutable cross(S,W) where S+W > 4`` makes most of an action's ground instances
+    false, and every rule and constraint about them disappears.  With ``keep``, units on
+    variables above ``keep`` (auxiliary variables, which nothing else mentions once the
+    propagation is complete) are dropped too, and their variables with them.
     """
     value: dict[int, bool] = {}
     for c in clauses:
@@ -170,7 +172,8 @@ def simplify_units(clauses: list[list[int]]) -> list[list[int]]:
     if not value:
         return clauses
     current = [c for c in clauses if len(c) > 1]
-    for _ in range(_UNIT_PASSES):   # long chains of units are rare; a few passes get most
+    complete = False
+    for _ in range(_UNIT_PASSES):
         found = False
         rest: list[list[int]] = []
         for c in current:
@@ -194,9 +197,12 @@ def simplify_units(clauses: list[list[int]]) -> list[list[int]]:
                 continue
             rest.append(kept if len(kept) < len(c) else c)
         current = rest
-        if not found:
+        if not found:          # a whole pass without news: no clause mentions an assigned variable
+            complete = True
             break
-    return [[v if b else -v] for v, b in value.items()] + current
+    limit = keep if (keep is not None and complete) else None
+    units = [[v if b else -v] for v, b in value.items() if limit is None or v <= limit]
+    return units + current
 
 
 def _without(body: PF, head: int) -> PF | None:

@@ -124,7 +124,16 @@ class _Builder:
         return self.top
 
     def done(self) -> Template:
-        return Template(simplify_units(self.cb.clauses), self.top, self.name)
+        """The simplified clauses, with the auxiliary variables that survived renumbered
+        densely (every instance of the template allocates that many solver variables)."""
+        base = self.layout.base_top
+        clauses = simplify_units(self.cb.clauses, keep=base)
+        used = sorted({abs(x) for c in clauses for x in c if abs(x) > base})
+        renumber = {v: base + i for i, v in enumerate(used, start=1)}
+        if len(used) < self.top - base:
+            clauses = [[x if abs(x) <= base else (renumber[x] if x > 0 else -renumber[-x]) for x in c]
+                       for c in clauses]
+        return Template(clauses, base + len(used), self.name)
 
 
 def _heads(theory: GroundTheory, layout: Layout, rules: list[tuple[int, PF]], shift: bool = False) -> dict:
