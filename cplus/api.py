@@ -22,7 +22,6 @@ ACTIONS:  flip
 """
 from __future__ import annotations
 
-import time
 from typing import Callable, Iterator
 
 from cplus.errors import Diagnostics, QueryError
@@ -45,15 +44,11 @@ class Domain:
         self.program = program
         self.path = path
         self._theory: GroundTheory | None = None
-        self.load_s = 0.0
 
     @classmethod
     def load(cls, path: str, externals: Externals | None = None) -> "Domain":
         """Read a C+ file (and its includes); raises :class:`~cplus.errors.CPlusError`."""
-        t0 = time.perf_counter()
-        d = cls(load_program(path, externals), path)
-        d.load_s = time.perf_counter() - t0
-        return d
+        return cls(load_program(path, externals), path)
 
     @classmethod
     def from_text(cls, text: str, name: str = "<input>", externals: Externals | None = None) -> "Domain":

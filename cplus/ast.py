@@ -90,7 +90,6 @@ Expr = Union[Num, Name, Param, MaxStep, Unary, Binary, Quant, Stamp, Range]
 
 ARITH_OPS = frozenset({"+", "-", "*", "//", "mod"})
 COMPARE_OPS = frozenset({"=", "\\=", "==", "<", ">", "=<", ">=", "@<", "@>", "@=<", "@>="})
-CONNECTIVES = frozenset({"&", ",", "&&", "++", "||", "->>", "<->>"})
 
 # ----------------------------------------------------------------------- sorts
 
@@ -206,7 +205,6 @@ class QueryMaxstep(NamedTuple):
     loc: Location
     lo: Expr
     hi: Expr | None
-    exact: bool
 
 
 class QueryItem(NamedTuple):

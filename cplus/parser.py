@@ -383,17 +383,17 @@ class _Builder(Transformer):
         return ast.QueryLabel(self._loc(meta), str(ch[0]))
 
     def q_maxstep(self, meta, ch):
-        kind, lo, hi = ch[0]
-        return ast.QueryMaxstep(self._loc(meta), lo, hi, kind == "exact")
+        lo, hi = ch[0]
+        return ast.QueryMaxstep(self._loc(meta), lo, hi)
 
     def ms_exact(self, meta, ch):
-        return ("exact", ch[0], ch[0])
+        return (ch[0], ch[0])
 
     def ms_range(self, meta, ch):
-        return ("range", ch[0], ch[1])
+        return (ch[0], ch[1])
 
     def ms_open(self, meta, ch):
-        return ("open", ch[0], None)
+        return (ch[0], None)
 
     def q_formula(self, meta, ch):
         return ast.QueryItem(self._loc(meta), ch[0])

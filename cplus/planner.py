@@ -46,7 +46,7 @@ class QueryResult:
 
 def states_query() -> QuerySpec:
     """CCALC's ``sat``: every state of the domain (maxstep 0, no conditions)."""
-    return QuerySpec("states", 0, 0, (), None, True)
+    return QuerySpec("states", 0, 0, (), None)
 
 
 def run_query(theory: GroundTheory, query: QuerySpec, solutions: int = 1, solver: str = DEFAULT_SOLVER,

@@ -66,7 +66,6 @@ class QuerySpec:
     hi: int | None
     items: tuple[tuple[ir.Formula, Location], ...]
     loc: Location | None
-    explicit_maxstep: bool = True
 
 
 @dataclass(frozen=True)

@@ -104,7 +104,6 @@ class _Resolver:
         self.included: set[str] = set()
         self.stack: list[str] = []
         self.const_order = 0
-        self.anon = 0
 
     # ------------------------------------------------------------------ driver
     def run(self, main: ast.ParsedFile) -> None:
@@ -372,7 +371,7 @@ class _Resolver:
     # ------------------------------------------------------------------ queries
     def _st_Query(self, stmt: ast.Query) -> None:
         label = "0"
-        lo, hi, explicit = 0, None, False
+        lo, hi = 0, None
         seen_label = seen_max = False
         items: list[tuple[ir.Formula, Location]] = []
         for it in stmt.items:
@@ -383,7 +382,7 @@ class _Resolver:
             elif isinstance(it, ast.QueryMaxstep):
                 if seen_max:
                     raise QueryError("a query has at most one maxstep", it.loc)
-                seen_max, explicit = True, True
+                seen_max = True
                 lo = self._static_int(self._expand(it.lo))
                 hi = None if it.hi is None else self._static_int(self._expand(it.hi))
                 if lo < 0 or (hi is not None and hi < lo):
@@ -395,7 +394,7 @@ class _Resolver:
             self.diag.warn(f"query label '{label}' is used again; the later query replaces the earlier",
                            stmt.loc)
             self.program.queries = [q for q in self.program.queries if q.label != label]
-        self.program.queries.append(QuerySpec(label, lo, hi, tuple(items), stmt.loc, explicit))
+        self.program.queries.append(QuerySpec(label, lo, hi, tuple(items), stmt.loc))
 
     # ------------------------------------------------------------------ macros
     def _expand(self, e: ast.Expr, stack: tuple = ()) -> ast.Expr:

@@ -150,10 +150,6 @@ class ConstDecl:
     def is_action(self) -> bool:
         return self.kind in ACTION_KINDS
 
-    @property
-    def is_rigid(self) -> bool:
-        return self.kind == "rigid"
-
     def __repr__(self) -> str:
         return f"ConstDecl({self.name}/{self.arity}:{self.kind})"
 
@@ -309,9 +305,6 @@ class Signature:
         decl.instances[args] = g
         self.ground.append(g)
         return g
-
-    def instance(self, decl: ConstDecl, args: tuple) -> GroundConst | None:
-        return decl.instances.get(args)
 
     def lookup(self, name: str, arity: int) -> ConstDecl | None:
         return self.constants.get((name, arity))

@@ -116,7 +116,7 @@ class _Grounder:
             else:
                 parts.append(lambda env, _t, fn=fn, slot=slot: fn(env, slot))
 
-    def _variables(self, law_loc: Location, *nodes) -> dict[str, ir.Var]:
+    def _variables(self, *nodes) -> dict[str, ir.Var]:
         out: dict[str, ir.Var] = {}
         for n in nodes:
             if n is not None:
@@ -131,7 +131,7 @@ class _Grounder:
     # ------------------------------------------------------------------ laws
     def _law(self, law: BasicLaw) -> None:
         head_slot = SLOT_NEXT if law.cls == "dynamic" else SLOT_NOW
-        variables = self._variables(law.loc, law.head, law.body, law.after, law.where, law.frame_cst)
+        variables = self._variables(law.head, law.body, law.after, law.where, law.frame_cst)
         filters: list = []
         parts: list = []
         self._split(law.where, head_slot, filters, parts)
@@ -339,7 +339,7 @@ class _Grounder:
                 self.theory.sums.append(AdditiveSum(gc, by_target.get(gc.id, [])))
 
     def _increment(self, inc: IncrementLaw, groups: dict, order: list) -> None:
-        variables = self._variables(inc.loc, inc.action, inc.target, inc.amount, inc.cond, inc.where)
+        variables = self._variables(inc.action, inc.target, inc.amount, inc.cond, inc.where)
         filters: list = []
         parts: list = []
         self._split(inc.where, SLOT_NOW, filters, parts)

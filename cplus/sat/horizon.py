@@ -139,7 +139,6 @@ class QuerySession:
         self.max_horizon = max_horizon
         self.sig = theory.sig
         self.atoms = theory.atoms
-        self._mklit_now = None
         self.ctx = Ctx(self.sig, self.atoms, self._mklit)
         self.items = []
         for formula, loc in query.items:

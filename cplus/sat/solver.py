@@ -16,7 +16,7 @@ from cplus.errors import CPlusError
 __all__ = ["SatSolver", "SOLVERS", "DEFAULT_SOLVER"]
 
 DEFAULT_SOLVER = "glucose4"
-SOLVERS = tuple(sorted(n for n, aliases in vars(SolverNames).items() if not n.startswith("_")))
+SOLVERS = tuple(sorted(n for n in vars(SolverNames) if not n.startswith("_")))
 
 
 # pysat's backends add a clause through two Python layers around one C call; for the
