@@ -12,6 +12,7 @@ of several runs.
 from __future__ import annotations
 
 import argparse
+import gc
 import json
 import os
 import statistics
@@ -29,6 +30,7 @@ def in_process(path: str, label: str, solver: str) -> dict:
     from cplus.load import load_program
     from cplus.ground.theory import ground_program
     from cplus.planner import run_query
+    gc.disable()   # as the command does
     t0 = time.perf_counter()
     prog = load_program(path)
     t1 = time.perf_counter()
@@ -36,6 +38,8 @@ def in_process(path: str, label: str, solver: str) -> dict:
     t2 = time.perf_counter()
     r = run_query(theory, prog.query(label), 1, solver)
     t3 = time.perf_counter()
+    gc.enable()
+    gc.collect()
     return {"load": t1 - t0, "ground": t2 - t1, "templates": r.template_s,
             "encode": sum(s.encode_s for s in r.stats), "solve": sum(s.solve_s for s in r.stats),
             "total": t3 - t0, "length": r.maxstep, "vars": r.stats[-1].variables,
