@@ -206,16 +206,22 @@ class BrickSession:
             rid = self._new_id()
             ids.add(rid)
             self._post(make(rid))
-            deadline = Deadline(self.clock, self.timing.ack_timeout_s)
-            while not deadline.expired():
-                resp = self._poll()
-                if resp is None:
-                    self.clock.sleep(self.timing.poll_gap_s)
-                    continue
-                if resp.seq in ids and accept(resp):
-                    return resp
+            resp = self._await(lambda r: r.seq in ids and accept(r))
+            if resp is not None:
+                return resp
             self.retransmissions += 1
             self._silent(start)
+
+    def _await(self, accept: Callable[[sp.Response], bool]) -> sp.Response | None:
+        """Poll until a response passes ``accept`` or the acknowledgement timeout runs out."""
+        deadline = Deadline(self.clock, self.timing.ack_timeout_s)
+        while not deadline.expired():
+            resp = self._poll()
+            if resp is None:
+                self.clock.sleep(self.timing.poll_gap_s)
+            elif accept(resp):
+                return resp
+        return None
 
     # -- 1. program and handshake --------------------------------------------------------
 
@@ -279,24 +285,18 @@ class BrickSession:
                 if self.clock.now() - start > self.timing.max_silent_s:
                     raise
                 continue
-            deadline = Deadline(self.clock, self.timing.ack_timeout_s)
-            while not deadline.expired():
-                resp = self._poll()
-                if resp is None:
-                    self.clock.sleep(self.timing.poll_gap_s)
-                    continue
-                if isinstance(resp, sp.Welcome):
-                    if resp.code == Code.BAD_VERSION:
-                        raise StreamError(
-                            f"brick {self.name}: its program speaks protocol version "
-                            f"{resp.version}, this client {sp.PROTOCOL_VERSION}")
-                    if resp.state != State.IDLE or resp.expected_seq != 1:
-                        # our random session id is the brick's current one: pick another
-                        self.session = self.session % 0xFFFF + 1
-                        break
+            resp = self._await(lambda r: isinstance(r, sp.Welcome))
+            if isinstance(resp, sp.Welcome):
+                if resp.code == Code.BAD_VERSION:
+                    raise StreamError(
+                        f"brick {self.name}: its program speaks protocol version "
+                        f"{resp.version}, this client {sp.PROTOCOL_VERSION}")
+                if resp.state == State.IDLE and resp.expected_seq == 1:
                     self._event("link ok", f"session {self.session}, program protocol "
                                            f"v{resp.version}")
                     return resp
+                # our random session id is the brick's current one: pick another
+                self.session = self.session % 0xFFFF + 1
             self.retransmissions += 1
             self._silent(start)
 
