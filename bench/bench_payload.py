@@ -23,7 +23,7 @@ SCENE = ROOT / "domains" / "payload" / "scene.toml"
 
 
 def once() -> dict:
-    from cplus.pipeline import RobotTask, refine
+    from cplus.robot import RobotTask, refine
     gc.disable()
     t0 = time.perf_counter()
     task = RobotTask.load(str(DOMAIN), str(SCENE))

@@ -22,13 +22,13 @@ import time
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
-CORPUS = Path(os.environ.get("CPLUS_CORPUS", ROOT.parent / "shared" / "corpus"))
+CORPUS = Path(os.environ.get("CPLUS_CORPUS", ROOT / "tests" / "corpus"))
 SLOW = ("ferryman-30-4",)
 
 
 def in_process(path: str, label: str, solver: str) -> dict:
-    from cplus.load import load_program
     from cplus.ground.theory import ground_program
+    from cplus.load import load_program
     from cplus.planner import run_query
     gc.disable()   # as the command does
     t0 = time.perf_counter()

@@ -22,7 +22,7 @@ ACTIONS:  flip
 """
 from __future__ import annotations
 
-from typing import Callable, Iterator
+from collections.abc import Callable, Iterator
 
 from cplus.errors import Diagnostics, QueryError
 from cplus.ground.theory import GroundTheory, ground_program
@@ -46,12 +46,12 @@ class Domain:
         self._theory: GroundTheory | None = None
 
     @classmethod
-    def load(cls, path: str, externals: Externals | None = None) -> "Domain":
+    def load(cls, path: str, externals: Externals | None = None) -> Domain:
         """Read a C+ file (and its includes); raises :class:`~cplus.errors.CPlusError`."""
         return cls(load_program(path, externals), path)
 
     @classmethod
-    def from_text(cls, text: str, name: str = "<input>", externals: Externals | None = None) -> "Domain":
+    def from_text(cls, text: str, name: str = "<input>", externals: Externals | None = None) -> Domain:
         return cls(load_text(text, name, externals), name)
 
     @property

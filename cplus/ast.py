@@ -7,7 +7,7 @@ hashable, and cheap to define (start-up time counts for a command-line planner).
 """
 from __future__ import annotations
 
-from typing import NamedTuple, Union
+from typing import NamedTuple
 
 from cplus.errors import Location
 
@@ -24,14 +24,14 @@ class Name(NamedTuple):
 
     loc: Location
     name: str
-    args: tuple["Expr", ...] = ()
+    args: tuple[Expr, ...] = ()
 
 
 class Param(NamedTuple):
     """A macro parameter ``#k`` (only inside macro bodies)."""
 
     loc: Location
-    index: int
+    index: int  # type: ignore[assignment]
 
 
 class MaxStep(NamedTuple):
@@ -43,7 +43,7 @@ class Unary(NamedTuple):
 
     loc: Location
     op: str
-    arg: "Expr"
+    arg: Expr
 
 
 class Binary(NamedTuple):
@@ -52,8 +52,8 @@ class Binary(NamedTuple):
 
     loc: Location
     op: str
-    left: "Expr"
-    right: "Expr"
+    left: Expr
+    right: Expr
 
 
 class QuantVar(NamedTuple):
@@ -67,26 +67,26 @@ class Quant(NamedTuple):
 
     loc: Location
     vars: tuple[QuantVar, ...]
-    body: "Expr"
+    body: Expr
 
 
 class Stamp(NamedTuple):
     """``time: body`` (queries only)."""
 
     loc: Location
-    time: "Expr"
-    body: "Expr"
+    time: Expr
+    body: Expr
 
 
 class Range(NamedTuple):
     """``lo..hi`` in declarations."""
 
     loc: Location
-    lo: "Expr"
-    hi: "Expr"
+    lo: Expr
+    hi: Expr
 
 
-Expr = Union[Num, Name, Param, MaxStep, Unary, Binary, Quant, Stamp, Range]
+Expr = Num | Name | Param | MaxStep | Unary | Binary | Quant | Stamp | Range
 
 ARITH_OPS = frozenset({"+", "-", "*", "//", "mod"})
 COMPARE_OPS = frozenset({"=", "\\=", "==", "<", ">", "=<", ">=", "@<", "@>", "@=<", "@>="})
@@ -102,7 +102,7 @@ class SortRef(NamedTuple):
     star: bool = False
 
 
-SortSpec = Union[SortRef, Range]
+SortSpec = SortRef | Range
 
 # ----------------------------------------------------------------------- statements
 
@@ -250,8 +250,19 @@ class Law(NamedTuple):
     decrement: bool = False
 
 
-Statement = Union[Sorts, Objects, Constants, Variables, Macros, Include, ShowHide, Query,
-                  MaxAdditive, NoConcurrency, Law]
+Statement = (
+    Sorts
+    | Objects
+    | Constants
+    | Variables
+    | Macros
+    | Include
+    | ShowHide
+    | Query
+    | MaxAdditive
+    | NoConcurrency
+    | Law
+)
 
 
 class ParsedFile(NamedTuple):

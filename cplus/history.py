@@ -37,9 +37,9 @@ class History:
 
     def key(self) -> tuple:
         """A hashable identity of the history (two equal keys = the same history)."""
-        return (tuple(sorted((gc.id, render_value(v)) for gc, v in self.rigid.items())),
-                tuple(tuple(sorted((gc.id, render_value(v)) for gc, v in s.items())) for s in self.states),
-                tuple(tuple(sorted((gc.id, render_value(v)) for gc, v in a.items())) for a in self.actions))
+        return (tuple(sorted((gc.id, render_value(v)) for gc, v in self.rigid.items())),  # type: ignore[arg-type]
+                tuple(tuple(sorted((gc.id, render_value(v)) for gc, v in s.items())) for s in self.states),  # type: ignore[arg-type]
+                tuple(tuple(sorted((gc.id, render_value(v)) for gc, v in a.items())) for a in self.actions))  # type: ignore[arg-type]
 
 
 def executed_actions(actions: dict[GroundConst, object]) -> list[GroundConst]:

@@ -6,7 +6,8 @@ objects (see :mod:`cplus.signature`); formulas to propositional formulas over at
 """
 from __future__ import annotations
 
-from typing import Callable, NamedTuple, Union
+from collections.abc import Callable
+from typing import NamedTuple
 
 from cplus.errors import Location
 from cplus.signature import ConstDecl, SortExpr
@@ -30,7 +31,7 @@ class Obj(NamedTuple):
     """A constructor object with non-ground arguments: ``cell(I+1)``."""
 
     name: str
-    args: tuple["Term", ...]
+    args: tuple[Term, ...]
     loc: Location
 
 
@@ -38,7 +39,7 @@ class Arith(NamedTuple):
     """``op`` in ``+ - * // mod neg abs min max``."""
 
     op: str
-    args: tuple["Term", ...]
+    args: tuple[Term, ...]
     loc: Location
 
 
@@ -46,7 +47,7 @@ class Cst(NamedTuple):
     """An occurrence of a constant; as a term it stands for the constant's value."""
 
     decl: ConstDecl
-    args: tuple["Term", ...]
+    args: tuple[Term, ...]
     loc: Location
 
 
@@ -55,8 +56,8 @@ class MaxStepT(NamedTuple):
 
 
 class StampT(NamedTuple):
-    time: "Term"
-    term: "Term"
+    time: Term
+    term: Term
     loc: Location
 
 
@@ -65,11 +66,11 @@ class Ext(NamedTuple):
 
     name: str
     fn: Callable[..., object]
-    args: tuple["Term", ...]
+    args: tuple[Term, ...]
     loc: Location
 
 
-Term = Union[Lit, Var, Obj, Arith, Cst, MaxStepT, StampT, Ext]
+Term = Lit | Var | Obj | Arith | Cst | MaxStepT | StampT | Ext
 
 # ---------------------------------------------------------------------------- formulas
 
@@ -81,7 +82,7 @@ class Truth(NamedTuple):
 class Atom(NamedTuple):
     """``c(args)=value``; ``cst`` may be a variable over a constant kind (``A``)."""
 
-    cst: Union[Cst, Var]
+    cst: Cst | Var
     value: Term
     loc: Location
 
@@ -94,36 +95,36 @@ class Cmp(NamedTuple):
 
 
 class Not(NamedTuple):
-    arg: "Formula"
+    arg: Formula
 
 
 class And(NamedTuple):
-    items: tuple["Formula", ...]
+    items: tuple[Formula, ...]
 
 
 class Or(NamedTuple):
-    items: tuple["Formula", ...]
+    items: tuple[Formula, ...]
 
 
 class Imp(NamedTuple):
-    left: "Formula"
-    right: "Formula"
+    left: Formula
+    right: Formula
 
 
 class Iff(NamedTuple):
-    left: "Formula"
-    right: "Formula"
+    left: Formula
+    right: Formula
 
 
 class Quant(NamedTuple):
     exists: bool
     var: Var
-    body: "Formula"
+    body: Formula
 
 
 class StampF(NamedTuple):
     time: Term
-    body: "Formula"
+    body: Formula
     loc: Location
 
 
@@ -136,13 +137,13 @@ class ExtPred(NamedTuple):
     loc: Location
 
 
-Formula = Union[Truth, Atom, Cmp, Not, And, Or, Imp, Iff, Quant, StampF, ExtPred]
+Formula = Truth | Atom | Cmp | Not | And | Or | Imp | Iff | Quant | StampF | ExtPred
 
 TRUE = Truth(True)
 FALSE = Truth(False)
 
 
-def conj(items) -> "Formula":
+def conj(items) -> Formula:
     flat: list = []
     for f in items:
         if isinstance(f, And):
@@ -156,7 +157,7 @@ def conj(items) -> "Formula":
     return flat[0] if len(flat) == 1 else And(tuple(flat))
 
 
-def conjuncts(f: "Formula | None") -> list:
+def conjuncts(f: Formula | None) -> list:
     if f is None or f == TRUE:
         return []
     if isinstance(f, And):

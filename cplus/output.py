@@ -8,12 +8,12 @@ is shown.
 """
 from __future__ import annotations
 
-from typing import Iterable
+from collections.abc import Iterable
 
+from cplus import ir
 from cplus.history import History, executed_actions
 from cplus.program import Pattern, Program
 from cplus.signature import GroundConst, NamedSort, RangeSort, Signature, render_value
-from cplus import ir
 
 __all__ = ["Display", "format_history", "format_result", "result_json", "PLAN_FORMAT"]
 
@@ -97,7 +97,7 @@ class Display:
     def atom_text(self, gc: GroundConst, value: object) -> str:
         if gc.boolean:
             return gc.text
-        return f"{gc.text}={render_value(value)}"
+        return f"{gc.text}={render_value(value)}"  # type: ignore[arg-type]
 
     def state_atoms(self, table: dict[GroundConst, object]) -> list[str]:
         gcs = sorted((gc for gc, v in table.items() if self.shown(gc, v)), key=self.key)
@@ -167,7 +167,7 @@ def _json_value(gc: GroundConst, v: object):
         return v == "true"
     if isinstance(v, (int, str)):
         return v
-    return render_value(v)
+    return render_value(v)  # type: ignore[arg-type]
 
 
 def history_json(hist: History) -> dict:

@@ -52,6 +52,7 @@ def _lark() -> Lark:
 
 def _lark_version() -> str:
     import hashlib
+
     import lark
     digest = hashlib.sha256(_GRAMMAR.read_bytes() + lark.__version__.encode()).hexdigest()
     return digest[:16]
@@ -201,8 +202,8 @@ def _syntax_error(exc: UnexpectedInput, source: Source, begin: int, end: int,
         hint = f" (expected {', '.join(expected)})" if 0 < len(expected) <= 5 else ""
         return CPlusSyntaxError(f"the statement ends too early{hint}", Location(source, end, end + 1))
     if isinstance(exc, UnexpectedCharacters):
-        at = begin + exc.pos_in_stream
-        ch = chunk[exc.pos_in_stream]
+        at = begin + exc.pos_in_stream  # type: ignore[operator]
+        ch = chunk[exc.pos_in_stream]  # type: ignore[index]
         if ch == ".":
             return CPlusSyntaxError("unexpected '.': a statement ends with '.' followed by a space "
                                     "or a new line", Location(source, at, at + 1))
@@ -235,7 +236,7 @@ class _Builder(Transformer):
         return Location(self.source, self.base + meta.start_pos, self.base + meta.end_pos)
 
     def _tloc(self, tok: Token) -> Location:
-        return Location(self.source, self.base + tok.start_pos, self.base + tok.end_pos)
+        return Location(self.source, self.base + tok.start_pos, self.base + tok.end_pos)  # type: ignore[operator]
 
     # -------------------------------------------------------------- statements
     def statement(self, meta, ch):

@@ -12,9 +12,9 @@
 """
 from __future__ import annotations
 
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from enum import Enum
-from typing import Callable, Iterator
 
 from cplus.ground.theory import GroundTheory
 from cplus.history import History, decode_history

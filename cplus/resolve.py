@@ -10,15 +10,24 @@ included file's parsed statements.
 from __future__ import annotations
 
 import os
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass
-from typing import Callable, Iterable
 
 from cplus import ast, ir
-from cplus.errors import (DefinitenessError, Diagnostics, IncludeError,
-                          Location, QueryError, ResolveError, SortError)
+from cplus.errors import DefinitenessError, Diagnostics, IncludeError, Location, QueryError, ResolveError, SortError
 from cplus.program import BasicLaw, IncrementLaw, Pattern, Program, QuerySpec
-from cplus.signature import (ACTION_KINDS, FLUENT_KINDS, USER_KINDS, ConstDecl, KindSort,
-                             NamedSort, RangeSort, Signature, SortExpr, StepSort)
+from cplus.signature import (
+    ACTION_KINDS,
+    FLUENT_KINDS,
+    USER_KINDS,
+    ConstDecl,
+    KindSort,
+    NamedSort,
+    RangeSort,
+    Signature,
+    SortExpr,
+    StepSort,
+)
 
 __all__ = ["resolve", "External", "Externals", "BUILTIN_EXTERNALS", "Reader"]
 
@@ -51,7 +60,7 @@ class Externals:
     def get(self, name: str, arity: int) -> External | None:
         return self._items.get((name, arity))
 
-    def copy(self) -> "Externals":
+    def copy(self) -> Externals:
         return Externals(self._items.values())
 
 
@@ -84,7 +93,7 @@ class _Scope:
         self.query = query
         self.law = law
 
-    def with_var(self, var: ir.Var) -> "_Scope":
+    def with_var(self, var: ir.Var) -> _Scope:
         s = _Scope(self.query, self.law)
         s.local = dict(self.local)
         s.local[var.name] = var
@@ -521,7 +530,7 @@ class _Resolver:
         if (name, n) in self.sig.constructors:
             args = tuple(self._term_x(a, scope) for a in e.args)
             if all(isinstance(a, ir.Lit) for a in args):
-                value = (name,) + tuple(a.value for a in args)  # type: ignore[union-attr]
+                value = (name,) + tuple(a.value for a in args)  # type: ignore[misc, union-attr]
                 if value not in self.sig.object_order:
                     raise SortError(f"'{_show(value)}' is not a declared object", e.loc)
                 return ir.Lit(value)
@@ -680,11 +689,11 @@ class _Resolver:
                 self._add(law, head, ir.TRUE, ir.conj((action, if_)), where, "causes")
         elif kind == "may_cause":
             assert action is not None
-            self._add(law, head, head, ir.conj((action, if_)), where, "may cause")
+            self._add(law, head, head, ir.conj((action, if_)), where, "may cause")  # type: ignore[arg-type]
         elif kind == "nonexecutable":
             self._add(law, None, ir.TRUE, ir.conj((head, if_)), where, "nonexecutable")
         elif kind == "constraint":
-            body = ir.conj((ir.Not(head), if_))
+            body = ir.conj((ir.Not(head), if_))  # type: ignore[arg-type]
             if after is None and self._mentions_actions(head):
                 raise ResolveError("'constraint' cannot mention actions; use 'always' or 'nonexecutable'",
                                    law.loc)
@@ -692,7 +701,7 @@ class _Resolver:
         elif kind == "always":
             if law.if_ is not None:
                 raise ResolveError("'always F' takes no 'if' part", law.loc)
-            self._add(law, None, ir.TRUE, ir.conj((ir.Not(head), after or ir.TRUE)), where, "always")
+            self._add(law, None, ir.TRUE, ir.conj((ir.Not(head), after or ir.TRUE)), where, "always")  # type: ignore[arg-type]
         elif kind == "never":
             self._add(law, None, ir.conj((head, if_)), after, where, "never")
         else:  # pragma: no cover - grammar covers the kinds
@@ -774,7 +783,7 @@ class _Resolver:
         scope = _Scope(law=law.kind)
         target = "after" if cls == "dynamic" else "if"
         kind = {"dynamic": "abAction", "action": "abAction", "static": "sdFluent", "rigid": "rigid"}[cls]
-        ab = self._ab_atom(law.unless, scope, kind)
+        ab = self._ab_atom(law.unless, scope, kind)  # type: ignore[arg-type]
         neg = ir.Not(ab)
         if target == "after":
             return body, ir.conj((after or ir.TRUE, neg))
@@ -814,13 +823,13 @@ class _Resolver:
         raise ResolveError("the arguments of an undeclared abnormality must be variables or objects", e.loc)
 
     def _frame_law(self, law: ast.Law, scope: _Scope) -> None:
-        items = _split_list(self._expand(law.head))
+        items = _split_list(self._expand(law.head))  # type: ignore[arg-type]
         if_ = self._formula(law.if_, scope) if law.if_ is not None else ir.TRUE
         after = self._formula(law.after, scope) if law.after is not None else None
         where = self._formula(law.where, scope) if law.where is not None else None
         for item in items:
             neg = isinstance(item, ast.Unary) and item.op == "not"
-            t = self._term_x(item.arg if neg else item, scope)
+            t = self._term_x(item.arg if neg else item, scope)  # type: ignore[union-attr]
             if not isinstance(t, ir.Cst) or neg:
                 raise ResolveError(f"'{law.kind}' takes constants, e.g. '{law.kind} c(X)'", item.loc)
             if any(ir.constants_in(a) for a in t.args):
@@ -929,7 +938,7 @@ def _is_boolean(sort: SortExpr) -> bool:
 
 
 def _kind(c) -> str:
-    return c.sort.kind if isinstance(c, ir.Var) else c.decl.kind
+    return c.sort.kind if isinstance(c, ir.Var) else c.decl.kind  # type: ignore[union-attr]
 
 
 def _is_action(c) -> bool:

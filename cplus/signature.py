@@ -17,7 +17,6 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from itertools import product
-from typing import Union
 
 from cplus.errors import Location
 
@@ -27,7 +26,7 @@ __all__ = [
     "order_key", "render_value",
 ]
 
-Value = Union[int, str, tuple]
+Value = int | str | tuple
 
 FLUENT_KINDS = frozenset({"simpleFluent", "inertialFluent", "sdFluent", "additiveFluent"})
 ACTION_KINDS = frozenset({"exogenousAction", "action", "attribute", "abAction", "additiveAction",
@@ -106,7 +105,7 @@ class StepSort:
         return "astep" if self.action else "step"
 
 
-SortExpr = Union[NamedSort, RangeSort, KindSort, StepSort]
+SortExpr = NamedSort | RangeSort | KindSort | StepSort
 
 
 @dataclass(eq=False)
@@ -130,13 +129,13 @@ class ConstDecl:
     kind: str
     domain: SortExpr
     loc: Location | None
-    parent: "ConstDecl | None" = None
+    parent: ConstDecl | None = None
     parent_args: tuple[int, ...] = ()   # attribute: positions of the parent's arguments
     hidden: bool = False                # internal constants (contributions, ...)
     auto_ab: bool = False               # declared by an `unless` clause
     order: int = 0                      # declaration order
-    instances: dict[tuple, "GroundConst"] = field(default_factory=dict)
-    attributes: list["ConstDecl"] = field(default_factory=list)
+    instances: dict[tuple, GroundConst] = field(default_factory=dict)
+    attributes: list[ConstDecl] = field(default_factory=list)
 
     @property
     def arity(self) -> int:
@@ -255,7 +254,7 @@ class Signature:
         elif isinstance(sort, RangeSort):
             result = tuple(range(sort.lo, sort.hi + 1)) + (("none",) if sort.star else ())
         elif isinstance(sort, KindSort):
-            result = tuple(g for g in self.ground if g.decl.kind == sort.kind and g.boolean
+            result = tuple(g for g in self.ground if g.decl.kind == sort.kind and g.boolean  # type: ignore[misc]
                            and not g.decl.hidden)
         else:
             raise TypeError(f"the objects of {sort} depend on maxstep")
@@ -270,10 +269,10 @@ class Signature:
 
     def _membership(self, sort: SortExpr) -> frozenset:
         key = ("members", sort)
-        cached = self._sort_cache.get(key)  # type: ignore[arg-type]
+        cached = self._sort_cache.get(key)  # type: ignore[call-overload]
         if cached is None:
             cached = frozenset(self.objects_of(sort))
-            self._sort_cache[key] = cached  # type: ignore[index]
+            self._sort_cache[key] = cached  # type: ignore[assignment, index]
         return cached
 
     # -- ground instances ---------------------------------------------------------

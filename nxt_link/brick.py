@@ -28,8 +28,8 @@ from __future__ import annotations
 
 import logging
 import threading
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Callable
 
 from nxt_link import telegram as tg
 from nxt_link.clock import Deadline
@@ -118,7 +118,7 @@ class Brick:
     def close(self) -> None:
         self.transport.close()
 
-    def __enter__(self) -> "Brick":
+    def __enter__(self) -> Brick:
         return self
 
     def __exit__(self, *exc: object) -> None:

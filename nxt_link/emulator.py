@@ -75,7 +75,7 @@ class LinkParams:
     stall_max_ms: float = 2000.0
 
     @classmethod
-    def instant(cls) -> "LinkParams":
+    def instant(cls) -> LinkParams:
         """No latency at all (unit tests)."""
         return cls(0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
 

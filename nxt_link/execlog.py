@@ -116,7 +116,7 @@ class ExecutionLog:
         return json.dumps(self.to_json(), indent=1)
 
     @classmethod
-    def loads(cls, text: str) -> "ExecutionLog":
+    def loads(cls, text: str) -> ExecutionLog:
         """Parse and validate a ``cplus.execlog/1`` document.
 
         Raises:
@@ -129,7 +129,7 @@ class ExecutionLog:
         return cls.from_json(data)
 
     @classmethod
-    def from_json(cls, data: Any) -> "ExecutionLog":
+    def from_json(cls, data: Any) -> ExecutionLog:
         if not isinstance(data, dict):
             raise ExecLogError("execution log must be a JSON object")
         if data.get("format") != FORMAT:

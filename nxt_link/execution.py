@@ -14,8 +14,8 @@ nothing and keeps the code deterministic under a virtual clock.
 from __future__ import annotations
 
 import logging
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import Callable, Mapping, Sequence
 
 from nxt_link import stream_protocol as sp
 from nxt_link.brick import Brick, LinkEvent
@@ -241,7 +241,7 @@ def execute_streams(streams: Sequence[SetpointStream], bricks: Mapping[str, Bric
             report(s.brick, "connect", 1, 1)
         for s in streams:
             sessions[s.brick].upload(
-                lambda done, total, name=s.brick: report(name, "upload", done, total))
+                lambda done, total, name=s.brick: report(name, "upload", done, total))  # type: ignore[misc]
         for s in streams:
             sessions[s.brick].prepare()
         for s in streams:
@@ -261,7 +261,7 @@ def execute_streams(streams: Sequence[SetpointStream], bricks: Mapping[str, Bric
         logs = []
         for s in streams:
             measured = sessions[s.brick].read_log(
-                lambda done, total, name=s.brick: report(name, "log", done, total))
+                lambda done, total, name=s.brick: report(name, "log", done, total))  # type: ignore[misc]
             logs.append((s, measured))
     except BaseException:
         if started:

@@ -17,8 +17,9 @@ from __future__ import annotations
 
 import logging
 from collections import deque
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Callable, Protocol
+from typing import Protocol
 
 from nxt_link import telegram as tg
 from nxt_link.errors import TelegramError

@@ -131,7 +131,7 @@ class PtyBrickServer:
             except OSError:
                 pass
 
-    def __enter__(self) -> "PtyBrickServer":
+    def __enter__(self) -> PtyBrickServer:
         self.start()
         return self
 

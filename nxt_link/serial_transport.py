@@ -97,7 +97,7 @@ class SerialTransport:
                 raise LinkDisconnectedError(f"{self.name}: could not reconnect ({last})")
             self.clock.sleep(min(self._reconnect_interval_s, deadline.remaining() or 0.0))
 
-    def __enter__(self) -> "SerialTransport":
+    def __enter__(self) -> SerialTransport:
         return self
 
     def __exit__(self, *exc: object) -> None:

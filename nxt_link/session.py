@@ -27,8 +27,8 @@ from __future__ import annotations
 
 import logging
 import random
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from typing import Callable, Sequence
 
 from nxt_link import stream_protocol as sp
 from nxt_link.brick import Brick

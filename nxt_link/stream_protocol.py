@@ -38,8 +38,8 @@ from __future__ import annotations
 
 import enum
 import struct
+from collections.abc import Iterable
 from dataclasses import dataclass
-from typing import Iterable, Union
 
 from nxt_link.errors import TelegramError
 
@@ -275,7 +275,7 @@ class Stop:
     kind = Kind.STOP
 
 
-Request = Union[Hello, Config, Setpoints, Prepare, Go, Query, LogRead, Stop]
+Request = Hello | Config | Setpoints | Prepare | Go | Query | LogRead | Stop
 
 SEQUENCED_KINDS = frozenset({Kind.CONFIG, Kind.SETPOINTS, Kind.PREPARE, Kind.GO})
 
@@ -367,7 +367,7 @@ def decode_request(message: bytes) -> Request:
             return Go(session, seq, struct.unpack("<H", rest)[0])
         simple = {Kind.PREPARE: Prepare, Kind.QUERY: Query, Kind.STOP: Stop}
         if kind in simple and not rest:
-            return simple[Kind(kind)](session, seq)
+            return simple[Kind(kind)](session, seq)  # type: ignore[return-value]
     except struct.error:
         raise TelegramError(f"malformed request of kind 0x{kind:02X}") from None
     raise TelegramError(f"unknown request kind 0x{kind:02X}")
@@ -423,7 +423,7 @@ class LogData:
     kind = Kind.LOGDATA
 
 
-Response = Union[Welcome, Ack, LogData]
+Response = Welcome | Ack | LogData
 
 
 def encode_response(resp: Response) -> bytes:

@@ -23,7 +23,6 @@ from __future__ import annotations
 import enum
 import struct
 from dataclasses import dataclass
-from typing import Union
 
 from nxt_link.errors import TelegramError, error_for_status
 
@@ -268,23 +267,23 @@ class GetDeviceInfo:
     opcode = Opcode.GET_DEVICE_INFO
 
 
-Command = Union[
-    StartProgram,
-    StopProgram,
-    PlayTone,
-    SetOutputState,
-    SetInputMode,
-    GetOutputState,
-    GetInputValues,
-    MessageWrite,
-    MessageRead,
-    ResetMotorPosition,
-    GetBatteryLevel,
-    KeepAlive,
-    GetCurrentProgramName,
-    GetFirmwareVersion,
-    GetDeviceInfo,
-]
+Command = (
+    StartProgram
+    | StopProgram
+    | PlayTone
+    | SetOutputState
+    | SetInputMode
+    | GetOutputState
+    | GetInputValues
+    | MessageWrite
+    | MessageRead
+    | ResetMotorPosition
+    | GetBatteryLevel
+    | KeepAlive
+    | GetCurrentProgramName
+    | GetFirmwareVersion
+    | GetDeviceInfo
+)
 
 
 def _name_field(name: str) -> bytes:
@@ -571,17 +570,17 @@ class DeviceInfoReply:
     opcode = Opcode.GET_DEVICE_INFO
 
 
-Reply = Union[
-    StatusReply,
-    OutputStateReply,
-    InputValuesReply,
-    BatteryLevelReply,
-    KeepAliveReply,
-    ProgramNameReply,
-    MessageReadReply,
-    FirmwareVersionReply,
-    DeviceInfoReply,
-]
+Reply = (
+    StatusReply
+    | OutputStateReply
+    | InputValuesReply
+    | BatteryLevelReply
+    | KeepAliveReply
+    | ProgramNameReply
+    | MessageReadReply
+    | FirmwareVersionReply
+    | DeviceInfoReply
+)
 
 
 def encode_reply(reply: Reply) -> bytes:
@@ -661,7 +660,7 @@ def parse_reply(telegram: bytes) -> Reply:
         opcode = Opcode(op)
     except ValueError:
         if len(telegram) != 3:
-            raise TelegramError(f"reply to unknown opcode 0x{op:02X} has {len(telegram)} bytes")
+            raise TelegramError(f"reply to unknown opcode 0x{op:02X} has {len(telegram)} bytes") from None
         return StatusReply(op, status)
     want = REPLY_LENGTH[opcode]
     if len(telegram) != want:

@@ -9,12 +9,17 @@ import pytest
 
 import nxt_link
 import trajectory as tj
-from cplus.execute import execute_main, streams_from_trajectory, tracking_report
+from cplus.cli import main
+from cplus.robot.execution import streams_from_trajectory, tracking_report
 from nxt_link.execlog import BrickLog, ExecutionLog
 
 ROOT = Path(__file__).resolve().parent.parent
 SCENE = ROOT / "domains" / "payload" / "scene.toml"
 FAST = ["--no-latency", "--time-scale", "10", "--quiet"]
+
+
+def execute_main(argv):
+    return main(["execute", *argv])
 
 
 @pytest.fixture(scope="module")

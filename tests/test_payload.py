@@ -10,7 +10,7 @@ import pytest
 
 import trajectory
 from cplus.cli import main
-from cplus.pipeline import RobotTask, TaskError, refine
+from cplus.robot import RobotTask, refine
 
 ROOT = Path(__file__).resolve().parent.parent
 DOMAIN = ROOT / "domains" / "payload" / "payload.cp"
@@ -55,7 +55,7 @@ def test_every_iteration_forbids_something_new(refined):
 
 def test_the_plan_respects_the_cost_bound_and_the_payload_length(task, refined):
     hist = refined.history
-    for t, state in enumerate(hist.states):
+    for t, _state in enumerate(hist.states):
         assert hist.value("cost", t) <= 2
         p1 = (hist.value("xpay(pl1)", t), hist.value("ypay(pl1)", t))
         p2 = (hist.value("xpay(pl2)", t), hist.value("ypay(pl2)", t))

@@ -34,10 +34,8 @@ lists every problem of every step, one per kind and subject.
 
 from __future__ import annotations
 
-import enum
 import math
 from collections.abc import Iterator, Sequence
-from dataclasses import dataclass
 
 from ._format import fmt, fmt_point
 from .geometry import (
@@ -52,48 +50,9 @@ from .geometry import (
 from .kinematics import BranchChoice, choices_at, point_problem, surviving_choices
 from .scene import Robot, Scene
 from .states import StepState, validate_states
+from .violations import Violation, ViolationKind
 
 __all__ = ["ViolationKind", "Violation", "first_violation", "all_violations", "check_motion"]
-
-
-class ViolationKind(enum.Enum):
-    """What went wrong; the order is the tie-break between violations at the same time."""
-
-    DETACHED = "detached"
-    OUT_OF_REACH = "out-of-reach"
-    JOINT_LIMIT = "joint-limit"
-    EFFECTOR_COLLISION = "effector-collision"
-    PAYLOAD_COLLISION = "payload-collision"
-    PAYLOAD_LENGTH = "payload-length"
-
-
-_ORDER = {kind: k for k, kind in enumerate(ViolationKind)}
-
-
-@dataclass(frozen=True, slots=True)
-class Violation:
-    """One problem of the motion from state ``step`` to state ``step + 1``.
-
-    ``u`` in [0, 1] is when it starts within that motion (0 = at state ``step``) and
-    ``point`` where. ``subject`` is ``"payload"``, a robot name or a payload-end name;
-    ``obstacle`` names the obstacle hit, if any.
-    """
-
-    step: int
-    kind: ViolationKind
-    u: float
-    point: Point2
-    subject: str
-    message: str
-    obstacle: str | None = None
-
-    @property
-    def sort_key(self) -> tuple[int, float, int, str]:
-        return (self.step, self.u, _ORDER[self.kind], self.subject)
-
-    def time_s(self, step_time_s: float) -> float:
-        """Seconds from the start of the plan, when each step takes ``step_time_s``."""
-        return (self.step + self.u) * step_time_s
 
 
 def _same(p: Point2, q: Point2) -> bool:

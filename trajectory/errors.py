@@ -9,10 +9,8 @@ error comes from a file, it carries a `Location` and renders as
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
 
-if TYPE_CHECKING:
-    from .checker import Violation
+from .violations import Violation
 
 __all__ = [
     "Location",

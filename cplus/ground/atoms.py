@@ -49,16 +49,16 @@ class AtomTable:
             if value == "false":
                 return -entry
             return 0
-        return entry.get(value, 0)  # type: ignore[union-attr]
+        return entry.get(value, 0)  # type: ignore[attr-defined]
 
     def atoms(self, gc: GroundConst) -> list[int]:
         """Positive atom ids of a ground constant (one for a Boolean constant)."""
         entry = self._by_gc[gc.id]
-        return [entry] if type(entry) is int else list(entry.values())  # type: ignore[union-attr]
+        return [entry] if type(entry) is int else list(entry.values())  # type: ignore[attr-defined]
 
     def head_lits(self, gc: GroundConst) -> list[tuple[int, object]]:
         """Every literal that can be a head for ``gc`` with the value it stands for."""
         entry = self._by_gc[gc.id]
         if type(entry) is int:
             return [(entry, "true"), (-entry, "false")]
-        return [(aid, v) for v, aid in entry.items()]  # type: ignore[union-attr]
+        return [(aid, v) for v, aid in entry.items()]  # type: ignore[attr-defined]

@@ -12,7 +12,7 @@ and it is a safe evaluator: no Python ``eval``, arithmetic only on integers.
 """
 from __future__ import annotations
 
-from typing import Callable
+from collections.abc import Callable
 
 from cplus import ir
 from cplus.errors import GroundingError, Location
@@ -355,7 +355,7 @@ def _compile_atom(f: ir.Atom, ctx: Ctx) -> Callable:
     simple = [a for a in f.cst.args if isinstance(a, (ir.Var, ir.Lit))]
     if len(simple) == len(fns):
         # the common case: arguments are variables and objects; no constant inside
-        getters = [(True, a.name) if isinstance(a, ir.Var) else (False, a.value) for a in f.cst.args]
+        getters = [(True, a.name) if isinstance(a, ir.Var) else (False, a.value) for a in f.cst.args]  # type: ignore[union-attr]
         value_name = f.value.name if isinstance(f.value, ir.Var) else None
         value_lit = f.value.value if isinstance(f.value, ir.Lit) else None
         fixed = value_name is not None or isinstance(f.value, ir.Lit)

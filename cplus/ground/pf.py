@@ -14,9 +14,9 @@ True
 """
 from __future__ import annotations
 
-from typing import Callable, Iterable, Union
+from collections.abc import Callable, Iterable
 
-PF = Union[bool, int, tuple]
+PF = bool | int | tuple
 
 __all__ = ["PF", "mk_and", "mk_or", "neg", "map_lits", "lits_of"]
 
@@ -61,7 +61,7 @@ def neg(f: PF) -> PF:
         return True
     if type(f) is int:
         return -f
-    op, items = f
+    op, items = f  # type: ignore[misc]
     return ("|" if op == "&" else "&", tuple(neg(g) for g in items))
 
 
@@ -71,7 +71,7 @@ def map_lits(f: PF, fn: Callable[[int], int]) -> PF:
         return fn(f) if f > 0 else -fn(-f)
     if type(f) is bool:
         return f
-    return (f[0], tuple(map_lits(g, fn) for g in f[1]))
+    return (f[0], tuple(map_lits(g, fn) for g in f[1]))  # type: ignore[index]
 
 
 def lits_of(f: PF, acc: set | None = None) -> set:

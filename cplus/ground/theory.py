@@ -23,11 +23,10 @@ from dataclasses import dataclass, field
 from cplus import ir
 from cplus.errors import GroundingError, Location, SortError
 from cplus.ground.atoms import AtomTable
-from cplus.ground.compile import (Cases, Ctx, UNDEF, combine, bind, compile_formula, compile_term,
-                                  evaluate_all)
+from cplus.ground.compile import UNDEF, Cases, Ctx, bind, combine, compile_formula, compile_term, evaluate_all
 from cplus.ground.pf import PF, mk_and, neg
 from cplus.program import BasicLaw, IncrementLaw, Program
-from cplus.signature import ConstDecl, GroundConst, RangeSort, SIMPLE_KINDS, StepSort
+from cplus.signature import SIMPLE_KINDS, ConstDecl, GroundConst, RangeSort, StepSort
 
 __all__ = ["GroundTheory", "AdditiveSum", "ground_program", "template_lit", "SLOT_NOW", "SLOT_NEXT",
            "SLOT_RIGID", "initially_free"]
@@ -173,7 +172,7 @@ class _Grounder:
         if isinstance(h, ir.Truth):
             return lambda env, slot: [] if h.value else [(None, True)]
         negated = isinstance(h, ir.Not)
-        atom = h.arg if negated else h
+        atom = h.arg if negated else h  # type: ignore[union-attr]
         assert isinstance(atom, ir.Atom)
         value_fn = compile_term(atom.value, self.ctx)
         lit_of = self.atoms.lit
@@ -184,7 +183,7 @@ class _Grounder:
             gc_fn = lambda env, slot: env[name]  # noqa: E731
         elif all(isinstance(a, (ir.Var, ir.Lit)) for a in atom.cst.args):
             instances = atom.cst.decl.instances
-            getters = [(True, a.name) if isinstance(a, ir.Var) else (False, a.value) for a in atom.cst.args]
+            getters = [(True, a.name) if isinstance(a, ir.Var) else (False, a.value) for a in atom.cst.args]  # type: ignore[union-attr]
             plain_value = isinstance(atom.value, (ir.Var, ir.Lit))
 
             def head_simple(env, slot):   # the common case: no constant inside the head
@@ -246,7 +245,7 @@ class _Grounder:
             "'caused false' (guard the law with 'where')", loc)
 
     def _frame_law(self, law: BasicLaw, variables, filters, parts, rules, constraints) -> None:
-        gc_fn = compile_term(law.frame_cst, self.ctx, names=True)
+        gc_fn = compile_term(law.frame_cst, self.ctx, names=True)  # type: ignore[arg-type]
         ctx_values = self.ctx.values
         mklit = self.mklit
         body_of = evaluate_all(parts, True)
@@ -279,11 +278,11 @@ class _Grounder:
         if kind == "inertialFluent":
             for aid, _ in lits:
                 l1 = mk(aid, SLOT_NEXT)
-                rules["dynamic"].append((l1, mk_and((l1, mk(aid, SLOT_NOW)))))
+                rules["dynamic"].append((l1, mk_and((l1, mk(aid, SLOT_NOW)))))  # type: ignore[arg-type]
         elif kind in ("exogenousAction", "attribute"):
             for aid, _ in lits:
                 lit = mk(aid, SLOT_NOW)
-                rules["action"].append((lit, lit))
+                rules["action"].append((lit, lit))  # type: ignore[arg-type]
             if kind == "attribute":
                 self._attribute_axiom(gc)
         elif kind == "abAction" or kind == "contribution":
@@ -291,7 +290,7 @@ class _Grounder:
             aid = self.atoms.lit(gc, default)
             if aid:
                 lit = mk(aid, SLOT_NOW)
-                rules["action"].append((lit, lit))
+                rules["action"].append((lit, lit))  # type: ignore[arg-type]
 
     def _attribute_axiom(self, gc: GroundConst) -> None:
         parent = gc.decl.parent
@@ -331,7 +330,7 @@ class _Grounder:
             for n, body in entries:
                 aid = self.atoms.lit(cg, n)
                 if aid:
-                    self.theory.rules["action"].append((self.mklit(aid, SLOT_NOW), body))
+                    self.theory.rules["action"].append((self.mklit(aid, SLOT_NOW), body))  # type: ignore[arg-type]
                 else:   # a contribution outside -maxAdditive..maxAdditive cannot be caused
                     self.theory.constraints["action"].append(body)
         for gc in self.sig.ground:

@@ -12,7 +12,7 @@ it; a body that is just h makes h free.
 """
 from __future__ import annotations
 
-from typing import Callable, Iterable
+from collections.abc import Callable, Iterable
 
 from cplus.ground.pf import PF, mk_and, mk_or, neg
 
@@ -38,7 +38,7 @@ class ClauseBuilder:
         if f is True or f is False:
             z = self._false_var()
             return -z if f is True else z
-        op, items = f
+        op, items = f  # type: ignore[misc]
         key = (op, frozenset(items))
         v = self._defs.get(key)
         if v is not None:
@@ -73,7 +73,7 @@ class ClauseBuilder:
             return []
         if type(f) is int:
             return [f]
-        op, items = f
+        op, items = f  # type: ignore[misc]
         if op == "|":
             return [self.lit(g) for g in items]
         return [self.lit(f)]
@@ -126,7 +126,7 @@ class ClauseBuilder:
     # ------------------------------------------------------------------ cardinality
     def exactly_one(self, lits: list[int]) -> None:
         self.add_clause(list(lits))
-        self.at_most_one(lits)
+        self.at_most_one(lits)  # type: ignore[arg-type]
 
     def at_most_one(self, lits: list[PF]) -> None:
         ls = [self.lit(x) for x in lits]

@@ -11,8 +11,8 @@ next and across refinement iterations.
 from __future__ import annotations
 
 import time
+from collections.abc import Iterator
 from dataclasses import dataclass
-from typing import Iterator
 
 from cplus import ir
 from cplus.errors import GroundingError
@@ -225,7 +225,7 @@ class QuerySession:
         self._add_items(m)
         self._projection = None
         t1 = time.perf_counter()
-        ok = h.solver.solve([self.act])  # type: ignore[list-item]
+        ok = h.solver.solve([self.act])
         t2 = time.perf_counter()
         self.stats.append(HorizonStats(m, h.top, h.solver.count, t1 - t0, t2 - t1, ok, 1 if ok else 0))
         return ok
@@ -234,7 +234,7 @@ class QuerySession:
         """Solve again at the current horizon (after clauses were added)."""
         h = self.horizon
         t0 = time.perf_counter()
-        ok = h.solver.solve([self.act])  # type: ignore[list-item]
+        ok = h.solver.solve([self.act])
         st = self.stats[-1]
         st.solve_s += time.perf_counter() - t0
         st.satisfiable = ok
@@ -265,7 +265,7 @@ class QuerySession:
                     continue
                 last = m - 1 if gc.decl.is_action else m  # type: ignore[union-attr]
                 out.extend(h.var(aid, t) for t in range(last + 1))
-            self._projection = out
+            self._projection = out  # type: ignore[assignment]
         return self._projection  # type: ignore[return-value]
 
 

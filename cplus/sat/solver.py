@@ -85,9 +85,9 @@ class SatSolver:
     def delete(self) -> None:
         if self._s is not None:
             self._s.delete()
-            self._s = None  # type: ignore[assignment]
+            self._s = None
 
-    def __enter__(self) -> "SatSolver":
+    def __enter__(self) -> SatSolver:
         return self
 
     def __exit__(self, *exc) -> None:

@@ -32,8 +32,9 @@ class Template:
     def flat(self) -> tuple:
         """All literals in one numpy array, and the end offset of each clause (cached)."""
         if self._flat is None:
-            import numpy as np
             from itertools import accumulate, chain
+
+            import numpy as np
             ends = list(accumulate(len(c) for c in self.clauses))
             self._flat = (np.fromiter(chain.from_iterable(self.clauses), dtype=np.int64, count=ends[-1]), ends)
         return self._flat
@@ -361,6 +362,6 @@ def _additive(b: _Builder, s) -> None:
             cb.add_clause([t, -sv])      # type: ignore[operator]
     for v, sv in current.items():
         if v not in target.domain and sv is not False:
-            cb.add(-sv if type(sv) is int else False)  # type: ignore[operator]
+            cb.add(-sv if type(sv) is int else False)
     ts = [layout.tid_atom(atoms.lit(target, v), slot) for v in dom]
     cb.exactly_one(ts)

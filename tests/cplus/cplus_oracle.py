@@ -26,7 +26,6 @@ def _eval(pf, value_of) -> bool:
 
 def models(theory: GroundTheory, m: int) -> list[dict]:
     """Every model of D_m as ``{(ground constant, step or None): value}``."""
-    atoms = theory.atoms
     cells = []
     for gc in theory.sig.ground:
         d = gc.decl
@@ -60,7 +59,7 @@ def _is_model(theory: GroundTheory, m: int, interp: dict) -> bool:
 
     def fire(rules, constraints, times, shift_head: int) -> bool:
         for t in times:
-            val = lambda c: _lit_value(atoms, interp, c, t)  # noqa: E731
+            val = lambda c, t=t: _lit_value(atoms, interp, c, t)  # noqa: E731
             for body in constraints:
                 if _eval(body, val):
                     return False
@@ -83,7 +82,7 @@ def _is_model(theory: GroundTheory, m: int, interp: dict) -> bool:
         return False
     for t in range(m):   # noconcurrency: at most one action of each group
         for group in theory.noconcurrency:
-            if sum(_eval(g, lambda c: _lit_value(atoms, interp, c, t)) for g in group) > 1:
+            if sum(_eval(g, lambda c, t=t: _lit_value(atoms, interp, c, t)) for g in group) > 1:
                 return False
     computed: dict = {}
     for s in theory.sums:

@@ -158,8 +158,8 @@ def test_dimacs_models_are_the_histories(tmp_path, capsys, text, query, maxstep)
     assert code == 0 and "wrote" in err
     nvars, clauses = _read_dimacs(out.read_text())
     from cplus import Domain
-    from cplus.program import QuerySpec
     from cplus.planner import run_query
+    from cplus.program import QuerySpec
     d = Domain.load(str(p))
     q = d.query(query) if query else QuerySpec("all", maxstep, maxstep, (), None)
     q = QuerySpec(q.label, maxstep, maxstep, q.items, q.loc)

@@ -1,4 +1,4 @@
-"""Every case of the CCALC conformance corpus (../shared/corpus) must pass.
+"""Every case of the CCALC conformance corpus (tests/corpus, a copy of the Cplus2ASP-derived corpus, GPL-3) must pass.
 
 A case loads its file, runs the query, and compares satisfiability, the plan length and,
 when the manifest knows it exactly, the number of histories at that length (counted by
@@ -10,9 +10,9 @@ from __future__ import annotations
 import json
 
 import pytest
+from conftest import CORPUS
 
 from cplus import Domain
-from conftest import CORPUS
 
 
 def _cases():

@@ -6,13 +6,13 @@ brute-force enumeration of the models of the causal theory (``cplus_oracle``).
 from __future__ import annotations
 
 import pytest
+from cplus_oracle import models
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from cplus import Domain
 from cplus.planner import run_query
 from cplus.program import QuerySpec
-from cplus_oracle import models
 
 
 def count(text: str, label: str = "0") -> tuple[int | None, int]:

@@ -10,9 +10,9 @@ from pathlib import Path
 
 import pytest
 
+from cplus.cli import main
 from nxt_link import errors
 from nxt_link.brick import Brick, RetryPolicy
-from nxt_link.cli import brick_main
 from nxt_link.emulator import FaultParams
 from nxt_link.execution import ExecutionOptions, SetpointStream, execute_streams
 from nxt_link.serial_transport import SerialTransport
@@ -107,6 +107,6 @@ def test_cplus_brick_prints_the_path_and_stops_cleanly_on_sigterm():
     (["--name", "a/b"], "invalid brick name"),
 ])
 def test_bad_options_are_one_line_and_exit_2(capsys, argv, message):
-    assert brick_main(argv) == 2
+    assert main(["brick", *argv]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and err.startswith("cplus brick: error: ") and message in err

@@ -18,23 +18,13 @@ import signal
 import sys
 import threading
 
+from cplus.cli.common import EXIT_INPUT, EXIT_LINK, EXIT_OK, CliError, OneLineArgumentParser
 from nxt_link.emulator import BrickEmulator, EmulatorConfig, FaultParams, LinkParams
 from nxt_link.firmware import FirmwareParams
 from nxt_link.motor_model import MotorParams
 from nxt_link.pty_server import PtyBrickServer
 
-__all__ = ["brick_main", "OneLineArgumentParser", "CliError"]
-
-
-class CliError(Exception):
-    """A usage error already phrased for the user."""
-
-
-class OneLineArgumentParser(argparse.ArgumentParser):
-    """argparse that reports a usage error as one line and raises instead of exiting."""
-
-    def error(self, message: str) -> None:  # type: ignore[override]
-        raise CliError(f"{self.prog}: error: {message}")
+__all__ = ["build_parser", "config_from_args", "main"]
 
 
 def _probability(text: str) -> float:
@@ -130,20 +120,18 @@ def config_from_args(args: argparse.Namespace) -> EmulatorConfig:
     )
 
 
-def brick_main(argv: list[str]) -> int:
-    """Entry point of ``cplus brick``; returns the exit code."""
-    parser = build_parser()
+def main(args: argparse.Namespace) -> int:
+    """``cplus brick``; returns the exit code."""
     try:
-        args = parser.parse_args(argv)
         if not args.name or not args.name.isprintable() or "/" in args.name:
             raise CliError(f"cplus brick: error: invalid brick name {args.name!r}")
         config = config_from_args(args)
     except CliError as exc:
         print(exc, file=sys.stderr)
-        return 2
+        return EXIT_INPUT
     except ValueError as exc:
         print(f"cplus brick: error: {exc}", file=sys.stderr)
-        return 2
+        return EXIT_INPUT
     if args.verbose:
         logging.basicConfig(level=logging.DEBUG if args.verbose > 1 else logging.INFO,
                             format="%(relativeCreated)8.0f %(name)s %(message)s")
@@ -154,7 +142,7 @@ def brick_main(argv: list[str]) -> int:
     except OSError as exc:
         print(f"cplus brick: error: cannot publish the pty at {args.link}: {exc.strerror}",
               file=sys.stderr)
-        return 1
+        return EXIT_LINK
     stop = threading.Event()
     previous = {sig: signal.signal(sig, lambda *_: stop.set())
                 for sig in (signal.SIGINT, signal.SIGTERM)}
@@ -163,7 +151,7 @@ def brick_main(argv: list[str]) -> int:
         while not stop.wait(0.2):
             if server.error is not None:
                 print(f"cplus brick: error: emulator stopped: {server.error}", file=sys.stderr)
-                return 1
+                return EXIT_LINK
     finally:
         server.stop()
         for sig, handler in previous.items():
@@ -173,4 +161,4 @@ def brick_main(argv: list[str]) -> int:
           f"dropped {stats.dropped_in}/{stats.dropped_out}, corrupted "
           f"{stats.corrupted_in}/{stats.corrupted_out}, {stats.disconnects} disconnect(s)",
           file=sys.stderr)
-    return 0
+    return EXIT_OK

@@ -1,0 +1,126 @@
+"""What every subcommand shares: exit codes, one-line usage errors, option types, printers.
+
+Exit codes (the README's table):
+
+==== ==================================================================================
+0    done: every query has a solution, the job ran
+1    no plan in a query's maxstep range (CCALC's "No solution" lines are printed); for
+     ``execute``/``run``: the link or a brick failed
+2    bad input or usage: a located ``file:line:col: error:`` or a one-line message
+3    an open maxstep range reached ``--max-horizon`` without a plan
+4    a robot task has plans, but no collision-free one in the horizon range
+130  interrupted
+==== ==================================================================================
+"""
+from __future__ import annotations
+
+import argparse
+import sys
+
+__all__ = ["EXIT_OK", "EXIT_NO_PLAN", "EXIT_LINK", "EXIT_INPUT", "EXIT_LIMIT", "EXIT_NO_SAFE_PLAN",
+           "EXIT_INTERRUPTED", "CliError", "OneLineArgumentParser", "nonneg", "positive", "externals",
+           "Warnings", "horizon_progress", "clear_progress", "query", "file_loc", "robot_exit_code"]
+
+EXIT_OK = 0
+EXIT_NO_PLAN = 1
+EXIT_LINK = 1
+EXIT_INPUT = 2
+EXIT_LIMIT = 3
+EXIT_NO_SAFE_PLAN = 4
+EXIT_INTERRUPTED = 130
+
+
+class CliError(Exception):
+    """A usage error already phrased for the user (one line)."""
+
+
+class OneLineArgumentParser(argparse.ArgumentParser):
+    """argparse that reports a usage error as one line and raises instead of exiting."""
+
+    def error(self, message: str) -> None:  # type: ignore[override]
+        raise CliError(f"{self.prog}: error: {message}")
+
+
+def nonneg(text: str) -> int:
+    try:
+        v = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a non-negative integer, got '{text}'") from None
+    if v < 0:
+        raise argparse.ArgumentTypeError(f"expected a non-negative integer, got '{text}'")
+    return v
+
+
+def positive(text: str) -> float:
+    try:
+        v = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
+    if not v > 0:
+        raise argparse.ArgumentTypeError("must be > 0")
+    return v
+
+
+def externals(files: list[str]):
+    """The built-in externals plus those of every ``--extern FILE.py``."""
+    from cplus.externals import load_extern_file
+    from cplus.resolve import BUILTIN_EXTERNALS
+    ext = BUILTIN_EXTERNALS.copy()
+    for f in files:
+        load_extern_file(f, ext)
+    return ext
+
+
+class Warnings:
+    """Prints each diagnostic of a domain once, however often it is asked to."""
+
+    def __init__(self) -> None:
+        self.seen: set[int] = set()
+
+    def __call__(self, diag) -> None:
+        for d in diag.items:
+            if id(d) not in self.seen:
+                self.seen.add(id(d))
+                print(d.render(), file=sys.stderr)
+
+
+def horizon_progress(enabled: bool):
+    """A per-horizon callback: a ``--stats`` line, or a transient counter on a terminal."""
+    tty = sys.stderr.isatty()
+
+    def on_horizon(st) -> None:
+        if enabled:
+            verdict = "solution" if st.satisfiable else "no solution"
+            print(f"% maxstep {st.maxstep}: {st.variables} variables, {st.clauses} clauses, "
+                  f"encode {st.encode_s:.3f} s, solve {st.solve_s:.3f} s: {verdict}", file=sys.stderr)
+        elif tty:
+            print(f"\r% maxstep {st.maxstep} ...", end="", file=sys.stderr, flush=True)
+    return on_horizon
+
+
+def clear_progress(enabled: bool) -> None:
+    if not enabled and sys.stderr.isatty():
+        print("\r\033[K", end="", file=sys.stderr, flush=True)
+
+
+def query(domain, label: str, path: str):
+    """The query ``label`` of ``domain``; an unknown label is an error located at the file."""
+    from cplus.errors import QueryError
+    try:
+        return domain.query(label)
+    except QueryError as exc:
+        exc.loc = file_loc(path)
+        raise
+
+
+def file_loc(path: str):
+    from cplus.errors import Location, Source
+    from cplus.load import read_text
+    return Location(Source(path, read_text(path)), 0, 0)
+
+
+def robot_exit_code(status) -> int:
+    """The exit code of a :class:`cplus.robot.RefineStatus`."""
+    from cplus.robot import RefineStatus
+    return {RefineStatus.FOUND: EXIT_OK, RefineStatus.UNSAFE: EXIT_OK, RefineStatus.NO_PLAN: EXIT_NO_PLAN,
+            RefineStatus.HORIZON_LIMIT: EXIT_LIMIT, RefineStatus.NO_SAFE_PLAN: EXIT_NO_SAFE_PLAN}[status]

@@ -1,0 +1,165 @@
+"""``cplus plan FILE``: answer the queries of a C+ file, as CCALC prints them or as JSON.
+
+A file with a ``scene.toml`` beside it (or ``--scene``) is a robot task: its plans are refined
+until collision-free (:func:`cplus.robot.refine`) and may be exported as trajectories.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+
+from cplus.cli.common import (
+    EXIT_INPUT,
+    EXIT_LIMIT,
+    EXIT_NO_PLAN,
+    EXIT_OK,
+    OneLineArgumentParser,
+    Warnings,
+    clear_progress,
+    externals,
+    file_loc,
+    horizon_progress,
+    nonneg,
+    query,
+    robot_exit_code,
+)
+
+__all__ = ["build_parser", "main", "add_common", "add_robot_options"]
+
+
+def build_parser() -> OneLineArgumentParser:
+    p = OneLineArgumentParser(prog="cplus plan", description="Answer the queries of a C+ file.")
+    p.add_argument("file")
+    p.add_argument("--query", "-q", metavar="LABEL", help="run only this query ('states': all states)")
+    p.add_argument("-n", type=nonneg, default=1, metavar="N", help="number of solutions (0 = all)")
+    p.add_argument("--json", action="store_true", help="print the result as cplus.plan/1 JSON")
+    p.add_argument("--stats", action="store_true", help="print sizes and times per horizon on stderr")
+    add_common(p)
+    add_robot_options(p)
+    return p
+
+
+def add_common(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--solver", default=None, metavar="NAME", help="pysat solver (default glucose4)")
+    p.add_argument("--max-horizon", type=nonneg, default=None, metavar="N",
+                   help="stop an open range N..infinity at this maxstep")
+    p.add_argument("--extern", action="append", default=[], metavar="FILE.py",
+                   help="a Python file whose functions are external predicates/functions")
+
+
+def add_robot_options(p: argparse.ArgumentParser) -> None:
+    g = p.add_argument_group("robot tasks (a scene.toml beside the domain, or --scene)")
+    g.add_argument("--scene", metavar="FILE", help="scene file (default: scene.toml beside the domain)")
+    g.add_argument("--no-refine", action="store_true", help="show the first plan, do not refine it")
+    g.add_argument("--max-iterations", type=nonneg, default=100, metavar="N",
+                   help="refinement iterations before giving up (default 100)")
+    g.add_argument("--trajectory", metavar="OUT.json", help="write the joint trajectory (cplus.trajectory/1)")
+    g.add_argument("--csv", metavar="OUT.csv", help="write the joint trajectory as CSV")
+    g.add_argument("--plot", metavar="OUT.png", help="plot the plan (PNG or SVG)")
+    g.add_argument("--points-per-step", type=nonneg, default=10, metavar="K")
+    g.add_argument("--step-time", type=float, default=1.0, metavar="SECONDS")
+
+
+def main(args: argparse.Namespace) -> int:
+    from cplus.robot.task import scene_beside
+    scene_path = args.scene or scene_beside(args.file)
+    if scene_path is not None:
+        return _plan_robot_task(args, scene_path)
+    return _plan_domain(args)
+
+
+def _plan_domain(args: argparse.Namespace) -> int:
+    from cplus.api import Domain
+    from cplus.planner import PlanStatus
+    from cplus.sat.solver import DEFAULT_SOLVER
+
+    warn = Warnings()
+    t0 = time.perf_counter()
+    domain = Domain.load(args.file, externals(args.extern))
+    warn(domain.diagnostics)
+    labels = [args.query] if args.query else domain.labels
+    if not labels:
+        from cplus.errors import QueryError
+        raise QueryError("this file has no queries; use '--query states' to list its states",
+                         file_loc(args.file))
+    queries = [query(domain, lab, args.file) for lab in labels]
+    t1 = time.perf_counter()
+    theory = domain.theory
+    t2 = time.perf_counter()
+    warn(domain.diagnostics)
+    if args.stats:
+        print(f"% {args.file}: loaded in {t1 - t0:.3f} s; grounded {theory.rule_count} rules over "
+              f"{len(theory.atoms)} atoms in {t2 - t1:.3f} s", file=sys.stderr)
+    code = EXIT_OK
+    docs = []
+    for q in queries:
+        if len(queries) > 1 and not args.json:
+            print(f"% query {q.label}")
+        result = domain.solve(q.label, args.n, args.solver or DEFAULT_SOLVER, args.max_horizon,
+                              horizon_progress(args.stats))
+        clear_progress(args.stats)
+        warn(domain.diagnostics)
+        if args.stats and result.stats:
+            print(f"% templates built in {result.template_s:.3f} s; total "
+                  f"{sum(s.encode_s for s in result.stats):.3f} s encoding, "
+                  f"{sum(s.solve_s for s in result.stats):.3f} s solving", file=sys.stderr)
+        if args.json:
+            docs.append(domain.to_json(result))
+        else:
+            sys.stdout.write(domain.format(result, numbered=args.n != 1))
+        if result.status is PlanStatus.NO_PLAN:
+            code = max(code, EXIT_NO_PLAN)
+        elif result.status is PlanStatus.HORIZON_LIMIT:
+            if not args.json:
+                print(f"% no solution up to maxstep {args.max_horizon} (--max-horizon)", file=sys.stderr)
+            code = max(code, EXIT_LIMIT)
+    if args.json:
+        from cplus.output import PLAN_FORMAT
+        json.dump({"format": PLAN_FORMAT, "file": args.file, "results": [
+            {k: v for k, v in d.items() if k not in ("format", "file")} for d in docs]}, sys.stdout, indent=1)
+        sys.stdout.write("\n")
+    return code
+
+
+def _plan_robot_task(args: argparse.Namespace, scene_path: str) -> int:
+    """Plan, refine, print, export."""
+    from cplus.output import PLAN_FORMAT, Display, format_result
+    from cplus.robot import RefineStatus, RobotTask, export_plan, refine
+    if args.n != 1:
+        print("cplus plan: -n applies to plain domains; a robot task yields one refined plan", file=sys.stderr)
+        return EXIT_INPUT
+    warn = Warnings()
+    task = RobotTask.load(args.file, scene_path, args.extern)
+    domain = task.domain
+    warn(domain.diagnostics)  # type: ignore[attr-defined]
+    labels = [args.query] if args.query else domain.labels  # type: ignore[attr-defined]
+    code = EXIT_OK
+    docs = []
+    for label in labels:
+        query(domain, label, args.file)
+        result = refine(task, label, args.max_iterations, args.max_horizon, args.solver, not args.no_refine,
+                        on_iteration=lambda it: print(it.text(), file=sys.stderr),
+                        on_horizon=horizon_progress(args.stats))
+        warn(domain.diagnostics)  # type: ignore[attr-defined]
+        shown = result.shown
+        if args.json:
+            docs.append(result.to_json(label))
+        else:
+            display = Display(domain.program)  # type: ignore[attr-defined]
+            sys.stdout.write(format_result(display, result.no_solution_with_maxstep, [shown] if shown else [],
+                                           False))
+        if result.reason:
+            print(f"% {result.reason}", file=sys.stderr)
+        code = max(code, robot_exit_code(result.status))
+        if result.status in (RefineStatus.FOUND, RefineStatus.UNSAFE):
+            export_plan(task, result.states or result.first_states or [],
+                        None if result.history else result.first_violation, domain_path=args.file,
+                        plot=args.plot, trajectory_json=args.trajectory, csv=args.csv,
+                        points_per_step=args.points_per_step, step_time=args.step_time,
+                        on_write=lambda path: print(f"% wrote {path}", file=sys.stderr))
+    if args.json:
+        json.dump({"format": PLAN_FORMAT, "file": args.file, "results": docs}, sys.stdout, indent=1)
+        sys.stdout.write("\n")
+    return code

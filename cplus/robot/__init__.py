@@ -1,0 +1,20 @@
+"""What joins the planner to the world: robot tasks, refinement, execution on bricks.
+
+* :class:`RobotTask` — a C+ domain plus a ``scene.toml`` (:mod:`cplus.robot.task`);
+* :func:`refine` — the paper's Algorithm 1 (:mod:`cplus.robot.refine`);
+* :func:`export_plan` — picture, trajectory JSON/CSV (:mod:`cplus.robot.export`);
+* :func:`execute_trajectory`, :func:`tracking_report` — a trajectory on NXT bricks, real or
+  emulated (:mod:`cplus.robot.execution`).
+
+This package may import :mod:`cplus`, :mod:`trajectory` and :mod:`nxt_link`; the language core
+never imports it, and nothing here prints or exits: results carry statuses, and callbacks
+report progress.
+"""
+from __future__ import annotations
+
+from cplus.robot.export import export_plan
+from cplus.robot.refine import DEFAULT_MAX_HORIZON, Iteration, RefinementResult, RefineStatus, refine
+from cplus.robot.task import RobotTask, TaskError, scene_beside
+
+__all__ = ["DEFAULT_MAX_HORIZON", "Iteration", "RefineStatus", "RefinementResult", "RobotTask", "TaskError",
+           "export_plan", "refine", "scene_beside"]
