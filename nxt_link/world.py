@@ -379,7 +379,7 @@ class World:
         self.distance_mm = 0.0
         self.light_percent = spec.track.floor_percent
         self.touch_pressed = False
-        self.presses_done = 0
+        self.presses = 0  # presses so far (overlapping ones count once)
 
     # -- inspection ------------------------------------------------------------------------
 
@@ -507,9 +507,9 @@ class World:
                 pressed = True
             if self.now_s < end:
                 keep.append((start, end))
-            elif start <= self.now_s:
-                self.presses_done += 1
         self._presses_due = keep
+        if pressed and not self.touch_pressed:
+            self.presses += 1
         return pressed
 
     def _light(self) -> float:

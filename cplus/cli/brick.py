@@ -210,7 +210,7 @@ def main(args: argparse.Namespace) -> int:
         near = world.nearest_landmark()
         print(f"cplus brick: {args.name}: robot at {world.position_mm:.0f} mm"
               f"{f' (landmark {near})' if near else ''}, {world.distance_mm:.0f} mm driven, "
-              f"{world.presses_done} press(es), stuck {world.stuck_contacts()} time(s)",
+              f"{world.presses} press(es), stuck {world.stuck_contacts()} time(s)",
               file=sys.stderr)
     for schedule in server.emulator.stalls:
         state = "never (the motor did not turn)" if schedule.moved_at_ms is None else \

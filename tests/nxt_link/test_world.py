@@ -193,7 +193,7 @@ def test_scheduled_presses_at_times_and_at_landmarks():
         wait(emu, brick, 0.05)
         seen.append(world.touch_pressed)
     presses = sum(1 for a, b in zip([False] + seen, seen) if b and not a)
-    assert presses == 2 and world.presses_done == 2
+    assert presses == 2 and world.presses == 2
 
 
 def test_a_landmark_missed_the_first_time():
