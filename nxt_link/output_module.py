@@ -58,6 +58,12 @@ class OutputPort:
         self.motor = MotorPhysics(motor_params)
         self.reset_device()
 
+    @property
+    def applied_duty_pct(self) -> float:
+        """The signed PWM duty (%) applied in the last millisecond (the IO map's
+        ``ActualSpeed``)."""
+        return self._duty_pct
+
     # -- commands ------------------------------------------------------------
 
     def reset_device(self) -> None:
