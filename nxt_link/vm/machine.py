@@ -745,7 +745,9 @@ class VM:
                 if k >= n:
                     return nxt
                 val = get_v()
-                if tv.tc != TC.ARRAY:
+                if tv.tc != TC.ARRAY or _same_type(te, tv):
+                    # one new element (an array replacing a row of an array of arrays,
+                    # which firmware 1.29's code would treat as a list of elements)
                     arr[k] = poly.convert(te, tv, copy_value(tv, val))
                 else:
                     assert tv.elem is not None
@@ -822,19 +824,21 @@ class VM:
         for s in srcs:
             self._arg(s, "ARRBUILD")
             ts = self.types[s]
-            whole = _same_type(td, ts)
-            if not whole and not _same_type(te, ts):
-                raise _Fault(f"ARRBUILD: a {ts.name} source for a {td.name} destination")
-            parts.append((whole, self._getter(s), ts))
+            # a source of the destination's type is an array to append, anything else
+            # one element (converted like a move: NBC passes constants of any size)
+            parts.append((_same_type(td, ts), self._getter(s), ts))
         m = self.mem
 
         def f() -> int:
             out: list[Any] = []
-            for whole, get, ts in parts:
-                if whole:
-                    out.extend(copy_value(ts, get()))
-                else:
-                    out.append(copy_value(ts, get()))
+            try:
+                for whole, get, ts in parts:
+                    if whole:
+                        out.extend(copy_value(ts, get()))
+                    else:
+                        out.append(poly.convert(te, ts, copy_value(ts, get())))
+            except poly.PolyError as exc:
+                raise _Fault(f"ARRBUILD: {exc}") from None
             new = bytearray(out) if td.string else out
             self._account(d, new)
             m[d] = new
