@@ -340,7 +340,7 @@ class BrickEmulator:
         if isinstance(p, FollowerProgram):
             return p
         name = self.firmware.program_name
-        if isinstance(p, VMProgram) and name in self.config.symbols:
+        if isinstance(p, VMProgram) and name is not None and name in self.config.symbols:
             symbols = Symbols(self.config.symbols[name])
             if "refs" in symbols and "meas" in symbols:
                 return FollowerView(p.vm, symbols)
