@@ -216,30 +216,30 @@ class VM:
                 c = rq[0]
                 ops = ops_all[c]
                 pc = pcs[c]
-                turn = INSTRUCTIONS_PER_TURN
+                # the turn: 20 instructions, fewer when the slice is nearly used up; at
+                # least one even past the end of the slice (as after a clump switch)
+                k = budget - executed
+                k = INSTRUCTIONS_PER_TURN if k >= INSTRUCTIONS_PER_TURN else (k if k > 0 else 1)
+                left = k
                 try:
-                    while True:
+                    while left:
                         nxt = ops[pc]()
-                        executed += 1
+                        left -= 1
                         if nxt < 0:
                             break
                         pc = nxt
-                        if executed >= budget:
-                            pcs[c] = pc
-                            if len(rq) > 1 and rq[0] == c:
-                                rq.append(rq.pop(0))
-                            return True
-                        turn -= 1
-                        if turn == 0:
-                            break
                 except _Fault as f:
+                    executed += k - left + 1
                     self.finished = True
                     self.error = VMError(f.args[0], pc=self.exe.clumps[c].code_start + pc, clump=c)
                     raise self.error from None
-                if nxt >= 0:  # the turn is over: rotate
+                executed += k - left
+                if nxt >= 0:  # the turn is over (or the slice): rotate
                     pcs[c] = pc
                     if len(rq) > 1 and rq[0] == c:
                         rq.append(rq.pop(0))
+                    if executed >= budget:
+                        return True
                     continue
                 event = self._event
                 if event == _DONE:
@@ -614,6 +614,22 @@ class VM:
                     return nxt
                 return f
             dt = td.tc
+            if dt == TC.UBYTE:
+                def g() -> int:
+                    m[d] = m[s] & 0xFF
+                    return nxt
+                return g
+            if dt == TC.ULONG:
+                def g() -> int:
+                    m[d] = m[s] & 0xFFFFFFFF
+                    return nxt
+                return g
+            if dt == TC.SLONG:  # from a ulong
+                def g() -> int:
+                    v = m[s]
+                    m[d] = v - 0x100000000 if v & 0x80000000 else v
+                    return nxt
+                return g
 
             def g() -> int:
                 m[d] = wrap(dt, m[s])
