@@ -60,6 +60,17 @@ class SimulatedExecutor(Executor):
         # the world fixes every event: what the schedule says happens, happens; nothing else
         self.world = OnlineModel(model.domain, model.query.label, Roles(roles.agent, roles.events))
         self.log: list[tuple[int, list[str], State]] = []
+        self.description = f"simulated robot ({', '.join(f.text for f in self.sensed) or 'no sensors'})"
+
+    @classmethod
+    def from_binding(cls, model: OnlineModel, binding, **kw) -> SimulatedExecutor:
+        """A simulated robot that senses what a binding file says its bricks sense: a sensing
+        value after each action of its brick, a sensor port after every step."""
+        sensed: dict[str, list[str] | None] = {}
+        for gc, s in binding.sensed.items():
+            sensed[gc.text] = None if s.port is not None else \
+                [a.decl.name for a, ab in binding.actions.items() if ab.brick == s.brick]
+        return cls(model, sensed=sensed, **kw)
 
     def _gc(self, text: str) -> GroundConst:
         gc = self.model.by_text.get("".join(text.split()))

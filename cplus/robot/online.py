@@ -47,6 +47,7 @@ ends a run from another thread between two cycles. Nothing here prints or exits.
 """
 from __future__ import annotations
 
+import json
 import threading
 import time
 from abc import ABC, abstractmethod
@@ -58,8 +59,8 @@ from cplus.robot.estimation import Act, Estimate, EstimateStatus, OnlineModel, P
 from cplus.signature import GroundConst, render_value
 from nxt_link.clock import MONOTONIC, Clock
 
-__all__ = ["ONLINE_FORMAT", "CycleRecord", "EventSource", "Executor", "Observer", "OnlineLoop", "OnlineStatus",
-           "Outcome", "Replan", "RobotLost", "RunResult", "Step"]
+__all__ = ["ONLINE_FORMAT", "CycleRecord", "EventSource", "Executor", "JsonLinesLog", "Observer", "OnlineLoop",
+           "OnlineStatus", "Outcome", "Replan", "RobotLost", "RunResult", "Step"]
 
 ONLINE_FORMAT = "cplus.online/1"
 
@@ -116,6 +117,9 @@ class Outcome:
 
 class Executor(ABC):
     """Does the agent's actions on a robot (real, emulated or simulated)."""
+
+    description = "a robot"
+    """What it is, for the log's start record (``"emulated NXT bricks: robot=/dev/pts/4"``)."""
 
     def open(self) -> None:
         """Connect (called once, before the first cycle)."""
@@ -192,10 +196,11 @@ class Replan:
                 "events": list(self.events)}
 
     def text(self) -> str:
-        parts = [f"{gc.text}: {_value_text(p)} -> {_value_text(o)}" for gc, (p, o) in self.differ.items()]
-        if self.events:
-            parts.insert(0, "after " + ", ".join(self.events))
-        return self.reason if not parts else f"{self.reason} ({'; '.join(parts)})"
+        """``after press: letter(1) false -> true`` / ``diverged: atLandmark 2 -> 3``."""
+        changes = ", ".join(f"{gc.text} {_value_text(p)} -> {_value_text(o)}" for gc, (p, o) in self.differ.items())
+        if self.reason == "event":
+            return f"after {', '.join(self.events)}" + (f": {changes}" if changes else "")
+        return f"{self.reason}: {changes}" if changes else self.reason
 
 
 @dataclass
@@ -273,7 +278,7 @@ class Observer:
     """Told about a run as it goes; every method is a no-op unless overridden."""
 
     def on_start(self, loop: OnlineLoop) -> None:
-        """Before the first cycle (the executor is open)."""
+        """Before the executor is opened and the first cycle runs."""
 
     def on_act(self, record: CycleRecord) -> None:
         """A cycle's decision is made and its actions go to the executor (``record.executed``
@@ -284,6 +289,35 @@ class Observer:
 
     def on_end(self, result: RunResult) -> None:
         """The run ended (the executor is closed)."""
+
+
+class JsonLinesLog(Observer):
+    """The ``cplus.online/1`` log: a start record, one record per cycle, an end record; one
+    JSON object per line, each line flushed as soon as it is known (nothing is lost when a
+    run is interrupted)."""
+
+    def __init__(self, stream, extra: Mapping[str, object] | None = None) -> None:
+        self.stream = stream
+        self.extra = dict(extra or {})
+
+    def _write(self, obj: dict) -> None:
+        self.stream.write(json.dumps(obj, separators=(",", ":")) + "\n")
+        self.stream.flush()
+
+    def on_start(self, loop: OnlineLoop) -> None:
+        roles = loop.model.roles
+        self._write({"record": "start", "format": ONLINE_FORMAT, "domain": loop.model.domain.path,
+                     "goal": loop.model.query.label, "max_plan_length": loop.model.goal_query.hi,
+                     "agent": sorted(gc.text for gc in roles.agent),
+                     "observed": sorted(gc.text for gc in roles.observed),
+                     "inferred": sorted(gc.text for gc in roles.inferred),
+                     "executor": loop.executor.description, **self.extra})
+
+    def on_cycle(self, record: CycleRecord) -> None:
+        self._write(record.to_json())
+
+    def on_end(self, result: RunResult) -> None:
+        self._write(result.to_json())
 
 
 class OnlineLoop:
@@ -322,13 +356,13 @@ class OnlineLoop:
     def run(self) -> RunResult:
         """Run until the goal holds (or a failure, the cycle limit, :meth:`stop`)."""
         self._t0 = self.clock.now()
-        self.executor.open()
         result: RunResult | None = None
+        for obs in self.observers:
+            obs.on_start(self)
         try:
-            for obs in self.observers:
-                obs.on_start(self)
+            self.executor.open()
             result = self._run()
-        except RobotLost as exc:           # while sensing before the first cycle
+        except RobotLost as exc:           # while connecting or sensing before the first cycle
             result = self._end(OnlineStatus.ROBOT_LOST, str(exc))
         except KeyboardInterrupt:
             result = self._end(OnlineStatus.STOPPED, "interrupted")
