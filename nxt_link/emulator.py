@@ -32,6 +32,13 @@ random generator:
   losing whatever was in flight; the host reconnects it (a new pty behind the
   same symlink) while the brick, its program and its mailboxes keep running,
   as a real brick does when the Bluetooth link drops.
+
+Around the brick (``EmulatorConfig.world``, ``EmulatorConfig.stalls``): a
+:class:`~nxt_link.world.World` (a line track the robot drives on, which its light and
+touch sensors read) and :class:`~nxt_link.stall.Stall` s (a motor held still
+mid-trajectory). Two programs are installed, ``cplus_follow.rxe`` (the setpoint follower)
+and ``cplus_legolog.rxe`` (the Legolog behaviour program); ``EmulatorConfig.program``
+says which one runs from power-on.
 """
 from __future__ import annotations
 
@@ -40,12 +47,16 @@ import random
 from collections import deque
 from dataclasses import dataclass, field, replace
 
+from nxt_link import behaviour_protocol
 from nxt_link.firmware import Firmware, FirmwareParams
 from nxt_link.follower_program import FollowerProgram
 from nxt_link.framing import FrameDecoder, frame
+from nxt_link.legolog_program import LegologProgram
 from nxt_link.motor_model import MotorParams
+from nxt_link.stall import Stall, StallSchedule
 from nxt_link.stream_protocol import PROGRAM_NAME
 from nxt_link.telegram import Opcode
+from nxt_link.world import World, WorldSpec
 
 __all__ = ["LinkParams", "FaultParams", "EmulatorConfig", "EmulatorStats", "BrickEmulator"]
 
@@ -120,6 +131,11 @@ class EmulatorConfig:
             from the brick's menu); False: the PC must STARTPROGRAM it.
         stale_frame_ms: a partial incoming frame with no new byte for this
             long (simulated ms) is discarded.
+        program: the program that runs from power-on: ``cplus_follow.rxe``, or
+            ``cplus_legolog.rxe`` (the default when there is a world).
+        world: the track the robot drives on and senses (None: motors turn freely,
+            sensors read nothing).
+        stalls: motors to hold still mid-trajectory.
     """
 
     name: str = "NXT"
@@ -129,6 +145,27 @@ class EmulatorConfig:
     faults: FaultParams = field(default_factory=FaultParams)
     program_running: bool = True
     stale_frame_ms: float = 250.0
+    program: str | None = None
+    world: WorldSpec | None = None
+    stalls: tuple[Stall, ...] = ()
+
+    def __post_init__(self) -> None:
+        if self.program is not None and self.program not in PROGRAMS:
+            raise ValueError(f"no program {self.program!r} on the emulated brick (installed: "
+                             f"{', '.join(sorted(PROGRAMS))})")
+        ports = [s.port for s in self.stalls]
+        if len(set(ports)) != len(ports):
+            raise ValueError("two stalls on one port")
+
+    @property
+    def startup_program(self) -> str:
+        if self.program is not None:
+            return self.program
+        return behaviour_protocol.PROGRAM_NAME if self.world is not None else PROGRAM_NAME
+
+
+#: The program models installed on every emulated brick, by file name.
+PROGRAMS = {PROGRAM_NAME: FollowerProgram, behaviour_protocol.PROGRAM_NAME: LegologProgram}
 
 
 @dataclass(slots=True)
@@ -152,9 +189,16 @@ class BrickEmulator:
         if fw_params.name != self.config.name:
             fw_params = replace(fw_params, name=self.config.name[:14])
         self.firmware = Firmware(fw_params, self.config.motors,
-                                 programs={PROGRAM_NAME: FollowerProgram})
+                                 programs=dict(PROGRAMS))  # type: ignore[arg-type]
+        self.world: World | None = None
+        if self.config.world is not None:
+            self.world = World(self.config.world, seed=self.config.faults.seed)
+            self.firmware.attach(self.world)
+        self.stalls = [StallSchedule(s) for s in self.config.stalls]
+        for schedule in self.stalls:
+            self.firmware.attach(schedule)
         if self.config.program_running:
-            self.firmware.start_program_now(PROGRAM_NAME)
+            self.firmware.start_program_now(self.config.startup_program)
         self.stats = EmulatorStats()
         self._rng = random.Random(self.config.faults.seed)
         self._decoder = FrameDecoder(stale_after_s=self.config.stale_frame_ms / 1000.0)
@@ -315,4 +359,10 @@ class BrickEmulator:
         """The running brick program model, if the follower program runs."""
         p = self.firmware.program
         return p if isinstance(p, FollowerProgram) else None
+
+    @property
+    def legolog(self) -> LegologProgram | None:
+        """The running brick program model, if the Legolog behaviour program runs."""
+        p = self.firmware.program
+        return p if isinstance(p, LegologProgram) else None
 

@@ -6,7 +6,10 @@ on error, status codes and their order of checks, no reply to a no-reply
 telegram, unknown opcodes answered ``BE``), keeps the 20 mailbox queues with
 their real rules (5 deep, a write to a full queue drops the oldest, cleared at
 program start), starts and stops the one program it has installed, and runs
-that program and the three output ports every millisecond.
+that program, the four input ports and the three output ports every millisecond.
+Environments attached with :meth:`Firmware.attach` (a sensor world, a stalled motor) run
+after the output module each millisecond: they read the motors and set the sensors' A/D
+values, which the input module turns into what GETINPUTVALUES and a program read.
 
 It knows nothing about links, latency or faults (that is
 :mod:`nxt_link.emulator`) and has no clock of its own: its owner calls
@@ -23,11 +26,12 @@ from typing import Protocol
 
 from nxt_link import telegram as tg
 from nxt_link.errors import TelegramError
+from nxt_link.input_module import NO_OF_INPUTS, InputPort
 from nxt_link.motor_model import MotorParams
 from nxt_link.output_module import RESET_NONE, OutputPort
 from nxt_link.telegram import Opcode, OutputMode, RegulationMode, RunState
 
-__all__ = ["FirmwareParams", "Firmware", "Program", "ProgramHost", "InputPort"]
+__all__ = ["FirmwareParams", "Firmware", "Program", "ProgramHost", "InputPort", "Environment"]
 
 log = logging.getLogger(__name__)
 
@@ -42,7 +46,6 @@ ERR_INVALID_QUEUE = 0xEE
 
 MESSAGES_PER_QUEUE = 5
 NO_OF_OUTPUTS = 3
-NO_OF_INPUTS = 4
 
 # direct opcodes the firmware has but this project does not use
 _OP_PLAY_SOUND_FILE = 0x02
@@ -93,6 +96,16 @@ class ProgramHost(Protocol):
 
     def coast_ex(self, port: int, reset: int) -> None: ...
 
+    def off_ex(self, port: int, reset: int) -> None: ...
+
+    def set_sensor(self, port: int, sensor_type: int, sensor_mode: int) -> None: ...
+
+    def sensor(self, port: int) -> int: ...
+
+    def sensor_valid(self, port: int) -> bool: ...
+
+    def play_tone(self, frequency_hz: int, duration_ms: int) -> None: ...
+
 
 class Program(Protocol):
     """A program model; a fresh instance is created at every activation."""
@@ -102,12 +115,12 @@ class Program(Protocol):
         ...
 
 
-@dataclass(slots=True)
-class InputPort:
-    sensor_type: int = 0
-    sensor_mode: int = 0
-    invalid: bool = False
-    scaled: int = 0
+class Environment(Protocol):
+    """Something outside the brick that moves with its motors or feeds its sensors."""
+
+    def step(self, firmware: Firmware) -> None:
+        """Called once per millisecond, after the output module moved the motors."""
+        ...
 
 
 @dataclass(slots=True)
@@ -150,7 +163,12 @@ class Firmware:
         self._pending_start: tuple[str, int] | None = None
         self._pending_stop = False
         self.tones: list[_Tone] = []
+        self.environments: list[Environment] = []
         self.host = _Host(self)
+
+    def attach(self, environment: Environment) -> None:
+        """Run ``environment`` every millisecond from now on (after the outputs)."""
+        self.environments.append(environment)
 
     # -- program lifecycle ----------------------------------------------------
 
@@ -198,12 +216,14 @@ class Firmware:
             name = self._pending_start[0]
             self._pending_start = None
             self._activate(name)
+        for inp in self.inputs:
+            inp.step()
         if self.program is not None:
             self.program.step(self.host)
-        for inp in self.inputs:
-            inp.invalid = False
         for out in self.outputs:
             out.step()
+        for env in self.environments:
+            env.step(self)
 
     # -- direct commands ----------------------------------------------------------
 
@@ -270,8 +290,7 @@ class Firmware:
         if isinstance(cmd, tg.SetInputMode):
             if cmd.port >= NO_OF_INPUTS:
                 return tg.error_reply(op, ERR_RC_ILLEGAL_VAL)
-            inp = self.inputs[cmd.port]
-            inp.sensor_type, inp.sensor_mode, inp.invalid = cmd.sensor_type, cmd.sensor_mode, True
+            self.inputs[cmd.port].set_type_and_mode(cmd.sensor_type, cmd.sensor_mode)
             return tg.encode_reply(tg.StatusReply(op, NO_ERR))
         if isinstance(cmd, tg.GetOutputState):
             if cmd.port >= NO_OF_OUTPUTS:
@@ -285,9 +304,10 @@ class Firmware:
             if cmd.port >= NO_OF_INPUTS:
                 return tg.error_reply(op, ERR_RC_ILLEGAL_VAL)
             i = self.inputs[cmd.port]
+            # the firmware copies the normalized value into the calibrated field
             return tg.encode_reply(tg.InputValuesReply(
-                NO_ERR, cmd.port, not i.invalid, False, i.sensor_type, i.sensor_mode,
-                0, 0, i.scaled, 0))
+                NO_ERR, cmd.port, i.valid, False, i.sensor_type, i.sensor_mode,
+                i.raw, i.normalized, _s16(i.scaled), i.normalized))
         if isinstance(cmd, tg.MessageRead):
             return self._message_read(cmd)
         if isinstance(cmd, tg.ResetMotorPosition):
@@ -320,7 +340,7 @@ class Firmware:
             if telegram[2] >= NO_OF_INPUTS:
                 status = ERR_RC_ILLEGAL_VAL
             else:
-                self.inputs[telegram[2]].scaled = 0
+                self.inputs[telegram[2]].reset_scaled()
         return bytes((tg.CommandType.REPLY, op, status)) if want_reply else None
 
     def _system(self, telegram: bytes, want_reply: bool) -> bytes | None:
@@ -431,9 +451,33 @@ class _Host:
         self._fw.outputs[port].set_output_state(
             0, OutputMode.BRAKE, RegulationMode.IDLE, 0, RunState.IDLE, 0, reset)
 
+    def off_ex(self, port: int, reset: int = RESET_NONE) -> None:
+        """NXC ``OffEx``: MOTORON|BRAKE at power 0, running (the short-circuit brake)."""
+        self.on_fwd_ex(port, 0, reset)
+
+    def set_sensor(self, port: int, sensor_type: int, sensor_mode: int) -> None:
+        """NXC ``SetSensorType`` + ``SetSensorMode`` (``SetSensorLight``, ``SetSensorTouch``)."""
+        self._fw.inputs[port].set_type_and_mode(sensor_type, sensor_mode)
+
+    def sensor(self, port: int) -> int:
+        """NXC ``Sensor(port)``: the scaled value."""
+        return self._fw.inputs[port].scaled
+
+    def sensor_valid(self, port: int) -> bool:
+        """NXC ``SensorInvalid(port)`` negated (``ResetSensor`` waits for it)."""
+        return self._fw.inputs[port].valid
+
+    def play_tone(self, frequency_hz: int, duration_ms: int) -> None:
+        """NXC ``PlayTone``."""
+        self._fw.tones.append(_Tone(self._fw.now_ms, frequency_hz, duration_ms))
+
 
 def _s8(v: int) -> int:
     return max(-128, min(127, v))
+
+
+def _s16(v: int) -> int:
+    return max(-32768, min(32767, v))
 
 
 def _s32(v: int) -> int:
