@@ -161,3 +161,10 @@ def test_no_binding_file_is_one_line(tmp_path, capsys):
     (tmp_path / "d.cp").write_text(CONTRA)
     code, _, err = run([str(tmp_path / "d.cp"), "--simulate"], capsys)
     assert code == 2 and "no robot.toml beside" in err
+
+
+def test_a_brick_that_cannot_be_opened_is_exit_7(delivery, tmp_path, capsys):
+    log = tmp_path / "run.jsonl"
+    code, _, err = run([str(delivery), "--brick", f"robot={tmp_path / 'rfcomm9'}", "--log", str(log)], capsys)
+    assert code == 7 and "robot_lost: brick robot:" in err
+    assert [r["record"] for r in records(log)] == ["start", "end"]
