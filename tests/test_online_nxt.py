@@ -13,7 +13,6 @@ from cplus.robot.binding import load_binding
 from cplus.robot.estimation import OnlineModel
 from cplus.robot.nxt_executor import NxtExecutor
 from cplus.robot.online import Observer, OnlineLoop, OnlineStatus, RunResult
-from nxt_link import Brick
 from nxt_link.behaviours import BehaviourTiming
 from nxt_link.brick import RetryPolicy
 from nxt_link.clock import VirtualClock
