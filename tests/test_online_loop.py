@@ -78,6 +78,28 @@ def test_an_undisturbed_run_follows_its_first_plan(model):
     assert [e[2] for e in acts] == executed(result)[:-1]
 
 
+def test_grounding_happens_once_per_run(monkeypatch):
+    import cplus.api
+    import cplus.sat.horizon
+    import cplus.sat.templates
+    calls = {"ground": 0, "templates": 0}
+
+    def counting(name, fn):
+        def wrapper(*a, **kw):
+            calls[name] += 1
+            return fn(*a, **kw)
+        return wrapper
+    monkeypatch.setattr(cplus.api, "ground_program", counting("ground", cplus.api.ground_program))
+    monkeypatch.setattr(cplus.sat.templates, "build_templates",
+                        counting("templates", cplus.sat.templates.build_templates))
+    monkeypatch.setattr(cplus.sat.horizon, "build_templates", counting("templates", cplus.sat.horizon.build_templates))
+    d = Domain.load(str(DELIVERY))
+    m = OnlineModel(d, "deliver", Roles.of(d, observed=["press"], inferred=["missed"]))
+    result, _ = run(m, simulate(m, events={1: ["press"], 5: ["missed"]}))
+    assert result.status is OnlineStatus.GOAL_REACHED and result.replans == 2
+    assert calls == {"ground": 1, "templates": 1}
+
+
 def test_each_record_holds_the_plan_it_executed_from(model):
     result, _ = run(model, simulate(model))
     for r in result.records:

@@ -53,6 +53,7 @@ import time
 from abc import ABC, abstractmethod
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
+from datetime import UTC, datetime
 from enum import StrEnum
 
 from cplus.robot.estimation import Act, Estimate, EstimateStatus, OnlineModel, Plan, State, json_value
@@ -306,7 +307,8 @@ class JsonLinesLog(Observer):
 
     def on_start(self, loop: OnlineLoop) -> None:
         roles = loop.model.roles
-        self._write({"record": "start", "format": ONLINE_FORMAT, "domain": loop.model.domain.path,
+        started = datetime.now(UTC).isoformat(timespec="seconds")
+        self._write({"record": "start", "format": ONLINE_FORMAT, "started": started, "domain": loop.model.domain.path,
                      "goal": loop.model.query.label, "max_plan_length": loop.model.goal_query.hi,
                      "agent": sorted(gc.text for gc in roles.agent),
                      "observed": sorted(gc.text for gc in roles.observed),
