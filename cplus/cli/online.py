@@ -66,6 +66,17 @@ def build_parser() -> OneLineArgumentParser:
     p.add_argument("--time-scale", type=positive, default=1.0, metavar="X",
                    help="emulated bricks and their worlds run X times faster than real time (default 1)")
     p.add_argument("--solver", default=None, help="SAT solver (default glucose4)")
+    arms = p.add_argument_group("the payload arms of a robot task (a scene.toml beside the domain)")
+    arms.add_argument("--scene", metavar="FILE", help="the scene (default: scene.toml beside the domain, when there "
+                      "is no robot.toml)")
+    arms.add_argument("--tracking-threshold", type=positive, default=30.0, metavar="DEG",
+                      help="a motor this far from its setpoints is not following: stop, map to the grid, re-plan "
+                           "(default 30)")
+    arms.add_argument("--max-faults", type=nonneg, default=3, metavar="N",
+                      help="give up after N tracking faults (default 3)")
+    arms.add_argument("--stall", action="append", default=[], metavar="ROBOT:PORT@SECONDS[+DURATION]",
+                      help="emulated bricks: hold a motor still SECONDS after it first turned (for DURATION, or "
+                           "for good)")
     p.add_argument("--quiet", "-q", action="store_true", help="no progress on stderr")
     return p
 
@@ -111,16 +122,17 @@ class Progress:
         if record.inferred:
             parts.append("inferred " + ", ".join(record.inferred))
         if record.replanned is not None and record.plan is not None:
-            steps = [s[0] if len(s) == 1 else "{" + ", ".join(s) + "}" for s in record.plan.texts()]
-            shown = ", ".join(steps[:8]) + (", ..." if len(steps) > 8 else "")
+            steps = [_step(s) for s in record.plan.texts()]
+            shown = _clip(", ".join(steps), 160)
             what = "plan" if record.replanned.reason == "start" else f"replan ({record.replanned.text()})"
             parts.append(f"{what}: {len(steps)} step{'s' if len(steps) != 1 else ''}" + (f": {shown}" if steps else ""))
         parts.extend(record.notes)
         return parts
 
     def on_act(self, record) -> None:
-        sent = " ".join(a.text for a in record.executed) or ("wait for an event" if record.plan.length == 0
-                                                              else "nothing (an idle step)")
+        acts = [a.text for a in record.executed]
+        sent = (" ".join(acts) if len(acts) <= 4 else f"{len(acts)} actions of {record.plan.length} steps") or \
+            ("wait for an event" if record.plan.length == 0 else "nothing (an idle step)")
         parts = self._observed(record) + [f"send {sent}"]
         self._line(f"cycle {record.cycle} [{record.time:.2f} s] " + " | ".join(parts))
 
@@ -135,6 +147,16 @@ class Progress:
     def on_end(self, result) -> None:
         self._line(f"{result.status.value}: {result.message} ({len(result.records)} cycles, {result.replans} "
                    f"replan{'s' if result.replans != 1 else ''}, {result.seconds:.2f} s)")
+
+
+def _step(actions: Sequence[str]) -> str:
+    if len(actions) == 1:
+        return actions[0]
+    return "{" + ", ".join(actions) + "}" if actions else "(wait)"
+
+
+def _clip(text: str, width: int) -> str:
+    return text if len(text) <= width else text[:width - 4].rsplit(", ", 1)[0] + ", ..."
 
 
 def _v(value: object) -> str:
@@ -157,34 +179,85 @@ def _ports(items: Sequence[str]) -> dict[str, str]:
 
 def main(args: argparse.Namespace) -> int:
     """``cplus online``; returns the exit code."""
-    from cplus.api import Domain
-    from cplus.cli.common import CliError, query
-    from cplus.robot.binding import binding_beside, load_binding
-    from cplus.robot.estimation import OnlineModel
-    from cplus.robot.events import LineEvents, ScriptedEvents, check_events, parse_events
-    from cplus.robot.online import EventSource, JsonLinesLog, OnlineLoop
+    from cplus.cli.common import CliError
+    from cplus.robot.binding import binding_beside
+    from cplus.robot.task import scene_beside
     err = sys.stderr
     try:
         ports = _ports(args.brick)
+        robot = args.robot or binding_beside(args.domain)
+        scene = None if robot else (args.scene or scene_beside(args.domain))
+        if robot is None and scene is None:
+            raise CliError(f"cplus online: error: no robot.toml (or scene.toml) beside {args.domain}: give the "
+                           "binding file with --robot FILE")
+        if args.simulate and ports:
+            raise CliError("cplus online: error: --simulate uses no brick; drop --brick or --simulate")
+        wrong = ([("--stall", args.stall), ("--scene", args.scene)] if robot else
+                 [("--events", args.events), ("--simulate", args.simulate), ("--max-cycles", args.max_cycles is not None)])
+        for flag, given in wrong:
+            if given:
+                what = "a robot with a binding file" if robot else "the arms of a robot task (scene.toml)"
+                raise CliError(f"cplus online: error: {flag} has no meaning for {what}")
     except CliError as exc:
         print(exc, file=err)
         return EXIT_INPUT
-    if args.simulate and ports:
-        print("cplus online: error: --simulate uses no brick; drop --brick or --simulate", file=err)
-        return EXIT_INPUT
-    robot = args.robot or binding_beside(args.domain)
-    if robot is None:
-        print(f"cplus online: error: no robot.toml beside {args.domain}: give the binding file with --robot FILE",
-              file=err)
-        return EXIT_INPUT
-    domain = Domain.load(args.domain)
+    if robot is not None:
+        return _behaviours(args, robot, ports)
+    return _arms(args, scene, ports)  # type: ignore[arg-type]
+
+
+def _domain_and_goal(args: argparse.Namespace, domain) -> str | None:
+    from cplus.cli.common import query
     Warnings()(domain.diagnostics)
     if not domain.labels:
         print(f"cplus online: error: {args.domain} has no query: add one whose step-0 conditions are the start "
-              "and whose maxstep conditions are the goal", file=err)
-        return EXIT_INPUT
+              "and whose maxstep conditions are the goal", file=sys.stderr)
+        return None
     label = args.goal or domain.labels[0]
     query(domain, label, args.domain)
+    return label
+
+
+class _Log:
+    """``--log FILE``: opened before the run (a bad path is an input error), closed after."""
+
+    def __init__(self, path: str | None) -> None:
+        self.path = path
+        self.file: TextIO | None = None
+
+    def open(self) -> bool:
+        if self.path:
+            try:
+                os.makedirs(os.path.dirname(os.path.abspath(self.path)), exist_ok=True)
+                self.file = open(self.path, "w", encoding="utf-8")
+            except OSError as exc:
+                print(f"cplus online: error: cannot write {self.path}: {exc.strerror}", file=sys.stderr)
+                return False
+        return True
+
+    def observer(self, extra: dict) -> list:
+        from cplus.robot.online import JsonLinesLog
+        return [] if self.file is None else [JsonLinesLog(self.file, extra)]
+
+    def close(self, quiet: bool) -> None:
+        if self.file is not None:
+            self.file.close()
+            if not quiet:
+                print(f"cplus online: wrote {self.path}", file=sys.stderr)
+
+
+def _behaviours(args: argparse.Namespace, robot: str, ports: dict[str, str]) -> int:
+    """A robot whose actions are behaviours of bricks (a binding file)."""
+    from cplus.api import Domain
+    from cplus.robot.binding import load_binding
+    from cplus.robot.estimation import OnlineModel
+    from cplus.robot.events import LineEvents, ScriptedEvents, check_events, parse_events
+    from cplus.robot.online import EventSource, OnlineLoop
+    err = sys.stderr
+    domain = Domain.load(args.domain)
+    label = _domain_and_goal(args, domain)
+    if label is None:
+        return EXIT_INPUT
     binding = load_binding(robot, domain)
     unknown = sorted(set(ports) - set(binding.bricks))
     if unknown:
@@ -212,30 +285,18 @@ def main(args: argparse.Namespace) -> int:
         lines = parse_events(text, args.events)
         check_events(lines, binding.input_events(args.simulate))
         sources.append(ScriptedEvents(lines))
-    observers: list = [] if args.quiet else [Progress(err)]
-    log_file = None
-    if args.log:
-        try:
-            parent = os.path.dirname(os.path.abspath(args.log))
-            os.makedirs(parent, exist_ok=True)
-            log_file = open(args.log, "w", encoding="utf-8")
-        except OSError as exc:
-            print(f"cplus online: error: cannot write {args.log}: {exc.strerror}", file=err)
-            return EXIT_INPUT
-        observers.append(JsonLinesLog(log_file, {"binding": robot}))
+    executor = _executor(args, model, binding, ports)
+    log = _Log(args.log)
+    if not log.open():
+        return EXIT_INPUT
+    observers: list = ([] if args.quiet else [Progress(err)]) + log.observer({"binding": robot})
     try:
-        executor = _executor(args, model, binding, ports)
-        loop = OnlineLoop(model, executor, sources, observers, max_cycles=args.max_cycles)
-        try:
-            result = loop.run()
-        except KeyboardInterrupt:
-            print("cplus online: interrupted (the robot was told to stop)", file=err)
-            return EXIT_INTERRUPTED
+        result = OnlineLoop(model, executor, sources, observers, max_cycles=args.max_cycles).run()
+    except KeyboardInterrupt:
+        print("cplus online: interrupted (the robot was told to stop)", file=err)
+        return EXIT_INTERRUPTED
     finally:
-        if log_file is not None:
-            log_file.close()
-    if args.log and not args.quiet:
-        print(f"cplus online: wrote {args.log}", file=err)
+        log.close(args.quiet)
     return exit_code(result.status)
 
 
@@ -245,3 +306,62 @@ def _executor(args: argparse.Namespace, model, binding, ports: dict[str, str]):
         return SimulatedExecutor.from_binding(model, binding, default_s=args.action_time)
     from cplus.robot.nxt_executor import NxtExecutor
     return NxtExecutor(model, binding, ports or None, latency=not args.no_latency, time_scale=args.time_scale)
+
+
+def _arms(args: argparse.Namespace, scene: str, ports: dict[str, str]) -> int:
+    """The payload arms of a robot task: trajectories, monitored; re-planned after a fault."""
+    from cplus.cli.common import CliError
+    from cplus.robot.payload_monitor import ArmsExecutor, run_arms
+    from cplus.robot.task import RobotTask
+    err = sys.stderr
+    task = RobotTask.load(args.domain, scene)
+    label = _domain_and_goal(args, task.domain)
+    if label is None:
+        return EXIT_INPUT
+    robots = list(task.robots)
+    try:
+        unknown = sorted(set(ports) - set(robots))
+        if unknown:
+            raise CliError(f"cplus online: error: --brick {unknown[0]}: the scene has no robot {unknown[0]!r} "
+                           f"(robots: {', '.join(robots)})")
+        missing = [r for r in robots if ports and r not in ports]
+        if missing:
+            raise CliError(f"cplus online: error: no --brick for robot {missing[0]!r}: give one per robot, or none "
+                           "to emulate them")
+        stalls = _stalls(args.stall, robots)
+        if stalls and ports:
+            raise CliError("cplus online: error: --stall needs emulated bricks (no --brick); for a brick on a port, "
+                           "start it with `cplus brick --stall`")
+    except CliError as exc:
+        print(exc, file=err)
+        return EXIT_INPUT
+    log = _Log(args.log)
+    if not log.open():
+        return EXIT_INPUT
+    executor = ArmsExecutor(robots, ports or None, stalls, time_scale=args.time_scale, latency=not args.no_latency)
+    observers: list = ([] if args.quiet else [Progress(err)]) + log.observer({"scene": scene})
+    try:
+        result = run_arms(task, label, executor, observers=observers, threshold_deg=args.tracking_threshold,
+                          max_faults=args.max_faults, max_horizon=args.max_horizon)
+    except KeyboardInterrupt:
+        print("cplus online: interrupted (the bricks were told to stop)", file=err)
+        return EXIT_INTERRUPTED
+    finally:
+        log.close(args.quiet)
+    return exit_code(result.status)
+
+
+def _stalls(items: Sequence[str], robots: Sequence[str]) -> dict:
+    from cplus.cli.common import CliError
+    from nxt_link.stall import Stall
+    out: dict[str, list] = {}
+    for item in items:
+        name, sep, spec = item.partition(":")
+        if not sep or name not in robots:
+            raise CliError(f"cplus online: error: --stall expects ROBOT:PORT@SECONDS[+DURATION] with ROBOT one of "
+                           f"{', '.join(robots)}, got {item!r}")
+        try:
+            out.setdefault(name, []).append(Stall.parse(spec))
+        except ValueError as exc:
+            raise CliError(f"cplus online: error: --stall: {exc}") from None
+    return out

@@ -299,8 +299,16 @@ class OnlineModel:
     # ------------------------------------------------------------------ questions
     def initial_state(self, sensed: Mapping[GroundConst, object] | None = None) -> Estimate:
         """The state at step 0: the goal query's step-0 conditions and ``sensed`` values."""
+        return self._states_with(self.start_query, sensed or {})
+
+    def complete(self, values: Mapping[GroundConst, object]) -> Estimate:
+        """The states that agree with ``values`` (the domain's static laws decide the rest):
+        is this assignment a state, and which one?"""
+        return self._states_with(QuerySpec(self.query.label, 0, 0, (), None), values)
+
+    def _states_with(self, spec: QuerySpec, sensed: Mapping[GroundConst, object]) -> Estimate:
         t0 = time.perf_counter()
-        session = QuerySession(self.theory, self.start_query, self.solver, templates=self.templates)
+        session = QuerySession(self.theory, spec, self.solver, templates=self.templates)
         h = session.horizon
         for gc, v in (sensed or {}).items():
             if self.atoms.lit(gc, v) == 0:
@@ -346,11 +354,11 @@ class OnlineModel:
         est.seconds = time.perf_counter() - t0
         return est
 
-    def plan(self, state: State) -> Plan | None:
-        """The shortest plan from ``state`` to the goal (events absent), or None when there is
-        none within the goal query's maxstep range."""
-        t0 = time.perf_counter()
-        session = QuerySession(self.theory, self.goal_query, self.solver, templates=self.templates)
+    def session(self, state: State) -> QuerySession:
+        """A live solver for the goal from ``state`` (events false at every step), not yet
+        solved: :meth:`plan` searches it, the refinement loop refines in it."""
+        session = QuerySession(self.theory, self.goal_query, self.solver, self.goal_query.hi,
+                               templates=self.templates)
         h = session.horizon
         for lit in self._state_lits(h, state, 0):
             h.solver.add_clause([lit])
@@ -358,13 +366,21 @@ class OnlineModel:
             for aid, v in self.atoms.head_lits(gc):
                 if v not in ("false", "none"):
                     h.forbid_everywhere(template_lit(aid, 0))
+        return session
+
+    def plan(self, state: State) -> Plan | None:
+        """The shortest plan from ``state`` to the goal (events absent), or None when there is
+        none within the goal query's maxstep range."""
+        t0 = time.perf_counter()
+        session = self.session(state)
         find_horizon(session)
         if session.found is None:
             return None
-        return self._plan_of(decode_history(session), time.perf_counter() - t0)
+        return self.plan_of(decode_history(session), time.perf_counter() - t0)
 
     # ------------------------------------------------------------------ helpers
-    def _plan_of(self, hist: History, seconds: float) -> Plan:
+    def plan_of(self, hist: History, seconds: float = 0.0) -> Plan:
+        """A history (from a session of :meth:`session`) as a :class:`Plan`."""
         states = [State({gc: hist.rigid[gc] if gc.decl.kind == "rigid" else s[gc] for gc in self.state_gcs})
                   for s in hist.states]
         steps = [self.acts(table) for table in hist.actions]
