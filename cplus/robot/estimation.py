@@ -270,6 +270,7 @@ class OnlineModel:
         self.state_gcs = state_constants(domain)
         self.by_text = {gc.text: gc for gc in domain.program.signature.ground}
         self._est: Horizon | None = None
+        self._zero: Horizon | None = None
 
     # ------------------------------------------------------------------ literals
     def _lit(self, h: Horizon, gc: GroundConst, value: object, t: int) -> int:
@@ -303,8 +304,19 @@ class OnlineModel:
 
     def complete(self, values: Mapping[GroundConst, object]) -> Estimate:
         """The states that agree with ``values`` (the domain's static laws decide the rest):
-        is this assignment a state, and which one?"""
-        return self._states_with(QuerySpec(self.query.label, 0, 0, (), None), values)
+        is this assignment a state, and which one? (One live horizon-0 solver per run.)"""
+        t0 = time.perf_counter()
+        if self._zero is None:
+            self._zero = Horizon(self.theory, self.solver, templates=self.templates)
+        h = self._zero
+        bad = [f"{_atom(gc, v)}, not a value of {gc.text}" for gc, v in values.items() if self.atoms.lit(gc, v) == 0]
+        if bad:
+            return Estimate(EstimateStatus.NONE, unexplained=bad, seconds=time.perf_counter() - t0)
+        fixed = self._state_lits(h, values, 0)
+        obs = {lit: _atom(gc, v) for lit, (gc, v) in zip(fixed, values.items())}
+        est = self._enumerate(h, fixed, obs, 0, [])
+        est.seconds = time.perf_counter() - t0
+        return est
 
     def _states_with(self, spec: QuerySpec, sensed: Mapping[GroundConst, object]) -> Estimate:
         t0 = time.perf_counter()
