@@ -29,9 +29,11 @@ another process)::
 
     from nxt_link import Brick, BrickEmulator, EmulatorConfig, PtyBrickServer, SerialTransport
     from nxt_link.behaviours import BehaviourClient, Behaviour
-    from nxt_link.world import delivery_world
+    from nxt_link.world import delivery_world      # a WorldSpec; from a world file (located
+    world = delivery_world()                        # errors): cplus.robot.world_file.load_world
 
-    server = PtyBrickServer(BrickEmulator(EmulatorConfig(name="robot", world=delivery_world())))
+    emu = BrickEmulator(EmulatorConfig(name="robot", world=world))
+    server = PtyBrickServer(emu)
     path = server.start()                           # the Legolog program runs from power-on
     client = BehaviourClient(Brick(SerialTransport(path), name="robot"))
     client.connect()
@@ -46,6 +48,7 @@ For fast tests the same emulator runs on a virtual clock behind a
     client = BehaviourClient(Brick(MemoryTransport(emu, VirtualClock())))
 
 The world's touch sensor can be pressed from the PC side with ``emu.world.press()``.
+Messages, timeouts and behaviours: ``docs/nxt-link.md`` ("Behaviours").
 """
 from __future__ import annotations
 

@@ -8,9 +8,9 @@ when the NXC ``Wait`` would have returned.
 
 The loop, as in the paper::
 
-    if (status == ABORT) { stop every behaviour; answer ABORTED; status = OK; }
-    if (status == PANIC) { beep, coast, send PANIC (every second); accept only ABORT; }
-    if (status == OK)    { handle ACT / CONT / EXOG / HELLO / ABORT messages;
+    if (status == STATUS_ABORT) { stop every behaviour; answer ABORTED; status = STATUS_OK; }
+    if (status == STATUS_PANIC) { beep, coast, send PANIC (every second); accept only ABORT; }
+    if (status == STATUS_OK)    { handle ACT / CONT / EXOG / HELLO / ABORT messages;
                            step the running behaviour (non-blocking, so polls and aborts
                            are served while it runs); watch the touch sensor for events;
                            ask for more time, re-send it, panic when nobody answers; }
@@ -70,17 +70,17 @@ log = logging.getLogger(__name__)
 
 MAX_BATCH = 5  # messages handled per loop (the inbox depth)
 
-# Legolog's three statuses (Fig. 2)
-OK = 0
-ABORT = 1
-PANIC = 2
+# Legolog's three statuses (Fig. 2): OK, ABORT, PANIC
+STATUS_OK = 0
+STATUS_ABORT = 1
+STATUS_PANIC = 2
 
 # ports (0-based): touch S1, light S3, left wheel B, right wheel C, tray A
-TOUCH = 0
-LIGHT = 2
-LEFT = 1
-RIGHT = 2
-TRAY = 0
+PORT_TOUCH = 0
+PORT_LIGHT = 2
+PORT_LEFT = 1
+PORT_RIGHT = 2
+PORT_TRAY = 0
 
 # the robot's control constants (percent, mm, degrees, ms)
 LIGHT_TARGET = 45  # the line's edge: half way between line (30) and floor (60)
@@ -110,17 +110,16 @@ FOLLOW_DEFAULT_S = 30
 MAX_SECONDS = 600
 DEBOUNCE_LOOPS = 2
 
-#: The robot constants a test compares with the NXC program's #defines.
+#: Every constant the NXC program must #define with the same value (a test compares them).
 ROBOT_CONSTANTS = {name: value for name, value in dict(globals()).items()
-                   if name.isupper() and isinstance(value, int)
-                   and name not in ("OK", "ABORT", "PANIC")}
+                   if name.isupper() and isinstance(value, int) and name != "RESET_NONE"}
 
 
 class LegologProgram:
     """State of one run of ``cplus_legolog.rxe`` (globals of the NXC program)."""
 
     def __init__(self) -> None:
-        self.status = OK
+        self.status = STATUS_OK
         self.session = -1
         self.act_seq = 0  # last ACT started (or refused) in this session
         self.act_code: int = AckCode.OK  # the ACK it got
@@ -169,8 +168,9 @@ class LegologProgram:
         self.rq_kind = 0
         self.rq_session = 0
         self.rq_seq = 0
+        self.started: list[tuple[int, int]] = []  # (ACT, behaviour) started: inspection only
         self._next: int | None = None
-        self._ready = False
+        self._setup = 0
         self._host: ProgramHost | None = None
 
     # -- task main() ------------------------------------------------------------------------
@@ -179,15 +179,21 @@ class LegologProgram:
         """One VM millisecond: set up, then run the loop body when its Wait has elapsed."""
         self._host = host
         now = host.current_tick()
-        if not self._ready:
-            if self._next is None:
-                # SetSensorTouch / SetSensorLight: type, mode, then ResetSensor waits
-                host.set_sensor(TOUCH, SensorType.SWITCH, SensorMode.BOOLEAN)
-                host.set_sensor(LIGHT, SensorType.LIGHT_ACTIVE, SensorMode.PCTFULLSCALE)
-                self._next = now
-            if not (host.sensor_valid(TOUCH) and host.sensor_valid(LIGHT)):
-                return
-            self._ready = True
+        if self._setup < 4:
+            # SetSensorTouch, then SetSensorLight: type and mode, and ResetSensor waits
+            # until the input module says the data are valid
+            if self._setup == 0:
+                host.set_sensor(PORT_TOUCH, SensorType.SWITCH, SensorMode.BOOLEAN)
+                self._setup = 1
+            if self._setup == 1:
+                if not host.sensor_valid(PORT_TOUCH):
+                    return
+                host.set_sensor(PORT_LIGHT, SensorType.LIGHT_ACTIVE, SensorMode.PCTFULLSCALE)
+                self._setup = 2
+            if self._setup == 2:
+                if not host.sensor_valid(PORT_LIGHT):
+                    return
+                self._setup = 4
             self._next = now  # unsigned long next = CurrentTick();
         assert self._next is not None
         if now < self._next:
@@ -199,19 +205,19 @@ class LegologProgram:
             self._next = now
 
     def loop_body(self, now: int) -> None:
-        if self.status == ABORT:
+        if self.status == STATUS_ABORT:
             self.stop_all()
-            self.status = OK
+            self.status = STATUS_OK
             self.send_aborted()
-        if self.status == PANIC:
+        if self.status == STATUS_PANIC:
             if now >= self.panic_due:
                 self.panic_action()
                 self.send_panic()
                 self.panic_due = now + PANIC_PERIOD_MS
             self.receive(now)  # hope for an abort
-        if self.status == OK:
+        if self.status == STATUS_OK:
             self.receive(now)
-            if self.status == OK:
+            if self.status == STATUS_OK:
                 self.watch_touch()
                 if self.running != 0:
                     self.step_behaviour(now)
@@ -226,7 +232,7 @@ class LegologProgram:
                 break
             self.msg = message[:-1]  # StrToByteArray drops the trailing NUL
             self.handle_message(now)
-            if self.status == ABORT:
+            if self.status == STATUS_ABORT:
                 break
 
     # -- byte helpers -------------------------------------------------------------------------
@@ -257,7 +263,7 @@ class LegologProgram:
     # -- responses ------------------------------------------------------------------------------
 
     def state(self) -> int:
-        if self.status == PANIC:
+        if self.status == STATUS_PANIC:
             return State.PANIC
         if self.running != 0:
             return State.RUNNING
@@ -361,7 +367,7 @@ class LegologProgram:
 
     def watch_touch(self) -> None:
         assert self._host is not None
-        t = self._host.sensor(TOUCH)
+        t = self._host.sensor(PORT_TOUCH)
         if t == self.touch_state:
             self.touch_cnt = 0
             return
@@ -383,13 +389,13 @@ class LegologProgram:
         assert self._host is not None
         left = max(-100, min(100, left))
         right = max(-100, min(100, right))
-        self._host.on_fwd_ex(LEFT, left, RESET_NONE)
-        self._host.on_fwd_ex(RIGHT, right, RESET_NONE)
+        self._host.on_fwd_ex(PORT_LEFT, left, RESET_NONE)
+        self._host.on_fwd_ex(PORT_RIGHT, right, RESET_NONE)
 
     def brake(self) -> None:
         assert self._host is not None
-        self._host.off_ex(LEFT, RESET_NONE)
-        self._host.off_ex(RIGHT, RESET_NONE)
+        self._host.off_ex(PORT_LEFT, RESET_NONE)
+        self._host.off_ex(PORT_RIGHT, RESET_NONE)
 
     def stop_all(self) -> None:
         """stopAllBehaviours(): no behaviour, every motor coasting."""
@@ -397,32 +403,33 @@ class LegologProgram:
         self.running = 0
         self.done_ready = 0
         self.more_part = 0
-        self._host.coast_ex(LEFT, RESET_NONE)
-        self._host.coast_ex(RIGHT, RESET_NONE)
-        self._host.coast_ex(TRAY, RESET_NONE)
+        self._host.coast_ex(PORT_LEFT, RESET_NONE)
+        self._host.coast_ex(PORT_RIGHT, RESET_NONE)
+        self._host.coast_ex(PORT_TRAY, RESET_NONE)
 
     def panic_action(self) -> None:
         """panicAction(): beep, and keep every motor coasting."""
         assert self._host is not None
-        self._host.coast_ex(LEFT, RESET_NONE)
-        self._host.coast_ex(RIGHT, RESET_NONE)
-        self._host.coast_ex(TRAY, RESET_NONE)
+        self._host.coast_ex(PORT_LEFT, RESET_NONE)
+        self._host.coast_ex(PORT_RIGHT, RESET_NONE)
+        self._host.coast_ex(PORT_TRAY, RESET_NONE)
         self._host.play_tone(880, 100)
 
     # -- behaviours -----------------------------------------------------------------------------
 
     def wheels(self) -> tuple[int, int]:
         assert self._host is not None
-        return (self._host.motor_rotation_count(LEFT) - self.l0,
-                self._host.motor_rotation_count(RIGHT) - self.r0)
+        return (self._host.motor_rotation_count(PORT_LEFT) - self.l0,
+                self._host.motor_rotation_count(PORT_RIGHT) - self.r0)
 
     def start_behaviour(self, b: int, now: int) -> None:
         assert self._host is not None
+        self.started.append((self.act_seq, b))
         self.running = b
         self.act_t0 = now
         self.phase = 0
-        self.l0 = self._host.motor_rotation_count(LEFT)
-        self.r0 = self._host.motor_rotation_count(RIGHT)
+        self.l0 = self._host.motor_rotation_count(PORT_LEFT)
+        self.r0 = self._host.motor_rotation_count(PORT_RIGHT)
         self.bars = 0
         self.in_bar = 0
         self.last_bar = 0
@@ -454,11 +461,11 @@ class LegologProgram:
         self.r_status = status
         self.r_behaviour = self.running
         self.r_elapsed = now - self.act_t0
-        self.r_light = self._host.sensor(LIGHT)
+        self.r_light = self._host.sensor(PORT_LIGHT)
         self.r_touch = self.touch_state
         if self.running == Behaviour.WAIT_BUTTON:
             self.r_touch = self.pressed
-        self.r_tray = self._host.motor_rotation_count(TRAY)
+        self.r_tray = self._host.motor_rotation_count(PORT_TRAY)
         self.running = 0
         self.more_part = 0
         self.done_ready = 1
@@ -475,7 +482,7 @@ class LegologProgram:
 
     def step_follow(self, now: int) -> None:
         assert self._host is not None
-        light = self._host.sensor(LIGHT)
+        light = self._host.sensor(PORT_LIGHT)
         wl, wr = self.wheels()
         d = _div((wl + wr) * MM_NUM, 2 * MM_DEN)
         if light >= BAR_ON:
@@ -515,7 +522,7 @@ class LegologProgram:
 
     def step_turn(self, now: int) -> None:
         assert self._host is not None
-        light = self._host.sensor(LIGHT)
+        light = self._host.sensor(PORT_LIGHT)
         wl, wr = self.wheels()
         turned = _div(wr - wl, 2)
         if self.phase == 0 and turned >= TURN_MIN_DEG:
@@ -538,13 +545,13 @@ class LegologProgram:
 
     def step_tray(self, now: int) -> None:
         assert self._host is not None
-        err = self.target - self._host.motor_rotation_count(TRAY)
+        err = self.target - self._host.motor_rotation_count(PORT_TRAY)
         if -TRAY_TOL <= err <= TRAY_TOL:
-            self._host.off_ex(TRAY, RESET_NONE)
+            self._host.off_ex(PORT_TRAY, RESET_NONE)
             self.finish(Status.OK, now)
             return
         if now - self.act_t0 >= TRAY_TIMEOUT_MS:
-            self._host.off_ex(TRAY, RESET_NONE)
+            self._host.off_ex(PORT_TRAY, RESET_NONE)
             self.finish(Status.STUCK, now)
             return
         pwr = err * TRAY_KP
@@ -556,7 +563,7 @@ class LegologProgram:
             pwr = TRAY_MIN_POWER
         if -TRAY_MIN_POWER < pwr < 0:
             pwr = -TRAY_MIN_POWER
-        self._host.on_fwd_ex(TRAY, pwr, RESET_NONE)
+        self._host.on_fwd_ex(PORT_TRAY, pwr, RESET_NONE)
 
     def step_wait(self, now: int) -> None:
         if self.pressed != 0:
@@ -584,7 +591,7 @@ class LegologProgram:
             self.more_part = self.parts
             self.more_sends = 0
         if self.more_sends >= MAX_SENDS:
-            self.status = PANIC
+            self.status = STATUS_PANIC
             self.panic_due = now
             log.info("brick program: PANIC (MORE_TIME %d of ACT %d not acknowledged)",
                      self.more_part, self.act_seq)
@@ -664,9 +671,9 @@ class LegologProgram:
                 self.abort_session = self.rq_session
                 self.abort_seq = self.rq_seq
                 self.aborts += 1
-                self.status = ABORT
+                self.status = STATUS_ABORT
             return
-        if self.status == PANIC:
+        if self.status == STATUS_PANIC:
             return  # ignoring all incoming messages but ABORT
         if self.rq_kind == Kind.HELLO:
             if n != 6 or self.rd_u8(5) != PROTOCOL_VERSION:

@@ -82,17 +82,21 @@ class Track:
 class Landmark:
     """Landmark ``number`` (that many bars) starting ``at_mm`` along the track.
 
-    ``visible=False``: its bars are too faint for the robot (a landmark it will miss).
+    ``misses``: the first that many times the light sensor passes over it, its bars read
+    too faint (worn tape, a shadow): the robot drives past it. ``visible=False``: always.
     """
 
     number: int
     at_mm: float
     name: str = ""
     visible: bool = True
+    misses: int = 0
 
     def __post_init__(self) -> None:
         if not (isinstance(self.number, int) and 1 <= self.number <= 15):
             raise ValueError(f"landmark number must be an integer in 1..15, got {self.number!r}")
+        if not (isinstance(self.misses, int) and self.misses >= 0):
+            raise ValueError("misses must be an integer >= 0")
 
 
 @dataclass(frozen=True, slots=True)
@@ -367,13 +371,15 @@ class World:
         self._requests: deque[float] = deque()  # interactive presses (hold seconds)
         self._lock = threading.Lock()
         self._visits: dict[int, int] = {lm.number: 0 for lm in spec.landmarks}
+        self.passes: dict[int, int] = {lm.number: 0 for lm in spec.landmarks}
+        self._over: int | None = None  # the landmark under the light sensor
         self._away: dict[int, bool] = {lm.number: True for lm in spec.landmarks}
         self._rest_ms = 0
         self.now_s = 0.0
         self.distance_mm = 0.0
         self.light_percent = spec.track.floor_percent
         self.touch_pressed = False
-        self.presses_done = 0
+        self.presses = 0  # presses so far (overlapping ones count once)
 
     # -- inspection ------------------------------------------------------------------------
 
@@ -501,9 +507,9 @@ class World:
                 pressed = True
             if self.now_s < end:
                 keep.append((start, end))
-            elif start <= self.now_s:
-                self.presses_done += 1
         self._presses_due = keep
+        if pressed and not self.touch_pressed:
+            self.presses += 1
         return pressed
 
     def _light(self) -> float:
@@ -516,10 +522,13 @@ class World:
         half = spec.track.width_mm / 2.0
         cover = min(1.0, max(0.0, (half + r - dist) / (2.0 * r)))
         value = spec.track.line_percent * cover + spec.track.floor_percent * (1.0 - cover)
+        bar = None
         if abs(lateral) <= spec.markers.half_width_mm and dist <= spec.markers.half_width_mm:
             bar = self._bar_cover(s, r)
-            if bar:
-                value = bar[1] * bar[0] + value * (1.0 - bar[0])
+        if bar is None:
+            self._over = None
+        else:
+            value = bar[1] * bar[0] + value * (1.0 - bar[0])
         if spec.noise_percent:
             value += self._rng.gauss(0.0, spec.noise_percent)
         return min(100.0, max(0.0, value))
@@ -532,12 +541,16 @@ class World:
             end = start + self.spec.marker_length_mm(lm.number)
             if s + r < start or s - r > end:
                 continue
+            if self._over != lm.number:  # the sensor arrives over this marker: one pass
+                self._over = lm.number
+                self.passes[lm.number] += 1
             covered = 0.0
             for j in range(lm.number):
                 a = start + 2 * j * m.bar_mm
                 b = a + m.bar_mm
                 covered += max(0.0, min(b, s + r) - max(a, s - r))
-            return covered / (2.0 * r), (m.bar_percent if lm.visible else m.faint_percent)
+            seen = lm.visible and self.passes[lm.number] > lm.misses
+            return covered / (2.0 * r), (m.bar_percent if seen else m.faint_percent)
         return None
 
 
