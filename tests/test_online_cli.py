@@ -160,7 +160,7 @@ def test_an_unbound_action_is_located_in_the_domain(delivery, capsys):
 def test_no_binding_file_is_one_line(tmp_path, capsys):
     (tmp_path / "d.cp").write_text(CONTRA)
     code, _, err = run([str(tmp_path / "d.cp"), "--simulate"], capsys)
-    assert code == 2 and "no robot.toml beside" in err
+    assert code == 2 and "no robot.toml (or scene.toml) beside" in err
 
 
 def test_a_brick_that_cannot_be_opened_is_exit_7(delivery, tmp_path, capsys):
@@ -168,3 +168,43 @@ def test_a_brick_that_cannot_be_opened_is_exit_7(delivery, tmp_path, capsys):
     code, _, err = run([str(delivery), "--brick", f"robot={tmp_path / 'rfcomm9'}", "--log", str(log)], capsys)
     assert code == 7 and "robot_lost: brick robot:" in err
     assert [r["record"] for r in records(log)] == ["start", "end"]
+
+
+def test_the_delivery_domain_alone_runs_on_its_emulated_world(tmp_path, capsys):
+    """`cplus online domains/delivery/delivery.cp`: the emulated brick in world.toml (ten times
+    faster), a button press on the way and a re-plan, to the goal."""
+    log = tmp_path / "run.jsonl"
+    code, _, err = run([str(DELIVERY / "delivery.cp"), "--time-scale", "10", "--no-latency", "--log", str(log)],
+                       capsys)
+    assert code == 0, err
+    assert "emulated NXT bricks robot" in err and "events press" in err and "replan (after press" in err
+    lines = records(log)
+    cycles = [r for r in lines if r["record"] == "cycle"]
+    assert any(r["events"] == ["press"] for r in cycles)
+    assert lines[-1]["status"] == "goal_reached" and lines[-1]["replans"] >= 1
+    assert cycles[-1]["state"]["atLandmark"] == 1 and not any(
+        v for k, v in cycles[-1]["state"].items() if k.startswith("letter"))
+    assert [r["sensed"].get("atLandmark") for r in cycles if r["sensed"]] == [2, 3, 2, 1]
+
+
+def test_a_brick_given_by_its_port(tmp_path, capsys):
+    """--brick robot=PTY: a brick served on a pseudo-terminal by another party (here, in the
+    test; `cplus brick --world world.toml` does the same as a process)."""
+    from cplus.robot.world_file import load_world
+    from nxt_link import BrickEmulator, EmulatorConfig, LinkParams, PtyBrickServer
+    spec = load_world(DELIVERY / "world.toml")
+    server = PtyBrickServer(BrickEmulator(EmulatorConfig(name="robot", world=spec, link=LinkParams.instant())),
+                            time_scale=10.0)
+    server.start()
+    try:
+        code, _, err = run([str(DELIVERY / "delivery.cp"), "--brick", f"robot={server.path}"], capsys)
+    finally:
+        server.stop()
+    assert code == 0, err
+    assert f"NXT bricks robot={server.path}" in err and "goal_reached" in err
+
+
+def test_a_missing_world_is_located_before_anything_moves(delivery, capsys):
+    code, _, err = run([str(delivery)], capsys)
+    robot = delivery.parent / "robot.toml"
+    assert code == 2 and err.startswith(f"{robot}:7:1: error: no world file")

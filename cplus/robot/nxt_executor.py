@@ -46,8 +46,8 @@ def load_world(binding: RobotBinding, brick: str):
                            f"[bricks.{brick}], or its port with --brick {brick}=PORT", spec.location)
     if not spec.world.is_file():
         raise BindingError(f"no world file {spec.world}", spec.world_location)
-    from cplus.robot.world_file import load_world_file  # the emulated world's schema (cplus.world/1)
-    return load_world_file(str(spec.world))
+    from cplus.robot.world_file import load_world as load_world_file  # the schema cplus.world/1
+    return load_world_file(spec.world)
 
 
 @dataclass
