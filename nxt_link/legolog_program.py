@@ -188,7 +188,7 @@ class LegologProgram:
             if self._setup == 1:
                 if not host.sensor_valid(PORT_TOUCH):
                     return
-                host.set_sensor(PORT_LIGHT, SensorType.LIGHT_ACTIVE, SensorMode.PCTFULLSCALE)
+                host.set_sensor(PORT_LIGHT, SensorType.LIGHT_ACTIVE, SensorMode.PCT_FULL_SCALE)
                 self._setup = 2
             if self._setup == 2:
                 if not host.sensor_valid(PORT_LIGHT):

@@ -23,7 +23,7 @@ floor and the robot body around an emulated brick (attached with
   (:meth:`World.press`, thread-safe).
 
 Units: millimetres, seconds, degrees; light in percent as an NXT light sensor reports it
-in PCTFULLSCALE mode (the firmware's input module turns the A/D value back into it).
+in PCT_FULL_SCALE mode (the firmware's input module turns the A/D value back into it).
 Positions along the track are arc lengths from its first point.
 
 :class:`WorldSpec` is the validated description (``cplus.world/1`` files are read by

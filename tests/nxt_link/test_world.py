@@ -81,11 +81,11 @@ def test_light_noise_has_the_configured_spread():
 def test_percent_to_raw_and_back_through_the_firmware():
     for percent in (0, 12, 30, 45, 60, 90, 100):
         port = InputPort()
-        port.set_type_and_mode(SensorType.LIGHT_ACTIVE, SensorMode.PCTFULLSCALE)
+        port.sensor_type, port.sensor_mode = SensorType.LIGHT_ACTIVE, SensorMode.PCT_FULL_SCALE
         port.raw = light_percent_to_raw(percent)
         for _ in range(21):
             port.step()
-        assert port.valid and port.scaled == percent
+        assert not port.invalid and port.scaled == percent
 
 
 # -- GETINPUTVALUES answers from the world -------------------------------------------------
@@ -93,7 +93,7 @@ def test_percent_to_raw_and_back_through_the_firmware():
 
 def test_get_input_values_reads_the_world():
     emu, brick = brick_with(spec())
-    brick.set_input_mode(2, SensorType.LIGHT_ACTIVE, SensorMode.PCTFULLSCALE, reply=True)
+    brick.set_input_mode(2, SensorType.LIGHT_ACTIVE, SensorMode.PCT_FULL_SCALE, reply=True)
     brick.set_input_mode(0, SensorType.SWITCH, SensorMode.BOOLEAN, reply=True)
     wait(emu, brick, 0.05)
     light = brick.get_input_values(2)
