@@ -246,6 +246,21 @@ def test_an_idle_loop_waits_for_a_line_typed_later():
     assert any("'requst' is not an event" in n for n in notes)
 
 
+def test_the_log_writes_every_record_and_takes_annotations(model):
+    import io
+
+    from cplus.robot.online import JsonLinesLog
+    out = io.StringIO()
+    log = JsonLinesLog(out, {"who": "test"}, annotate=lambda rec, line: line.update(goals=[rec.cycle]))
+    ex = simulate(model)
+    result = OnlineLoop(model, ex, observers=[log], clock=ex.clock).run()
+    lines = [json.loads(x) for x in out.getvalue().splitlines()]
+    assert [x["record"] for x in lines] == ["start"] + ["cycle"] * len(result.records) + ["end"]
+    assert lines[0]["who"] == "test" and lines[0]["format"] == "cplus.online/1"
+    assert [x["goals"] for x in lines[1:-1]] == [[r.cycle] for r in result.records]
+    assert lines[-1]["status"] == "goal_reached"
+
+
 def test_max_cycles_stops_before_acting(model):
     result, _ = run(model, simulate(model), max_cycles=2)
     assert result.status is OnlineStatus.MAX_CYCLES

@@ -51,7 +51,7 @@ import json
 import threading
 import time
 from abc import ABC, abstractmethod
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from datetime import UTC, datetime
 from enum import StrEnum
@@ -297,9 +297,13 @@ class JsonLinesLog(Observer):
     JSON object per line, each line flushed as soon as it is known (nothing is lost when a
     run is interrupted)."""
 
-    def __init__(self, stream, extra: Mapping[str, object] | None = None) -> None:
+    def __init__(self, stream, extra: Mapping[str, object] | None = None,
+                 annotate: Callable[[CycleRecord, dict], None] | None = None) -> None:
+        """``extra``: more fields of the start record; ``annotate(record, line)``: adds fields to
+        each cycle's line before it is written (a server's goals and their statuses)."""
         self.stream = stream
         self.extra = dict(extra or {})
+        self.annotate = annotate
 
     def _write(self, obj: dict) -> None:
         self.stream.write(json.dumps(obj, separators=(",", ":")) + "\n")
@@ -316,7 +320,10 @@ class JsonLinesLog(Observer):
                      "executor": loop.executor.description, **self.extra})
 
     def on_cycle(self, record: CycleRecord) -> None:
-        self._write(record.to_json())
+        line = record.to_json()
+        if self.annotate is not None:
+            self.annotate(record, line)
+        self._write(line)
 
     def on_end(self, result: RunResult) -> None:
         self._write(result.to_json())
