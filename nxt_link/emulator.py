@@ -48,6 +48,7 @@ import random
 from collections import deque
 from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
+from pathlib import Path
 
 from nxt_link import behaviour_protocol
 from nxt_link.firmware import Firmware, FirmwareParams
@@ -63,7 +64,7 @@ from nxt_link.vm.program import FollowerView, Symbols, VMProgram
 from nxt_link.world import World, WorldSpec
 
 __all__ = ["LinkParams", "FaultParams", "EmulatorConfig", "EmulatorStats", "BrickEmulator",
-           "compiled_follower"]
+           "compiled_follower", "compiled_legolog"]
 
 log = logging.getLogger(__name__)
 
@@ -179,6 +180,15 @@ class EmulatorConfig:
 #: Python models of the project's brick programs, run when their compiled file is not in
 #: the brick's flash.
 PROGRAMS = {PROGRAM_NAME: FollowerProgram, behaviour_protocol.PROGRAM_NAME: LegologProgram}
+
+
+def compiled_legolog() -> tuple[dict[str, bytes], dict[str, str]]:
+    """``cplus_legolog.rxe`` compiled by nbc (cached) as ``flash_files`` and ``symbols``;
+    raises :class:`nxt_link.vm.NbcMissingError` without nbc."""
+    name = behaviour_protocol.PROGRAM_NAME
+    compiled = cached_compile(Path(behaviour_protocol.__file__).resolve().parent / "nxc"
+                              / name.replace(".rxe", ".nxc"))
+    return {name: compiled.rxe}, {name: compiled.symbols}
 
 
 def compiled_follower() -> tuple[dict[str, bytes], dict[str, str]]:

@@ -126,8 +126,6 @@ class ProgramHost(Protocol):
 
     def sensor(self, port: int) -> int: ...
 
-    def sensor_valid(self, port: int) -> bool: ...
-
     def play_tone(self, frequency_hz: int, duration_ms: int) -> None: ...
 
 
@@ -626,20 +624,15 @@ class _Host:
         self.on_fwd_ex(port, 0, reset)
 
     def set_sensor(self, port: int, sensor_type: int, sensor_mode: int) -> None:
-        """NXC ``SetSensorLight``/``SetSensorTouch``: type, mode, then ResetSensor marks the
-        data invalid (the program then waits for :meth:`sensor_valid`)."""
+        """NXC ``SetSensorType`` + ``SetSensorMode`` (the data are invalid for 20 ms after a
+        type change)."""
         io = self._fw.io
         io.input_set(port, InputField.TYPE, sensor_type)
         io.input_set(port, InputField.MODE, sensor_mode)
-        io.input_set(port, InputField.INVALID, 1)
 
     def sensor(self, port: int) -> int:
         """NXC ``Sensor(port)``: the scaled value."""
         return self._fw.inputs[port].scaled
-
-    def sensor_valid(self, port: int) -> bool:
-        """NXC ``SensorInvalid(port)`` negated."""
-        return not self._fw.inputs[port].invalid
 
     def play_tone(self, frequency_hz: int, duration_ms: int) -> None:
         """NXC ``PlayTone``."""

@@ -109,6 +109,7 @@ TRAY_TIMEOUT_MS = 2000
 FOLLOW_DEFAULT_S = 30
 MAX_SECONDS = 600
 DEBOUNCE_LOOPS = 2
+SENSOR_SETTLE_MS = 100  # the first loop waits until the sensors' data are valid (20 ms)
 
 #: Every constant the NXC program must #define with the same value (a test compares them).
 ROBOT_CONSTANTS = {name: value for name, value in dict(globals()).items()
@@ -170,7 +171,6 @@ class LegologProgram:
         self.rq_seq = 0
         self.started: list[tuple[int, int]] = []  # (ACT, behaviour) started: inspection only
         self._next: int | None = None
-        self._setup = 0
         self._host: ProgramHost | None = None
 
     # -- task main() ------------------------------------------------------------------------
@@ -179,23 +179,11 @@ class LegologProgram:
         """One VM millisecond: set up, then run the loop body when its Wait has elapsed."""
         self._host = host
         now = host.current_tick()
-        if self._setup < 4:
-            # SetSensorTouch, then SetSensorLight: type and mode, and ResetSensor waits
-            # until the input module says the data are valid
-            if self._setup == 0:
-                host.set_sensor(PORT_TOUCH, SensorType.SWITCH, SensorMode.BOOLEAN)
-                self._setup = 1
-            if self._setup == 1:
-                if not host.sensor_valid(PORT_TOUCH):
-                    return
-                host.set_sensor(PORT_LIGHT, SensorType.LIGHT_ACTIVE, SensorMode.PCT_FULL_SCALE)
-                self._setup = 2
-            if self._setup == 2:
-                if not host.sensor_valid(PORT_LIGHT):
-                    return
-                self._setup = 4
-            self._next = now  # unsigned long next = CurrentTick();
-        assert self._next is not None
+        if self._next is None:
+            # unsigned long next = CurrentTick() + SENSOR_SETTLE_MS; SetSensorType/-Mode ...
+            self._next = now + SENSOR_SETTLE_MS
+            host.set_sensor(PORT_TOUCH, SensorType.SWITCH, SensorMode.BOOLEAN)
+            host.set_sensor(PORT_LIGHT, SensorType.LIGHT_ACTIVE, SensorMode.PCT_FULL_SCALE)
         if now < self._next:
             return
         self.loop_body(now)

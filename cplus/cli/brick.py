@@ -5,7 +5,7 @@ the first line of standard output, then serves until SIGINT or SIGTERM and
 exits 0. Bad options give one line on standard error and exit code 2; a bad
 world file a located ``file:line:col: error:``.
 
-With ``--world world.toml`` the brick is Legolog's delivery robot: the
+With ``--world world.toml`` the brick is Legolog's delivery robot: the compiled
 ``cplus_legolog.rxe`` behaviour program runs and the robot drives on the world's
 track, which its light and touch sensors read. Each line on standard input presses
 the touch sensor (``press`` or an empty line: 0.3 s; ``press 1.5``: 1.5 s), and so
@@ -41,6 +41,7 @@ from nxt_link.emulator import (
     FaultParams,
     LinkParams,
     compiled_follower,
+    compiled_legolog,
 )
 from nxt_link.firmware import FirmwareParams
 from nxt_link.motor_model import MotorParams
@@ -179,9 +180,9 @@ def program_files(args: argparse.Namespace) -> tuple[dict[str, bytes], dict[str,
     """The programs to put in flash, their symbol tables, and the one to start.
 
     ``--program FILE`` is checked here (a file the brick would refuse is a
-    one-line error); otherwise ``cplus_follow.rxe`` is compiled (once, cached).
-    Without nbc the files are empty and the follower's Python model runs: a
-    note says so on standard error."""
+    one-line error); otherwise ``cplus_follow.rxe`` (with ``--world``:
+    ``cplus_legolog.rxe``) is compiled (once, cached). Without nbc the files are
+    empty and the program's Python model runs: a note says so on standard error."""
     path = getattr(args, "program", None)
     if path:
         name = os.path.basename(path)
@@ -198,14 +199,17 @@ def program_files(args: argparse.Namespace) -> tuple[dict[str, bytes], dict[str,
         except RxeError as exc:
             raise CliError(f"cplus brick: error: {exc}") from None
         return {name: data}, {}, name
+    world = bool(getattr(args, "world", None))
+    source, model = (("cplus_legolog.nxc", "legolog_program.py") if world
+                     else ("cplus_follow.nxc", "follower_program.py"))
     try:
-        files, symbols = compiled_follower()
+        files, symbols = compiled_legolog() if world else compiled_follower()
     except NbcMissingError:
-        print("cplus brick: nbc not found: running the Python model of cplus_follow.nxc "
-              "(nxt_link/follower_program.py) instead of the compiled program", file=sys.stderr)
+        print(f"cplus brick: nbc not found: running the Python model of {source} "
+              f"(nxt_link/{model}) instead of the compiled program", file=sys.stderr)
         return {}, {}, None
     except NbcError as exc:
-        print(f"cplus brick: {exc}; running the Python model of cplus_follow.nxc instead",
+        print(f"cplus brick: {exc}; running the Python model of {source} instead",
               file=sys.stderr)
         return {}, {}, None
     return files, symbols, None

@@ -85,6 +85,8 @@ def test_cplus_brick_with_a_world_serves_the_delivery_robot():
         assert proc.wait(timeout=20) == 0
         err = proc.stderr.read() if proc.stderr else ""
         assert "(landmark 2)" in err and "2 press(es)" in err
+        # the compiled cplus_legolog.rxe ran on the bytecode interpreter, not the model
+        assert "Python model" not in err and "aborted" not in err
     finally:
         if proc.poll() is None:
             proc.kill()
