@@ -29,6 +29,7 @@ from typing import Any
 
 from nxt_link.vm import poly
 from nxt_link.vm.errors import VMError
+from nxt_link.vm.fuse import Fuser, Step
 from nxt_link.vm.iomap import (
     INPUT_FIELD_TYPES,
     NO_OF_INPUTS,
@@ -72,10 +73,19 @@ INSTRUCTIONS_PER_TURN = 20
 #: instructions the emulated ARM7 gets through in one millisecond slice (an estimate)
 DEFAULT_INSTRUCTIONS_PER_MS = 500
 NOT_A_DS_ID = 0xFFFF
+_NEVER = 1 << 62
 
 # events a closure signals by returning ~resume_index (a negative number)
 _DONE, _SUSPEND, _ROTATE, _STOP = 1, 2, 3, 4
 Op = Callable[[], int]
+# instructions that may not fall through to the next one (they end a fused block):
+# JMP, BRCMP, BRTST, STOP, FINCLUMP, FINCLUMPIMMED, ACQUIRE, SUBCALL, SUBRET, WAIT
+_LONG_ENDS = frozenset((0x25, 0x26, 0x27, 0x29, 0x2A, 0x2B, 0x2C, 0x2E, 0x2F, 0x34))
+_SHORT_ENDS = frozenset((1, 3))  # short ACQUIRE, SUBCALL
+# Python operators of the integer binops and the condition codes (for templates)
+_BINOP_SYMBOLS = {poly.OP_ADD: "+", poly.OP_SUB: "-", poly.OP_MUL: "*", poly.OP_AND: "&",
+                  poly.OP_OR: "|", poly.OP_XOR: "^"}
+_CC_SYMBOLS = {0: "<", 1: ">", 2: "<=", 3: ">=", 4: "==", 5: "!="}
 
 
 class _Fault(Exception):
@@ -104,7 +114,8 @@ class VM:
     """
 
     def __init__(self, exe: Executable, io: BrickIO, *, start_tick: int = 0,
-                 instructions_per_ms: int | None = DEFAULT_INSTRUCTIONS_PER_MS) -> None:
+                 instructions_per_ms: int | None = DEFAULT_INSTRUCTIONS_PER_MS,
+                 fused: bool = True) -> None:
         self.exe = exe
         self.io = io
         self.types = exe.types
@@ -123,6 +134,7 @@ class VM:
         self.runq: list[int] = [c.index for c in exe.clumps if c.fire_count == 0]
         self.restq: list[int] = []
         self.awaken = [0] * n
+        self._next_wake = _NEVER  # earliest wake-up time in the rest queue
         self.instructions = 0
         self.finished = False
         self.error: VMError | None = None
@@ -136,7 +148,20 @@ class VM:
                 self._account(i, self.mem[i])
         self._event_pc = 0
         self._event = 0
-        self.ops: list[list[Op]] = [self._compile_clump(c.index) for c in exe.clumps]
+        self._fuser = Fuser({"m": self.mem, "vm": self, "wrap": wrap, "store": store,
+                             "s32": poly.s32, "int_of": int_of, "index_fault": _index_fault})
+        compiled = [self._compile_clump(c.index) for c in exe.clumps]
+        self.ops: list[list[Op]] = [ops for ops, _ in compiled]
+        self.fused = fused
+        # only RELEASE adds a clump to the run queue in the middle of a turn; without
+        # it, a clump alone in the queue stays alone until its turn ends with an event
+        self._solo_ok = not any(ins.opcode == (2 if ins.short else 0x2D)
+                                for c in exe.clumps for ins in decode_clump(exe.code, c))
+        if fused:
+            self._fns, self._lens = self._fuser.build(compiled)
+        else:
+            self._fns = self.ops
+            self._lens = [[1] * len(ops) for ops in self.ops]
 
     def _add_cluster_members(self) -> None:
         """Members of top-level clusters are addressable (they are top-level storage)."""
@@ -202,34 +227,59 @@ class VM:
             return False
         self.tick = tick
         rq = self.runq
-        if self.restq:
-            for c in list(self.restq):
-                if self.awaken[c] <= tick:
-                    self.restq.remove(c)
-                    rq.append(c)
+        restq = self.restq
+        if restq and tick >= self._next_wake:
+            self._wake(tick)
+        if not rq:
+            if restq:
+                return True  # every clump sleeps: nothing to run this millisecond
+            self.finished = True
+            return False
         budget = self.budget
         executed = 0
+        fns_all = self._fns
+        lens_all = self._lens
         ops_all = self.ops
         pcs = self.pcs
+        solo_ok = self._solo_ok
         try:
             while rq:
                 c = rq[0]
+                fns = fns_all[c]
+                lens = lens_all[c]
                 ops = ops_all[c]
                 pc = pcs[c]
                 # the turn: 20 instructions, fewer when the slice is nearly used up; at
-                # least one even past the end of the slice (as after a clump switch)
+                # least one even past the end of the slice (as after a clump switch).
+                # A clump alone in the run queue runs on to the end of the slice: the
+                # turn boundaries would hand the CPU back to itself
                 k = budget - executed
-                k = INSTRUCTIONS_PER_TURN if k >= INSTRUCTIONS_PER_TURN else (k if k > 0 else 1)
+                if k < INSTRUCTIONS_PER_TURN:
+                    k = k if k > 0 else 1
+                elif not solo_ok or len(rq) > 1:
+                    k = INSTRUCTIONS_PER_TURN
                 left = k
                 try:
-                    while left:
-                        nxt = ops[pc]()
-                        left -= 1
+                    while True:
+                        n = lens[pc]
+                        if n <= left:
+                            nxt = fns[pc]()
+                            left -= n
+                        else:  # a block longer than the rest of the turn: one instruction
+                            nxt = ops[pc]()
+                            left -= 1
                         if nxt < 0:
                             break
                         pc = nxt
+                        if not left:
+                            break
                 except _Fault as f:
-                    executed += k - left + 1
+                    ran = 1
+                    if lens[pc] <= left and lens[pc] > 1:
+                        where = self._fuser.locate(f.__traceback__)
+                        if where is not None:
+                            pc, ran = where
+                    executed += k - left + ran
                     self.finished = True
                     self.error = VMError(f.args[0], pc=self.exe.clumps[c].code_start + pc, clump=c)
                     raise self.error from None
@@ -254,12 +304,22 @@ class VM:
                 elif event == _STOP:
                     self.finished = True
                     return False
-            if not self.restq:
+            if not restq:
                 self.finished = True
                 return False
             return True
         finally:
             self.instructions += executed
+
+    def _wake(self, tick: int) -> None:
+        """Move the clumps whose wait is over to the run queue, in the rest queue's order."""
+        restq = self.restq
+        awaken = self.awaken
+        for c in list(restq):
+            if awaken[c] <= tick:
+                restq.remove(c)
+                self.runq.append(c)
+        self._next_wake = min((awaken[c] for c in restq), default=_NEVER)
 
     def _enqueue(self, c: int) -> None:
         if c in self.runq:
@@ -284,18 +344,26 @@ class VM:
 
     # -- compilation -------------------------------------------------------------------------
 
-    def _compile_clump(self, c: int) -> list[Op]:
+    def _compile_clump(self, c: int) -> tuple[list[Op], list[Step]]:
+        """The clump's closures by word offset, and its instructions in order."""
         clump = self.exe.clumps[c]
         length = clump.code_end - clump.code_start + 1
         ops: list[Op] = [_raiser("jump into the middle of an instruction")] * (length + 1)
         ops[length] = _raiser(f"ran past the end of clump {c}")
+        steps: list[Step] = []
         for ins in decode_clump(self.exe.code, clump):
             local = ins.pc - clump.code_start
+            ends = ins.opcode in (_SHORT_ENDS if ins.short else _LONG_ENDS)
+            targets: tuple[int, ...] = ()
+            if not ins.short and ins.opcode in (0x25, 0x26, 0x27) and ins.args:
+                targets = (local + _signed16(ins.args[0]),)
             try:
                 ops[local] = self._compile(ins, local, length, c)
             except _Fault as f:
                 ops[local] = _raiser(f.args[0])
-        return ops
+                ends = True
+            steps.append(Step(local, local + ins.words, ops[local], ends, targets))
+        return ops, steps
 
     def _target(self, local: int, offset: int, length: int, name: str) -> int:
         t = local + _signed16(offset)
@@ -329,6 +397,15 @@ class VM:
         if tc == TC.FLOAT:
             return lambda: int_of(TC.FLOAT, m[i])
         return lambda: m[i]
+
+    def _int_src(self, i: int, name: str) -> str:
+        """:meth:`_int_reader` as an expression of a template."""
+        self._int_reader(i, name)
+        if i == NOT_A_DS_ID:
+            return "0"
+        if self.types[i].tc == TC.FLOAT:
+            return f"int_of({TC.FLOAT}, m[{i}])"
+        return f"m[{i}]"
 
     def _compile(self, ins: Instruction, local: int, length: int, c: int) -> Op:
         if ins.error:
@@ -364,8 +441,7 @@ class VM:
         if op == 0x1C:
             return self._set(a[0], a[1], nxt)
         if op == 0x25:
-            t = self._target(local, a[0], length, name)
-            return lambda: t
+            return self._fuser.template(f"return {self._target(local, a[0], length, name)}")
         if op == 0x27:
             return self._brtst(cc, self._target(local, a[0], length, name), a[1], nxt)
         if op == 0x26:
@@ -437,53 +513,25 @@ class VM:
         td, ta, tb = self.types[d], self.types[a], self.types[b]
         if td.tc in INT_TYPES and ta.tc in INT_TYPES and tb.tc in INT_TYPES:
             dt = td.tc
-            if op == poly.OP_ADD and dt == TC.SLONG:
-                def f() -> int:
-                    v = (m[a] + m[b]) & M32
-                    m[d] = v - 0x100000000 if v & 0x80000000 else v
-                    return nxt
-                return f
-            if op == poly.OP_SUB and dt == TC.SLONG:
-                def f() -> int:
-                    v = (m[a] - m[b]) & M32
-                    m[d] = v - 0x100000000 if v & 0x80000000 else v
-                    return nxt
-                return f
-            if op == poly.OP_MUL and dt == TC.SLONG:
-                def f() -> int:
-                    v = (m[a] * m[b]) & M32
-                    m[d] = v - 0x100000000 if v & 0x80000000 else v
-                    return nxt
-                return f
-            if op == poly.OP_AND and dt == TC.SLONG:
-                def f() -> int:
-                    v = (m[a] & m[b]) & M32
-                    m[d] = v - 0x100000000 if v & 0x80000000 else v
-                    return nxt
-                return f
-            if op in (poly.OP_ADD, poly.OP_SUB, poly.OP_MUL, poly.OP_AND, poly.OP_OR, poly.OP_XOR):
-                fn = {poly.OP_ADD: lambda x, y: x + y, poly.OP_SUB: lambda x, y: x - y,
-                      poly.OP_MUL: lambda x, y: x * y, poly.OP_AND: lambda x, y: x & y,
-                      poly.OP_OR: lambda x, y: x | y, poly.OP_XOR: lambda x, y: x ^ y}[op]
-
-                def f() -> int:
-                    m[d] = wrap(dt, fn(m[a], m[b]))
-                    return nxt
-                return f
+            sym = _BINOP_SYMBOLS.get(op)
+            if sym is not None and dt == TC.SLONG:
+                return self._fuser.template(
+                    f"v = (m[{a}] {sym} m[{b}]) & 0xFFFFFFFF\n"
+                    f"m[{d}] = v - 0x100000000 if v & 0x80000000 else v")
+            if sym is not None:
+                return self._fuser.template(f"m[{d}] = wrap({dt}, m[{a}] {sym} m[{b}])")
             signed = ta.tc in SIGNED and tb.tc in SIGNED
             if op == poly.OP_DIV and signed and dt == TC.SLONG:
-                def f() -> int:
-                    y = m[b]
-                    if y == 0:
-                        m[d] = 0
-                    else:
-                        x = m[a]
-                        q = abs(x) // abs(y)
-                        if (x < 0) != (y < 0):
-                            q = -q
-                        m[d] = q - 0x100000000 if q >= 0x80000000 else q
-                    return nxt
-                return f
+                return self._fuser.template(
+                    f"y = m[{b}]\n"
+                    f"if y == 0:\n"
+                    f"    m[{d}] = 0\n"
+                    f"else:\n"
+                    f"    x = m[{a}]\n"
+                    f"    q = abs(x) // abs(y)\n"
+                    f"    if (x < 0) != (y < 0):\n"
+                    f"        q = -q\n"
+                    f"    m[{d}] = q - 0x100000000 if q >= 0x80000000 else q")
             tat, tbt = ta.tc, tb.tc
 
             def f() -> int:
@@ -504,42 +552,17 @@ class VM:
     def _cmp(self, cc: int, d: int, a: int, b: int, nxt: int) -> Op:
         for x in (d, a, b):
             self._arg(x, "CMP")
-        m = self.mem
         td, ta, tb = self.types[d], self.types[a], self.types[b]
         if td.tc in INT_TYPES and ta.tc in INT_TYPES and tb.tc in INT_TYPES:
-            dt = td.tc
-            unsigned = ta.tc in UNSIGNED or tb.tc in UNSIGNED
             # typed values compare as they are, except that an unsigned comparison
-            # reads a signed side as its 32-bit pattern
-            if unsigned:
-                def rd(x: int) -> int:
-                    return x & M32
-            else:
-                def rd(x: int) -> int:
-                    return x
-            cmpf = {0: lambda x, y: x < y, 1: lambda x, y: x > y, 2: lambda x, y: x <= y,
-                    3: lambda x, y: x >= y, 4: lambda x, y: x == y,
-                    5: lambda x, y: x != y}.get(cc, lambda x, y: False)
-            if not unsigned and cc == 4:
-                def f() -> int:
-                    m[d] = 1 if m[a] == m[b] else 0
-                    return nxt
-                return f
-            if not unsigned and cc == 0:
-                def f() -> int:
-                    m[d] = 1 if m[a] < m[b] else 0
-                    return nxt
-                return f
-            if not unsigned:
-                def f() -> int:
-                    m[d] = 1 if cmpf(m[a], m[b]) else 0
-                    return nxt
-                return f
-
-            def f() -> int:
-                m[d] = wrap(dt, 1 if cmpf(rd(m[a]), rd(m[b])) else 0)
-                return nxt
-            return f
+            # reads a signed side as its 32-bit pattern; 1 and 0 fit every type
+            sym = _CC_SYMBOLS.get(cc)
+            if sym is None:
+                return self._fuser.template(f"m[{d}] = 0")
+            if ta.tc in UNSIGNED or tb.tc in UNSIGNED:
+                return self._fuser.template(
+                    f"m[{d}] = 1 if (m[{a}] & 0xFFFFFFFF) {sym} (m[{b}] & 0xFFFFFFFF) else 0")
+            return self._fuser.template(f"m[{d}] = 1 if m[{a}] {sym} m[{b}] else 0")
         get_a, get_b = self._getter(a), self._getter(b)
         set_d = self._setter(d)
         agg = not ta.is_scalar and not tb.is_scalar and td.is_scalar
@@ -560,11 +583,21 @@ class VM:
         self._arg(s, name)
         m = self.mem
         td, ts = self.types[d], self.types[s]
-        if op == poly.OP_NOT and td.tc in INT_TYPES and ts.tc in INT_TYPES:
-            def f() -> int:
-                m[d] = 0 if m[s] & M32 else 1
-                return nxt
-            return f
+        if td.tc in INT_TYPES and ts.tc in INT_TYPES:
+            # poly.int_unop on a typed integer value, stored with a wrap
+            dt = td.tc
+            if op == poly.OP_NOT:
+                return self._fuser.template(f"m[{d}] = 0 if m[{s}] & 0xFFFFFFFF else 1")
+            if op == poly.OP_NEG:
+                return self._fuser.template(f"m[{d}] = wrap({dt}, -s32(m[{s}]))")
+            if op == poly.OP_ABS:
+                return self._fuser.template(f"m[{d}] = wrap({dt}, abs(s32(m[{s}])))")
+            if op == poly.OP_TST:
+                sym = _CC_SYMBOLS.get(cc)
+                if sym is None:
+                    return self._fuser.template(f"m[{d}] = 0")
+                v = f"(m[{s}] & 0xFFFFFFFF)" if ts.tc in UNSIGNED else f"s32(m[{s}])"
+                return self._fuser.template(f"m[{d}] = 1 if {v} {sym} 0 else 0")
         if td.is_scalar and ts.is_scalar:
             def g() -> int:
                 m[d] = poly.poly_unop(op, cc, td, ts, m[s])
@@ -607,39 +640,20 @@ class VM:
         m = self.mem
         td, ts = self.types[d], self.types[s]
         if td.tc in INT_TYPES and ts.tc in INT_TYPES:
+            dt = td.tc
             if td.tc == ts.tc or (td.tc == TC.SLONG and ts.tc in (TC.UBYTE, TC.SBYTE, TC.UWORD,
                                                                    TC.SWORD)):
-                def f() -> int:
-                    m[d] = m[s]
-                    return nxt
-                return f
-            dt = td.tc
+                return self._fuser.template(f"m[{d}] = m[{s}]")
             if dt == TC.UBYTE:
-                def g() -> int:
-                    m[d] = m[s] & 0xFF
-                    return nxt
-                return g
+                return self._fuser.template(f"m[{d}] = m[{s}] & 0xFF")
             if dt == TC.ULONG:
-                def g() -> int:
-                    m[d] = m[s] & 0xFFFFFFFF
-                    return nxt
-                return g
+                return self._fuser.template(f"m[{d}] = m[{s}] & 0xFFFFFFFF")
             if dt == TC.SLONG:  # from a ulong
-                def g() -> int:
-                    v = m[s]
-                    m[d] = v - 0x100000000 if v & 0x80000000 else v
-                    return nxt
-                return g
-
-            def g() -> int:
-                m[d] = wrap(dt, m[s])
-                return nxt
-            return g
+                return self._fuser.template(
+                    f"v = m[{s}]\nm[{d}] = v - 0x100000000 if v & 0x80000000 else v")
+            return self._fuser.template(f"m[{d}] = wrap({dt}, m[{s}])")
         if td.tc == TC.FLOAT and ts.tc == TC.FLOAT:
-            def h() -> int:
-                m[d] = m[s]
-                return nxt
-            return h
+            return self._fuser.template(f"m[{d}] = m[{s}]")
         if td.tc == TC.ARRAY and ts.tc == TC.ARRAY and td.string and ts.string:
             def k() -> int:
                 v = bytearray(m[s])
@@ -661,6 +675,8 @@ class VM:
         self._scalar_arg(d, "SET")
         m = self.mem
         v = store(self.types[d].tc, imm)
+        if isinstance(v, int):
+            return self._fuser.template(f"m[{d}] = {v}")
 
         def f() -> int:
             m[d] = v
@@ -670,13 +686,7 @@ class VM:
     def _arrsize(self, d: int, s: int, nxt: int) -> Op:
         self._scalar_arg(d, "ARRSIZE")
         self._array_arg(s, "ARRSIZE")
-        m = self.mem
-        dt = self.types[d].tc
-
-        def f() -> int:
-            m[d] = store(dt, len(m[s]))
-            return nxt
-        return f
+        return self._fuser.template(f"m[{d}] = store({self.types[d].tc}, len(m[{s}]))")
 
     def _array_arg(self, i: int, name: str, string: bool = False) -> DType:
         self._arg(i, name)
@@ -697,24 +707,19 @@ class VM:
         if td.tc in INT_TYPES and te.tc in INT_TYPES:
             dt = td.tc
             same = dt == te.tc or dt == TC.SLONG and te.tc != TC.ULONG
-
-            def f() -> int:
-                k = idx() & M32
-                arr = m[s]
-                if k >= len(arr):
-                    raise _Fault(f"INDEX: index {k} is outside the array at dataspace entry {s} "
-                                 f"({len(arr)} elements)")
-                m[d] = arr[k] if same else wrap(dt, arr[k])
-                return nxt
-            return f
+            return self._fuser.template(
+                f"k = {self._int_src(i, 'INDEX')} & 0xFFFFFFFF\n"
+                f"arr = m[{s}]\n"
+                f"if k >= len(arr):\n"
+                f"    index_fault(k, {s}, arr)\n"
+                + (f"m[{d}] = arr[k]" if same else f"m[{d}] = wrap({dt}, arr[k])"))
         set_d = self._setter(d)
 
         def g() -> int:
             k = idx() & M32
             arr = m[s]
             if k >= len(arr):
-                raise _Fault(f"INDEX: index {k} is outside the array at dataspace entry {s} "
-                             f"({len(arr)} elements)")
+                _index_fault(k, s, arr)
             try:
                 set_d(poly.convert(td, te, copy_value(te, arr[k])))
             except poly.PolyError as exc:
@@ -736,6 +741,12 @@ class VM:
         if te.tc in INT_TYPES and tv.tc in INT_TYPES:
             et = te.tc
             same = et == tv.tc
+            if not copy:
+                return self._fuser.template(
+                    f"arr = m[{d}]\n"
+                    f"k = {self._int_src(i, 'REPLACE')} & 0xFFFFFFFF\n"
+                    f"if k < len(arr):\n"
+                    + (f"    arr[k] = m[{v}]" if same else f"    arr[k] = wrap({et}, m[{v}])"))
 
             def f() -> int:
                 if copy:
@@ -1038,22 +1049,19 @@ class VM:
     # -- control flow ------------------------------------------------------------------------
 
     def _brtst(self, cc: int, target: int, s: int, nxt: int) -> Op:
-        m = self.mem
         if s == NOT_A_DS_ID:
             taken = cc in (4, 2, 3)
-            t = target if taken else nxt
-            return lambda: t
+            return self._fuser.template(f"return {target if taken else nxt}")
         self._scalar_arg(s, "BRTST")
         ts = self.types[s].tc
-        if ts in INT_TYPES and ts != TC.ULONG:
-            if cc == 4:
-                def f() -> int:
-                    return target if m[s] == 0 else nxt
-                return f
-            if cc == 5:
-                def f() -> int:
-                    return target if m[s] != 0 else nxt
-                return f
+        if ts in INT_TYPES:
+            # the value as a signed 32-bit integer against 0 (the typed value itself,
+            # except for an ulong)
+            sym = _CC_SYMBOLS.get(cc)
+            if sym is None:
+                return self._fuser.template(f"return {nxt}")
+            v = f"s32(m[{s}])" if ts == TC.ULONG else f"m[{s}]"
+            return self._fuser.template(f"return {target} if {v} {sym} 0 else {nxt}")
         rd = self._int_reader(s, "BRTST")
 
         def g() -> int:
@@ -1065,6 +1073,16 @@ class VM:
         self._arg(a, "BRCMP")
         self._arg(b, "BRCMP")
         ta, tb = self.types[a], self.types[b]
+        if ta.tc in INT_TYPES and tb.tc in INT_TYPES:
+            # poly.compare_int: unsigned as soon as one side is unsigned
+            sym = _CC_SYMBOLS.get(cc)
+            if sym is None:
+                return self._fuser.template(f"return {nxt}")
+            if ta.tc in UNSIGNED or tb.tc in UNSIGNED:
+                cond = f"(m[{a}] & 0xFFFFFFFF) {sym} (m[{b}] & 0xFFFFFFFF)"
+            else:
+                cond = f"m[{a}] {sym} m[{b}]"
+            return self._fuser.template(f"return {target} if {cond} else {nxt}")
         if ta.is_scalar and tb.is_scalar:
             ra, rb = self._int_reader(a, "BRCMP"), self._int_reader(b, "BRCMP")
             tat, tbt = ta.tc, tb.tc
@@ -1189,13 +1207,7 @@ class VM:
 
     def _gettick(self, d: int, nxt: int) -> Op:
         self._scalar_arg(d, "GETTICK")
-        m = self.mem
-        dt = self.types[d].tc
-
-        def f() -> int:
-            m[d] = store(dt, self.tick & M32)
-            return nxt
-        return f
+        return self._fuser.template(f"m[{d}] = store({self.types[d].tc}, vm.tick & 0xFFFFFFFF)")
 
     def _wait(self, d: int, s: int, nxt: int) -> Op:
         rd = self._int_reader(s, "WAIT")
@@ -1211,7 +1223,9 @@ class VM:
                 return ~nxt
             me = self.runq.pop(0)
             self.restq.append(me)
-            self.awaken[me] = self.tick + ms
+            wake = self.awaken[me] = self.tick + ms
+            if wake < self._next_wake:
+                self._next_wake = wake
             self._event = _SUSPEND
             return ~nxt
         return f
@@ -1329,6 +1343,11 @@ class VM:
                 raise _Fault(f"SYSCALL {name}: {exc}") from None
             return nxt
         return f
+
+
+def _index_fault(k: int, s: int, arr: Any) -> None:
+    raise _Fault(f"INDEX: index {k} is outside the array at dataspace entry {s} "
+                 f"({len(arr)} elements)")
 
 
 def _raiser(message: str) -> Op:
