@@ -45,7 +45,7 @@ from nxt_link.telegram import Opcode, OutputMode, RegulationMode, RunState
 from nxt_link.vm import flash as fl
 from nxt_link.vm.errors import RxeError, VMError
 from nxt_link.vm.iomap import InputField
-from nxt_link.vm.machine import DEFAULT_INSTRUCTIONS_PER_MS
+from nxt_link.vm.machine import DEFAULT_INSTRUCTIONS_PER_MS, VM
 from nxt_link.vm.program import VMProgram
 from nxt_link.vm.rxe import load_rxe
 
@@ -198,6 +198,8 @@ class Firmware:
         self.environments: list[Environment] = []
         self.host = _Host(self)
         self._program_handle: int | None = None
+        #: the running program's interpreter (None: a Python model or nothing runs)
+        self._vm: VM | None = None
 
     def attach(self, environment: Environment) -> None:
         """Run ``environment`` every millisecond from now on (after the outputs)."""
@@ -233,6 +235,7 @@ class Firmware:
             self._program_handle = self.flash.hold(name)
             program = VMProgram(exe, self.io, start_tick=self.now_ms,
                                 instructions_per_ms=self.params.vm_instructions_per_ms)
+            self._vm = program.vm
         elif name in self.programs:
             program = self.programs[name]()
             log.info("%s: no compiled %s in flash: running its Python model",
@@ -256,6 +259,7 @@ class Firmware:
     def _deactivate(self) -> None:
         log.info("program %s stopped at %d ms", self.program_name, self.now_ms)
         self.program = None
+        self._vm = None
         self.program_name = None
         if self._program_handle is not None:
             self.flash.close(self._program_handle)
@@ -270,28 +274,36 @@ class Firmware:
 
     def tick(self) -> None:
         """Advance one millisecond: inputs, program start/stop, program slice, outputs."""
-        self.now_ms += 1
+        self.now_ms = now = self.now_ms + 1
         for inp in self.inputs:
             inp.step()
         if self._pending_stop:
             self._pending_stop = False
             if self.program is not None:
                 self._deactivate()
-        if self._pending_start is not None and self.now_ms >= self._pending_start[1]:
+        if self._pending_start is not None and now >= self._pending_start[1]:
             name = self._pending_start[0]
             self._pending_start = None
             self._activate(name)
-        if self.program is not None:
+        program = self.program
+        if program is not None:
+            vm = self._vm
             try:
-                self.program.step(self.host)
+                if vm is not None:
+                    running = vm.run_slice(now)
+                else:
+                    program.step(self.host)
+                    running = True
             except VMError as exc:
                 self._program_failed(f"program {self.program_name} aborted: {exc}")
                 self._deactivate()
             else:
-                if isinstance(self.program, VMProgram) and self.program.finished:
+                if not running:
                     log.info("program %s ended", self.program_name)
                     self._deactivate()
-        self.io.apply_output_updates()
+        io = self.io
+        if io.outputs_written:
+            io.apply_output_updates()
         for out in self.outputs:
             out.step()
         for env in self.environments:
