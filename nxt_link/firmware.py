@@ -92,6 +92,11 @@ class FirmwareParams:
             millisecond slice (the brick's CPU speed; an estimate). ``None``:
             every slice runs until all tasks wait (an infinitely fast brick, as
             the Python models assume).
+        vm_fused: the interpreter runs straight-line code as fused blocks
+            (False: one instruction at a time; the same results, slower).
+        vm_skip_busy_waits: the interpreter counts the cycles of a provable
+            busy-wait without running them (False: runs them; the same results,
+            slower).
     """
 
     name: str = "NXT"
@@ -103,6 +108,8 @@ class FirmwareParams:
     firmware_version: tuple[int, int] = (1, 31)
     protocol_version: tuple[int, int] = (1, 124)
     vm_instructions_per_ms: int | None = DEFAULT_INSTRUCTIONS_PER_MS
+    vm_fused: bool = True
+    vm_skip_busy_waits: bool = True
 
 
 class ProgramHost(Protocol):
@@ -234,7 +241,9 @@ class Firmware:
                 return
             self._program_handle = self.flash.hold(name)
             program = VMProgram(exe, self.io, start_tick=self.now_ms,
-                                instructions_per_ms=self.params.vm_instructions_per_ms)
+                                instructions_per_ms=self.params.vm_instructions_per_ms,
+                                fused=self.params.vm_fused,
+                                skip_busy_waits=self.params.vm_skip_busy_waits)
             self._vm = program.vm
         elif name in self.programs:
             program = self.programs[name]()

@@ -48,6 +48,7 @@ from nxt_link.vm.rxe import (
     decode_clump,
     expected_size,
 )
+from nxt_link.vm.spin import SPIN_AFTER, SpinDetector
 from nxt_link.vm.syscalls import SYSCALLS, SyscallError
 from nxt_link.vm.values import (
     INT_TYPES,
@@ -111,11 +112,21 @@ class VM:
             until every clump waits (an infinitely fast CPU, for comparing the
             program with a model that takes no time), at most
             ``1_000_000`` instructions per slice.
+        fused: run straight-line code as fused blocks (:mod:`nxt_link.vm.fuse`);
+            False: one instruction at a time. The results are the same.
+        skip_busy_waits: count the whole cycles of a slice that provably goes
+            round in circles without running them (:mod:`nxt_link.vm.spin`);
+            the results are the same.
+
+    Attributes:
+        instructions: instructions the program has executed, as the brick counts
+            them (busy-wait cycles included).
+        skipped: how many of them were counted without being run.
     """
 
     def __init__(self, exe: Executable, io: BrickIO, *, start_tick: int = 0,
                  instructions_per_ms: int | None = DEFAULT_INSTRUCTIONS_PER_MS,
-                 fused: bool = True) -> None:
+                 fused: bool = True, skip_busy_waits: bool = True) -> None:
         self.exe = exe
         self.io = io
         self.types = exe.types
@@ -135,6 +146,12 @@ class VM:
         self.restq: list[int] = []
         self.awaken = [0] * n
         self._next_wake = _NEVER  # earliest wake-up time in the rest queue
+        #: counts the instructions that changed something outside the VM's memory
+        self.io_epoch = 0
+        self._polled = False  # this slice read the tick, a port or a read-only syscall
+        self._spin = SpinDetector()
+        self._spin_from = SPIN_AFTER if skip_busy_waits and self.budget > SPIN_AFTER else _NEVER
+        self.skipped = 0
         self.instructions = 0
         self.finished = False
         self.error: VMError | None = None
@@ -157,11 +174,7 @@ class VM:
         # it, a clump alone in the queue stays alone until its turn ends with an event
         self._solo_ok = not any(ins.opcode == (2 if ins.short else 0x2D)
                                 for c in exe.clumps for ins in decode_clump(exe.code, c))
-        if fused:
-            self._fns, self._lens = self._fuser.build(compiled)
-        else:
-            self._fns = self.ops
-            self._lens = [[1] * len(ops) for ops in self.ops]
+        self._fns, self._lens = self._fuser.build(compiled, blocks=fused)
 
     def _add_cluster_members(self) -> None:
         """Members of top-level clusters are addressable (they are top-level storage)."""
@@ -242,8 +255,18 @@ class VM:
         ops_all = self.ops
         pcs = self.pcs
         solo_ok = self._solo_ok
+        spin_from = self._spin_from
+        if spin_from != _NEVER:
+            self._polled = False
+            self._spin.reset()
         try:
             while rq:
+                if executed >= spin_from and self._polled:
+                    skip = self._spin.check(self, executed, budget)
+                    if skip:  # whole cycles of a busy-wait: counted, not run
+                        executed += skip
+                        self.skipped += skip
+                        spin_from = _NEVER
                 c = rq[0]
                 fns = fns_all[c]
                 lens = lens_all[c]
@@ -252,12 +275,17 @@ class VM:
                 # the turn: 20 instructions, fewer when the slice is nearly used up; at
                 # least one even past the end of the slice (as after a clump switch).
                 # A clump alone in the run queue runs on to the end of the slice: the
-                # turn boundaries would hand the CPU back to itself
+                # turn boundaries would hand the CPU back to itself (except that a long
+                # slice comes back to them to look for a busy-wait)
                 k = budget - executed
                 if k < INSTRUCTIONS_PER_TURN:
                     k = k if k > 0 else 1
                 elif not solo_ok or len(rq) > 1:
                     k = INSTRUCTIONS_PER_TURN
+                elif executed >= spin_from:
+                    k = INSTRUCTIONS_PER_TURN if self._polled else min(k, SPIN_AFTER)
+                elif k > spin_from - executed:
+                    k = spin_from - executed
                 left = k
                 try:
                     while True:
@@ -1207,7 +1235,8 @@ class VM:
 
     def _gettick(self, d: int, nxt: int) -> Op:
         self._scalar_arg(d, "GETTICK")
-        return self._fuser.template(f"m[{d}] = store({self.types[d].tc}, vm.tick & 0xFFFFFFFF)")
+        return self._fuser.template(f"m[{d}] = store({self.types[d].tc}, vm.tick & 0xFFFFFFFF)\n"
+                                    f"vm._polled = True")
 
     def _wait(self, d: int, s: int, nxt: int) -> Op:
         rd = self._int_reader(s, "WAIT")
@@ -1245,6 +1274,7 @@ class VM:
             if p >= NO_OF_INPUTS:
                 raise _Fault(f"SETIN: input port {p} does not exist")
             io.input_set(p, field, wrap(ft, src()))
+            self.io_epoch += 1
             return nxt
         return f
 
@@ -1262,6 +1292,7 @@ class VM:
             if p >= NO_OF_INPUTS:
                 raise _Fault(f"GETIN: input port {p} does not exist")
             m[d] = store(dt, io.input_get(p, field))
+            self._polled = True
             return nxt
         return f
 
@@ -1279,6 +1310,7 @@ class VM:
             if p >= NO_OF_OUTPUTS:
                 raise _Fault(f"GETOUT: output port {p} does not exist")
             m[d] = store(dt, io.output_get(p, field))
+            self._polled = True
             return nxt
         return f
 
@@ -1291,7 +1323,11 @@ class VM:
             fld, src = rest[k], rest[k + 1]
             if fld >= OutputField.COUNT:
                 raise _Fault(f"SETOUT: output field {fld} does not exist")
-            pairs.append((fld, self._int_reader(src, "SETOUT"), OUTPUT_FIELD_TYPES[fld]))
+            ft = OUTPUT_FIELD_TYPES[fld]
+            get = self._int_reader(src, "SETOUT")
+            # a value that always fits the field needs no wrap
+            st = self.types[src].tc if src != NOT_A_DS_ID else ft
+            pairs.append((fld, get, None if _fits(st, ft) else ft))
         io = self.io
         m = self.mem
         tp = self.types[port]
@@ -1313,7 +1349,8 @@ class VM:
             for p in ports():
                 if p < NO_OF_OUTPUTS:
                     for fld, get, ft in pairs:
-                        io.output_set(p, fld, wrap(ft, get()))
+                        io.output_set(p, fld, get() if ft is None else wrap(ft, get()))
+            self.io_epoch += 1
             return nxt
         return f
 
@@ -1335,14 +1372,37 @@ class VM:
         if len(args) < expected:
             raise _Fault(f"SYSCALL {name}: {len(args)} arguments, it takes {expected}")
         fn = impl.fn
+        if impl.reads_only:
+            def f() -> int:
+                try:
+                    fn(self, args)
+                except SyscallError as exc:
+                    raise _Fault(f"SYSCALL {name}: {exc}") from None
+                self._polled = True
+                return nxt
+            return f
 
-        def f() -> int:
+        def g() -> int:
             try:
                 fn(self, args)
             except SyscallError as exc:
                 raise _Fault(f"SYSCALL {name}: {exc}") from None
+            self.io_epoch += 1
             return nxt
-        return f
+        return g
+
+
+_INT_RANGES = {TC.UBYTE: (0, 0xFF), TC.SBYTE: (-0x80, 0x7F), TC.UWORD: (0, 0xFFFF),
+               TC.SWORD: (-0x8000, 0x7FFF), TC.ULONG: (0, M32),
+               TC.SLONG: (-0x80000000, 0x7FFFFFFF)}
+
+
+def _fits(src: int, dst: int) -> bool:
+    """Every value of integer type ``src`` is a value of integer type ``dst``."""
+    if src not in _INT_RANGES or dst not in _INT_RANGES:
+        return False
+    (lo, hi), (dlo, dhi) = _INT_RANGES[src], _INT_RANGES[dst]
+    return dlo <= lo and hi <= dhi
 
 
 def _index_fault(k: int, s: int, arr: Any) -> None:
