@@ -5,8 +5,10 @@ The interpreter's unit of work is one closure per instruction (see
 than most instructions themselves (a ``mov`` is one list store). A *block* is
 the run of instructions from a *leader* (a clump's first instruction, a jump
 target, the instruction after a branch, a call, a wait...) up to and including
-the next instruction that may not fall through (a jump, a branch, a scheduling
-instruction, one that always faults), at most :data:`MAX_BLOCK` long. It
+the next instruction that may not fall through (a branch, a scheduling
+instruction, one that always faults), at most :data:`MAX_BLOCK` long; an
+unconditional jump does not end it, the block goes on at the jump's target
+(unless that is already in the block: a loop). It
 becomes one generated function that does the work of all its instructions and
 returns the next program counter (or the negative event code of its last
 instruction), so the run loop dispatches once per block instead of once per
@@ -58,6 +60,7 @@ class Step:
         op: its compiled closure.
         ends_block: it may not fall through (jump, branch, scheduling, fault).
         targets: the offsets it may jump to.
+        goto: the target of an unconditional jump (a block follows it).
     """
 
     local: int
@@ -65,6 +68,7 @@ class Step:
     op: Op
     ends_block: bool
     targets: tuple[int, ...] = ()
+    goto: int | None = None
 
 
 @dataclass(frozen=True, slots=True)
@@ -174,9 +178,16 @@ class Fuser:
         lines = [f"def b_{c}_{head}(m=m):"]
         index: list[int] = []
         locs: list[int] = []
+        visited: set[int] = set()
         j = k
-        while j < len(steps) and len(locs) < MAX_BLOCK:
+        while True:
             s = steps[j]
+            visited.add(j)
+            locs.append(s.local)
+            if (s.goto is not None and s.goto in by_local and by_local[s.goto] not in visited
+                    and len(locs) < MAX_BLOCK):
+                j = by_local[s.goto]  # an unconditional jump does nothing but go on there
+                continue
             src = self._src.get(s.op)
             if src is None:
                 name = f"o_{c}_{s.local}"
@@ -185,15 +196,15 @@ class Fuser:
                 body = src.split("\n")
             for b in body:
                 lines.append("    " + b)
-                index.append(len(locs))
-            locs.append(s.local)
-            if s.ends_block:
+                index.append(len(locs) - 1)
+            if s.ends_block or len(locs) >= MAX_BLOCK:
                 break
             j += 1
             if j >= len(steps) or steps[j].local != s.nxt:
                 break
-        if not steps[by_local[locs[-1]]].ends_block:
-            lines.append(f"    return {steps[by_local[locs[-1]]].nxt}")
+        last = steps[by_local[locs[-1]]]
+        if not last.ends_block:
+            lines.append(f"    return {last.nxt}")
             index.append(len(locs) - 1)
         return "\n".join(lines) + "\n", locs, index
 

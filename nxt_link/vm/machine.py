@@ -385,12 +385,13 @@ class VM:
             targets: tuple[int, ...] = ()
             if not ins.short and ins.opcode in (0x25, 0x26, 0x27) and ins.args:
                 targets = (local + _signed16(ins.args[0]),)
+            goto = targets[0] if not ins.short and ins.opcode == 0x25 and targets else None
             try:
                 ops[local] = self._compile(ins, local, length, c)
             except _Fault as f:
                 ops[local] = _raiser(f.args[0])
-                ends = True
-            steps.append(Step(local, local + ins.words, ops[local], ends, targets))
+                ends, goto = True, None
+            steps.append(Step(local, local + ins.words, ops[local], ends, targets, goto))
         return ops, steps
 
     def _target(self, local: int, offset: int, length: int, name: str) -> int:
@@ -547,7 +548,7 @@ class VM:
                     f"v = (m[{a}] {sym} m[{b}]) & 0xFFFFFFFF\n"
                     f"m[{d}] = v - 0x100000000 if v & 0x80000000 else v")
             if sym is not None:
-                return self._fuser.template(f"m[{d}] = wrap({dt}, m[{a}] {sym} m[{b}])")
+                return self._fuser.template(_wrap_src(dt, f"m[{a}] {sym} m[{b}]", f"m[{d}]"))
             signed = ta.tc in SIGNED and tb.tc in SIGNED
             if op == poly.OP_DIV and signed and dt == TC.SLONG:
                 return self._fuser.template(
@@ -617,9 +618,9 @@ class VM:
             if op == poly.OP_NOT:
                 return self._fuser.template(f"m[{d}] = 0 if m[{s}] & 0xFFFFFFFF else 1")
             if op == poly.OP_NEG:
-                return self._fuser.template(f"m[{d}] = wrap({dt}, -s32(m[{s}]))")
+                return self._fuser.template(_wrap_src(dt, f"-s32(m[{s}])", f"m[{d}]"))
             if op == poly.OP_ABS:
-                return self._fuser.template(f"m[{d}] = wrap({dt}, abs(s32(m[{s}])))")
+                return self._fuser.template(_wrap_src(dt, f"abs(s32(m[{s}]))", f"m[{d}]"))
             if op == poly.OP_TST:
                 sym = _CC_SYMBOLS.get(cc)
                 if sym is None:
@@ -679,7 +680,7 @@ class VM:
             if dt == TC.SLONG:  # from a ulong
                 return self._fuser.template(
                     f"v = m[{s}]\nm[{d}] = v - 0x100000000 if v & 0x80000000 else v")
-            return self._fuser.template(f"m[{d}] = wrap({dt}, m[{s}])")
+            return self._fuser.template(_wrap_src(dt, f"m[{s}]", f"m[{d}]"))
         if td.tc == TC.FLOAT and ts.tc == TC.FLOAT:
             return self._fuser.template(f"m[{d}] = m[{s}]")
         if td.tc == TC.ARRAY and ts.tc == TC.ARRAY and td.string and ts.string:
@@ -740,7 +741,7 @@ class VM:
                 f"arr = m[{s}]\n"
                 f"if k >= len(arr):\n"
                 f"    index_fault(k, {s}, arr)\n"
-                + (f"m[{d}] = arr[k]" if same else f"m[{d}] = wrap({dt}, arr[k])"))
+                + (f"m[{d}] = arr[k]" if same else _wrap_src(dt, "arr[k]", f"m[{d}]")))
         set_d = self._setter(d)
 
         def g() -> int:
@@ -774,7 +775,8 @@ class VM:
                     f"arr = m[{d}]\n"
                     f"k = {self._int_src(i, 'REPLACE')} & 0xFFFFFFFF\n"
                     f"if k < len(arr):\n"
-                    + (f"    arr[k] = m[{v}]" if same else f"    arr[k] = wrap({et}, m[{v}])"))
+                    + (f"    arr[k] = m[{v}]" if same
+                       else _indent(_wrap_src(et, f"m[{v}]", "arr[k]"))))
 
             def f() -> int:
                 if copy:
@@ -1159,10 +1161,11 @@ class VM:
         self._scalar_arg(ret, name)
         m = self.mem
         rt = self.types[ret].tc
+        stored = [store(rt, k) for k in range(len(self.exe.clumps))]  # the caller's index
 
         def f() -> int:
             caller = self.runq.pop(0)
-            m[ret] = store(rt, caller)
+            m[ret] = stored[caller]
             if callee in self.runq or callee in self.restq:
                 self.runq.insert(0, caller)
                 raise _Fault(f"{name}: subroutine clump {callee} called while it is already "
@@ -1176,9 +1179,11 @@ class VM:
         self._scalar_arg(ret, "SUBRET")
         m = self.mem
 
+        float_ret = self.types[ret].tc == TC.FLOAT
+
         def f() -> int:
             me = self.runq.pop(0)
-            caller = int_of(TC.UBYTE, m[ret]) & 0xFF
+            caller = (int(m[ret]) if float_ret else m[ret]) & 0xFF
             if caller >= len(self.exe.clumps):
                 self.runq.insert(0, me)
                 raise _Fault(f"SUBRET: return to clump {caller}, which does not exist")
@@ -1391,6 +1396,23 @@ class VM:
             return nxt
         return g
 
+
+def _wrap_src(tc: int, expr: str, dest: str) -> str:
+    """Statements of a template storing ``wrap(tc, expr)`` into ``dest``."""
+    mask, sign = _WRAP_MASKS[tc]
+    if sign is None:
+        return f"{dest} = ({expr}) & {mask:#x}"
+    return f"v = ({expr}) & {mask:#x}\n{dest} = v - {2 * sign:#x} if v & {sign:#x} else v"
+
+
+def _indent(src: str) -> str:
+    return "\n".join("    " + line for line in src.split("\n"))
+
+
+#: wrap()'s mask and sign bit per integer type (None: unsigned)
+_WRAP_MASKS = {TC.UBYTE: (0xFF, None), TC.SBYTE: (0xFF, 0x80), TC.UWORD: (0xFFFF, None),
+               TC.SWORD: (0xFFFF, 0x8000), TC.ULONG: (M32, None),
+               TC.SLONG: (M32, 0x80000000)}
 
 _INT_RANGES = {TC.UBYTE: (0, 0xFF), TC.SBYTE: (-0x80, 0x7F), TC.UWORD: (0, 0xFFFF),
                TC.SWORD: (-0x8000, 0x7FFF), TC.ULONG: (0, M32),
