@@ -166,7 +166,9 @@ class VM:
         self._event_pc = 0
         self._event = 0
         self._fuser = Fuser({"m": self.mem, "vm": self, "wrap": wrap, "store": store,
-                             "s32": poly.s32, "int_of": int_of, "index_fault": _index_fault})
+                             "s32": poly.s32, "int_of": int_of, "index_fault": _index_fault,
+                             "port_fault": _port_fault, "io_get": io.output_get,
+                             "io_set": io.output_set})
         compiled = [self._compile_clump(c.index) for c in exe.clumps]
         self.ops: list[list[Op]] = [ops for ops, _ in compiled]
         self.fused = fused
@@ -1303,21 +1305,17 @@ class VM:
 
     def _getout(self, d: int, port: int, field: int, nxt: int) -> Op:
         self._scalar_arg(d, "GETOUT")
-        prt = self._int_reader(port, "GETOUT")
-        io = self.io
-        m = self.mem
+        prt = self._int_src(port, "GETOUT")
         dt = self.types[d].tc
         if field >= OutputField.COUNT:
             raise _Fault(f"GETOUT: output field {field} does not exist")
-
-        def f() -> int:
-            p = prt() & M32
-            if p >= NO_OF_OUTPUTS:
-                raise _Fault(f"GETOUT: output port {p} does not exist")
-            m[d] = store(dt, io.output_get(p, field))
-            self._polled = True
-            return nxt
-        return f
+        value = f"io_get(p, {field})"
+        return self._fuser.template(
+            f"p = {prt} & 0xFFFFFFFF\n"
+            f"if p >= {NO_OF_OUTPUTS}:\n"
+            f"    port_fault('GETOUT: output', p)\n"
+            f"m[{d}] = " + (_wrap_expr(dt, value) if dt in INT_TYPES else f"store({dt}, {value})")
+            + "\nvm._polled = True")
 
     def _setout(self, port: int, rest: tuple[int, ...], nxt: int) -> Op:
         self._arg(port, "SETOUT")
@@ -1329,35 +1327,25 @@ class VM:
             if fld >= OutputField.COUNT:
                 raise _Fault(f"SETOUT: output field {fld} does not exist")
             ft = OUTPUT_FIELD_TYPES[fld]
-            get = self._int_reader(src, "SETOUT")
+            value = self._int_src(src, "SETOUT")
             # a value that always fits the field needs no wrap
             st = self.types[src].tc if src != NOT_A_DS_ID else ft
-            pairs.append((fld, get, None if _fits(st, ft) else ft))
-        io = self.io
-        m = self.mem
+            pairs.append((fld, value if _fits(st, ft) else _wrap_expr(ft, value)))
+        sets = "".join(f"    io_set(p, {fld}, {value})\n" for fld, value in pairs)
         tp = self.types[port]
-        if tp.tc == TC.ARRAY:
-            assert tp.elem is not None
-            if not tp.elem.is_scalar:
-                raise _Fault(f"SETOUT: port list of {tp.elem.name}")
-            et = tp.elem.tc
-
-            def ports() -> list[int]:
-                return [int_of(et, v) & M32 for v in m[port]]
-        else:
-            rd = self._int_reader(port, "SETOUT")
-
-            def ports() -> list[int]:
-                return [rd() & M32]
-
-        def f() -> int:
-            for p in ports():
-                if p < NO_OF_OUTPUTS:
-                    for fld, get, ft in pairs:
-                        io.output_set(p, fld, get() if ft is None else wrap(ft, get()))
-            self.io_epoch += 1
-            return nxt
-        return f
+        if tp.tc != TC.ARRAY:
+            return self._fuser.template(
+                f"p = {self._int_src(port, 'SETOUT')} & 0xFFFFFFFF\n"
+                f"if p < {NO_OF_OUTPUTS}:\n{sets}"
+                f"vm.io_epoch += 1")
+        assert tp.elem is not None
+        if not tp.elem.is_scalar:
+            raise _Fault(f"SETOUT: port list of {tp.elem.name}")
+        return self._fuser.template(
+            f"for p in m[{port}]:\n"
+            f"    p = int_of({tp.elem.tc}, p) & 0xFFFFFFFF\n"
+            f"    if p < {NO_OF_OUTPUTS}:\n" + _indent(sets.rstrip("\n")) + "\n"
+            "vm.io_epoch += 1")
 
     # -- system calls --------------------------------------------------------------------------
 
@@ -1403,6 +1391,18 @@ def _wrap_src(tc: int, expr: str, dest: str) -> str:
     if sign is None:
         return f"{dest} = ({expr}) & {mask:#x}"
     return f"v = ({expr}) & {mask:#x}\n{dest} = v - {2 * sign:#x} if v & {sign:#x} else v"
+
+
+def _wrap_expr(tc: int, expr: str) -> str:
+    """An expression of ``wrap(tc, expr)``."""
+    mask, sign = _WRAP_MASKS[tc]
+    if sign is None:
+        return f"(({expr}) & {mask:#x})"
+    return f"((({expr}) + {sign:#x} & {mask:#x}) - {sign:#x})"
+
+
+def _port_fault(what: str, p: int) -> None:
+    raise _Fault(f"{what} port {p} does not exist")
 
 
 def _indent(src: str) -> str:

@@ -134,6 +134,7 @@ def test_busy_waits_are_skipped_exactly(rxe):
     fw = run.fast
     assert results(fw, 0) == ["40", "go", "turned", "counted", "played"]
     assert results(fw, 2) == ["helper done"]
+    assert results(fw, 3) == ["both"]  # a port list (OUT_BC) drove two motors
     assert fw.program is None and fw.program_errors == []
     assert len(fw.tones) > 500  # the loop with a side effect ran every time round
     skipping, running = run.vms
