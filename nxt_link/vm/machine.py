@@ -48,7 +48,7 @@ from nxt_link.vm.rxe import (
     decode_clump,
     expected_size,
 )
-from nxt_link.vm.spin import SPIN_AFTER, SpinDetector
+from nxt_link.vm.spin import SPIN_AFTER, SPIN_SOON, SpinDetector
 from nxt_link.vm.syscalls import SYSCALLS, SyscallError
 from nxt_link.vm.values import (
     INT_TYPES,
@@ -150,7 +150,8 @@ class VM:
         self.io_epoch = 0
         self._polled = False  # this slice read the tick, a port or a read-only syscall
         self._spin = SpinDetector()
-        self._spin_from = SPIN_AFTER if skip_busy_waits and self.budget > SPIN_AFTER else _NEVER
+        self._skip_busy_waits = skip_busy_waits and self.budget > SPIN_AFTER
+        self._spent = False  # the last slice used up its budget
         self.skipped = 0
         self.instructions = 0
         self.finished = False
@@ -257,7 +258,8 @@ class VM:
         ops_all = self.ops
         pcs = self.pcs
         solo_ok = self._solo_ok
-        spin_from = self._spin_from
+        spin_from = ((SPIN_SOON if self._spent else SPIN_AFTER) if self._skip_busy_waits
+                     else _NEVER)
         if spin_from != _NEVER:
             self._polled = False
             self._spin.reset()
@@ -340,6 +342,7 @@ class VM:
             return True
         finally:
             self.instructions += executed
+            self._spent = executed >= budget
 
     def _wake(self, tick: int) -> None:
         """Move the clumps whose wait is over to the run queue, in the rest queue's order."""

@@ -21,7 +21,8 @@ differs from running every instruction: the same memory, program counters,
 queues, instruction count and I/O at the end of the slice.
 
 It is conservative: it only looks once a slice has run :data:`SPIN_AFTER`
-instructions and some clump has polled (read the tick, an input or output
+instructions (:data:`SPIN_SOON` after a slice that used its whole budget) and
+some clump has polled (read the tick, an input or output
 port, or a read-only system call); a cycle only counts if no instruction with
 an effect outside the VM's memory ran during it (an output or input write, a
 message sent or removed, a tone, a drawing, a file operation, a random
@@ -40,10 +41,13 @@ from nxt_link.vm.values import Mutex
 if TYPE_CHECKING:
     from nxt_link.vm.machine import VM
 
-__all__ = ["SpinDetector", "SPIN_AFTER"]
+__all__ = ["SpinDetector", "SPIN_AFTER", "SPIN_SOON"]
 
 #: instructions a slice runs before it is suspected of spinning
-SPIN_AFTER = 1000
+SPIN_AFTER = 2000
+#: the same after a slice that used up its whole budget (it did not wait: it spun, or
+#: it computes a lot)
+SPIN_SOON = 100
 
 
 class SpinDetector:
@@ -55,6 +59,7 @@ class SpinDetector:
         self._at = 0
         self._power = 1
         self._lam = 0
+        self._start_power = 1  # the previous cycle's length, in checks
 
     def reset(self) -> None:
         """A new slice: forget the previous one's snapshots."""
@@ -68,9 +73,11 @@ class SpinDetector:
             period = executed - self._at
             cycles = (budget - executed - 20) // period - 2
             self._key = None
+            # the next slice most likely spins the same way: look that far from the start
+            self._start_power = self._lam + 1
             return cycles * period if cycles > 0 else 0
         if self._key is None or self._lam + 1 >= self._power:
-            self._power = 1 if self._key is None else 2 * self._power
+            self._power = self._start_power if self._key is None else 2 * self._power
             self._key = key
             self._mem = [_snapshot(v) for v in vm.mem]
             self._at = executed

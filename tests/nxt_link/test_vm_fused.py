@@ -15,6 +15,8 @@ from collections.abc import Callable
 from typing import Any
 
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from vmtools import NXC_DIR, output_state, results
 
 from nxt_link.emulator import BrickEmulator, FaultParams, compiled_follower
@@ -22,8 +24,10 @@ from nxt_link.execution import ExecutionOptions, SetpointStream, execute_streams
 from nxt_link.firmware import Firmware, FirmwareParams
 from nxt_link.session import SessionTiming
 from nxt_link.vm import compile_nxc
+from nxt_link.vm.machine import _wrap_expr, _wrap_src
+from nxt_link.vm.opcodes import TC
 from nxt_link.vm.spin import SpinDetector
-from nxt_link.vm.values import Mutex
+from nxt_link.vm.values import Mutex, wrap
 
 PROGRAMS = ("vm_arith", "vm_float", "vm_arrays", "vm_strings", "vm_calls", "vm_tasks", "vm_io",
             "vm_spin")
@@ -210,3 +214,14 @@ def test_a_zero_of_another_sign_is_another_state(rxe):
     detector.check(vm, 5000, 1_000_000)
     vm.mem[f] = -vm.mem[f]
     assert detector.check(vm, 5100, 1_000_000) == 0
+
+
+@settings(deadline=None, max_examples=300)
+@given(st.sampled_from([TC.UBYTE, TC.SBYTE, TC.UWORD, TC.SWORD, TC.ULONG, TC.SLONG]),
+       st.one_of(st.integers(-2**40, 2**40), st.sampled_from(
+           [0, -1, 0x7F, 0x80, 0xFF, 0x100, 0x7FFF, 0x8000, 0xFFFF, 0x10000, 0x7FFFFFFF,
+            0x80000000, 0xFFFFFFFF, 0x100000000, -0x80, -0x81, -0x8000, -0x80000001])))
+def test_the_templates_wrap_integers_as_the_brick_does(tc, x):
+    ns = {"x": x}
+    exec(_wrap_src(tc, "x", "out"), ns)
+    assert ns["out"] == wrap(tc, x) == eval(_wrap_expr(tc, "x"), {"x": x})
