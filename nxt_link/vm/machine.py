@@ -141,6 +141,7 @@ class VM:
         self._add_cluster_members()
         n = len(exe.clumps)
         self.fire = [c.fire_count for c in exe.clumps]
+        self._fire_counts = tuple(self.fire)
         self.pcs = [0] * n
         self.runq: list[int] = [c.index for c in exe.clumps if c.fire_count == 0]
         self.restq: list[int] = []
@@ -324,11 +325,11 @@ class VM:
                         return True
                     continue
                 event = self._event
-                if event == _DONE:
-                    pcs[c] = 0
-                    self.fire[c] = self.exe.clumps[c].fire_count
-                elif event == _SUSPEND:
+                if event == _SUSPEND:
                     pcs[c] = ~nxt
+                elif event == _DONE:
+                    pcs[c] = 0
+                    self.fire[c] = self._fire_counts[c]
                 elif event == _ROTATE:
                     pcs[c] = ~nxt
                     if len(rq) > 1 and rq[0] == c:
