@@ -10,15 +10,23 @@ fire counts drop and those reaching zero are queued), calls a subroutine
 (``subcall``: the callee is queued, the caller resumes at ``subret``), waits
 for a mutex or sleeps (``wait``). The program ends when both the run and the
 rest queue are empty (clumps blocked on a mutex do not keep it alive), or at
-``stop``.
+``stop``. A clump alone in the run queue is not stopped every 20 instructions
+(the rotation would give the CPU back to it; only ``release`` can queue another
+clump in the middle of a turn, so programs that use it always rotate), and a
+slice that provably goes round in circles is cut short (:mod:`nxt_link.vm.spin`).
 
-Instructions are compiled once, at load, into Python closures specialised on
-their operands' types (each returns the index of the next instruction), so a
-typical NXC statement costs a few hundred nanoseconds. Fatal errors the
-firmware would abort the program for — an unknown opcode or system call, an
-array index out of range, a jump outside the clump, running out of memory —
-raise :class:`~nxt_link.vm.errors.VMError` naming the opcode, the program
-counter and the clump; nothing is ever skipped silently.
+Instructions are compiled once, at load: into closures specialised on their
+operands' types (each returns the offset of the next instruction, or a
+negative event code), the common ones from source templates; straight-line
+runs of them are then fused into one generated function each
+(:mod:`nxt_link.vm.fuse`), so that a typical instruction costs a few tens of
+nanoseconds. None of this changes what a program does: instruction counts,
+turns and slices are the firmware's (tests compare the fused and the plain
+interpreter, millisecond by millisecond). Fatal errors the firmware would
+abort the program for — an unknown opcode or system call, an array index out
+of range, a jump outside the clump, running out of memory — raise
+:class:`~nxt_link.vm.errors.VMError` naming the opcode, the program counter
+and the clump; nothing is ever skipped silently.
 """
 from __future__ import annotations
 

@@ -1,7 +1,7 @@
 """The interpreter's speed-ups against the plain interpreter, millisecond by millisecond.
 
-Fused blocks (:mod:`nxt_link.vm.fuse`) and busy-wait skipping (:mod:`nxt_link.vm.spin`)
-must not change anything a program does. Each test runs a program on two bricks at once,
+Fused blocks (:mod:`nxt_link.vm.fuse`), a lone clump running on past its turn boundaries
+and busy-wait skipping (:mod:`nxt_link.vm.spin`) must not change anything a program does. Each test runs a program on two bricks at once,
 one with the speed-up and one without, and after every millisecond compares everything:
 the whole dataspace (floats by their bits), every clump's program counter, the queues,
 the instruction count, the mailboxes, the output ports, the tones, the screen and the
@@ -30,7 +30,7 @@ from nxt_link.vm.spin import SpinDetector
 from nxt_link.vm.values import Mutex, wrap
 
 PROGRAMS = ("vm_arith", "vm_float", "vm_arrays", "vm_strings", "vm_calls", "vm_tasks", "vm_io",
-            "vm_spin")
+            "vm_spin", "vm_turns")
 
 
 @pytest.fixture(scope="module")
@@ -76,6 +76,11 @@ class Lockstep:
             fw.start_program_now(name)
         self.fast = self.pair[0]
         self.vms = [fw._vm for fw in self.pair]
+        slow_vm = self.vms[1]
+        if slow_vm is not None and not slow.get("vm_fused", True):
+            # the reference: one instruction at a time, and a turn boundary every 20
+            # instructions even for a clump alone in the run queue
+            slow_vm._solo_ok = False
 
     def run(self, ms: int, stimulus: Callable[[Firmware, int], None] | None = None) -> int:
         for t in range(ms):
@@ -115,6 +120,15 @@ def test_fused_blocks_run_every_program_exactly_as_single_instructions(rxe, name
     ran = run.run(3000, STIMULI.get(name))
     fw = run.fast
     assert ran > 0 and fw._vm is None or fw._vm.instructions > 0  # type: ignore[union-attr]
+
+
+def test_a_task_woken_by_a_release_runs_at_the_next_turn_boundary(rxe):
+    # the releasing task is alone in the run queue until the release queues the other:
+    # from then on the queue rotates every 20 instructions again
+    run = Lockstep(rxe["vm_turns"], 500, {"vm_fused": True}, {"vm_fused": False})
+    run.run(200)
+    seen, work = (int(v) for v in results(run.fast, 0))
+    assert work == 300 and 0 < seen < 10
 
 
 def test_a_fault_inside_a_block_names_the_same_instruction(rxe):
