@@ -79,8 +79,8 @@ class Display:
         for ch in text:
             if x + FONT_WIDTH >= LCD_WIDTH:
                 break
-            for col in [c for c in cells if x - FONT_WIDTH < c < x + FONT_WIDTH]:
-                del cells[col]
+            for col in range(x - FONT_WIDTH + 1, x + FONT_WIDTH):  # the cells it overlaps
+                cells.pop(col, None)
             cells[x] = chr(ch) if 32 <= ch < 127 else "?"
             x += FONT_WIDTH
 
