@@ -1,11 +1,12 @@
-"""The per-millisecond path's shortcuts change nothing: motor and output port against
+"""The emulator's shortcuts change nothing: motor, output port and screen against
 straightforward reference implementations, bit for bit.
 
 The motor and output port step once per simulated millisecond per port, so they
 are written out for speed (one function, shortcuts for a motor at rest, for a
-plain running port). The references below are the readable versions they
-replaced; random command sequences must leave both in identical states (floats
-compared exactly), so any divergence in the arithmetic or its order fails.
+plain running port); the screen drops only the cells a character overlaps. The
+references below are the readable versions they replaced; random command
+sequences must leave both in identical states (floats compared exactly), so
+any divergence in the arithmetic or its order fails.
 """
 from __future__ import annotations
 
@@ -14,6 +15,7 @@ import math
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from nxt_link.brick_io import FONT_WIDTH, LCD_LINES, LCD_WIDTH, Display
 from nxt_link.motor_model import MotorParams, MotorPhysics
 from nxt_link.output_module import OutputPort
 
@@ -158,3 +160,29 @@ def test_the_output_port_step_is_the_reference(commands):
 
 def vars_of(port: OutputPort) -> dict:
     return {k: v for k, v in vars(port).items() if k != "motor"}
+
+
+class ReferenceDisplay(Display):
+    def text(self, x: int, y: int, text: bytes) -> None:
+        line = ((63 - y) & 0xF8) // 8 if 0 <= y <= 63 else LCD_LINES
+        if line >= LCD_LINES:
+            return
+        cells = self.cells[line]
+        for ch in text:
+            if x + FONT_WIDTH >= LCD_WIDTH:
+                break
+            for col in [c for c in cells if x - FONT_WIDTH < c < x + FONT_WIDTH]:
+                del cells[col]
+            cells[x] = chr(ch) if 32 <= ch < 127 else "?"
+            x += FONT_WIDTH
+
+
+@settings(deadline=None, max_examples=100)
+@given(st.lists(st.tuples(st.integers(-10, 110), st.sampled_from([-1, 0, 7, 8, 20, 56, 63, 64]),
+                          st.binary(max_size=20)), max_size=12))
+def test_the_screen_draws_as_the_reference(calls):
+    fast, ref = Display(), ReferenceDisplay()
+    for x, y, text in calls:
+        fast.text(x, y, text)
+        ref.text(x, y, text)
+        assert fast.cells == ref.cells and fast.lines() == ref.lines()
