@@ -17,7 +17,7 @@ from typing import Any
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
-from vmtools import NXC_DIR, output_state, results
+from vmtools import NXC_DIR, output_state, results, templates_program
 
 from nxt_link.emulator import BrickEmulator, FaultParams, compiled_follower
 from nxt_link.execution import ExecutionOptions, SetpointStream, execute_streams
@@ -30,12 +30,17 @@ from nxt_link.vm.spin import SpinDetector
 from nxt_link.vm.values import Mutex, wrap
 
 PROGRAMS = ("vm_arith", "vm_float", "vm_arrays", "vm_strings", "vm_calls", "vm_tasks", "vm_io",
-            "vm_spin", "vm_turns")
+            "vm_spin", "vm_turns", "vm_types", "vm_templates")
 
 
 @pytest.fixture(scope="module")
-def rxe() -> dict[str, bytes]:
-    return {name: compile_nxc(NXC_DIR / f"{name}.nxc").rxe for name in PROGRAMS}
+def rxe(tmp_path_factory) -> dict[str, bytes]:
+    programs = {name: compile_nxc(NXC_DIR / f"{name}.nxc").rxe for name in PROGRAMS
+                if name != "vm_templates"}
+    src = tmp_path_factory.mktemp("nxc") / "vm_templates.nxc"
+    src.write_text(templates_program())
+    programs["vm_templates"] = compile_nxc(src).rxe
+    return programs
 
 
 def frozen(v: Any) -> Any:
