@@ -132,7 +132,10 @@ def test_unexecutable_trajectory_is_refused_before_anything_moves(traj_file, tmp
     data["robots"][0]["setpoints_deg"][5][0] += 900  # a jump no motor can make in 100 ms
     bad = tmp_path / "jump.json"
     bad.write_text(json.dumps(data))
-    one_line_error(capsys, [str(bad), *FAST], 2, "refused before anything moved")
+    one_line_error(capsys, [str(bad), *FAST], 2, "setpoints_deg[5][0]: 941 deg, but sample 5 puts "
+                                                 "motor A at 40.9 deg")
+    one_line_error(capsys, [str(traj_file), "--max-speed", "10", *FAST], 2,
+                   "refused before anything moved: stream 'r1' port A:")
 
 
 def test_plot_needs_a_scene(traj_file, tmp_path, capsys):
