@@ -21,7 +21,7 @@ the firmware can give to this very command, echoed fields equal to the request
 Each attempt waits for an adaptive reply timeout: the smoothed round-trip
 time plus four times its variation (Jacobson's estimator, as TCP does), at
 least ``min_reply_timeout_s`` and at most ``reply_timeout_s``, doubled after
-each timeout. On a link with a 30 ms round trip a lost frame then costs about
+each timeout up to four times the estimate. On a link with a 30 ms round trip a lost frame then costs about
 0.1 s instead of a whole second. Unlike TCP (Karn's rule) the reply to a
 command sent again is timed from the last copy: the input was drained until
 quiet before that copy, so the reply is almost always its own, and a sample
@@ -106,12 +106,20 @@ class LinkEvent:
 
 
 class _ReplyTimer:
-    """Adaptive reply timeout: Jacobson's round-trip estimator with exponential backoff."""
+    """Adaptive reply timeout: Jacobson's round-trip estimator with bounded backoff.
+
+    After a timeout the wait doubles, up to four times the estimate (and never beyond
+    ``reply_timeout_s``): enough for a reply that is late rather than lost, without waiting
+    seconds for one that will never come on a link that loses frames.
+    """
+
+    BACKOFF_LIMIT = 4.0
 
     def __init__(self, policy: RetryPolicy) -> None:
         self.policy = policy
         self.srtt: float | None = None
         self.rttvar = 0.0
+        self.estimate_s = policy.reply_timeout_s
         self.timeout_s = policy.reply_timeout_s
 
     def _clamp(self, value: float) -> float:
@@ -123,10 +131,11 @@ class _ReplyTimer:
         else:
             self.rttvar = 0.75 * self.rttvar + 0.25 * abs(self.srtt - rtt)
             self.srtt = 0.875 * self.srtt + 0.125 * rtt
-        self.timeout_s = self._clamp(self.srtt + 4 * self.rttvar)
+        self.estimate_s = self.timeout_s = self._clamp(self.srtt + 4 * self.rttvar)
 
     def backoff(self) -> None:
-        self.timeout_s = self._clamp(2 * self.timeout_s)
+        limit = self._clamp(self.BACKOFF_LIMIT * self.estimate_s)
+        self.timeout_s = min(limit, 2 * self.timeout_s)
 
 
 class Brick:
@@ -143,8 +152,9 @@ class Brick:
     Attributes:
         last_valid_s: when the last trusted reply arrived (the transport's
             clock), None before the first.
-        stats: counts of ``attempts``, ``timeouts``, ``damaged``, ``stale``,
-            ``reconnects``.
+        stats: counts of reply-required ``requests`` and their ``attempts``
+            (the difference: commands sent again), ``timeouts``, ``damaged`` and
+            ``stale`` replies, ``reconnects``.
     """
 
     def __init__(self, transport: Transport, *, name: str | None = None,
@@ -159,7 +169,8 @@ class Brick:
         self._timer = _ReplyTimer(self.policy)
         self.last_valid_s: float | None = None
         self._asking_since: float | None = None  # first send after the last valid frame
-        self.stats = {"attempts": 0, "timeouts": 0, "damaged": 0, "stale": 0, "reconnects": 0}
+        self.stats = {"requests": 0, "attempts": 0, "timeouts": 0, "damaged": 0, "stale": 0,
+                      "reconnects": 0}
 
     def close(self) -> None:
         self.transport.close()
@@ -237,6 +248,7 @@ class Brick:
                     self.reconnect()
                     self.transport.send(data)
                 return None
+            self.stats["requests"] += 1
             now = self.clock.now()
             if self._asking_since is None:
                 self._asking_since = now

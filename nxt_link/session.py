@@ -40,6 +40,8 @@ import logging
 import random
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
+from functools import partial
+from typing import TypeVar
 
 from nxt_link import stream_protocol as sp
 from nxt_link.brick import Brick
@@ -59,6 +61,7 @@ from nxt_link.stream_protocol import Code, State
 __all__ = ["ControllerSettings", "SessionTiming", "BrickSession", "PORT_NUMBERS"]
 
 log = logging.getLogger(__name__)
+_T = TypeVar("_T")
 
 PORT_NUMBERS = {"A": 0, "B": 1, "C": 2}
 WINDOW = 4  # one below the mailbox depth of 5
@@ -96,6 +99,10 @@ class SessionTiming:
 
     Attributes:
         ack_timeout_s: no acknowledgement progress for this long -> resend.
+        empty_after_s: the response mailbox found empty by a read sent at least
+            this long after a request means that the request or its response was
+            lost -> resend at once, without waiting for ``ack_timeout_s`` (the
+            brick handles its inbox every 10 ms, in the order it arrived).
         poll_gap_s: pause before reading an empty response mailbox again.
         query_interval_s: QUERY period while homing and running; a GO not yet
             acknowledged is sent again this often.
@@ -111,6 +118,7 @@ class SessionTiming:
     max_silent_s: float = 10.0
     homing_timeout_s: float = 15.0
     program_start_timeout_s: float = 5.0
+    empty_after_s: float = 0.05
 
 
 class BrickSession:
@@ -170,6 +178,8 @@ class BrickSession:
         self.retransmissions = 0
         self.damaged_responses = 0
         self._sent_at: dict[int, float] = {}  # unsequenced request id -> first sent
+        self._last_post = 0.0
+        self._empty_at: float | None = None  # when a read that found the mailbox empty was sent
         self._go_seq: int | None = None
         self._go_start_at = 0.0
         self._go_started = 0.0
@@ -191,13 +201,22 @@ class BrickSession:
             self._on_event(event, detail)
 
     def _post(self, req: sp.Request, *, reply: bool = False) -> None:
+        self._last_post = self.clock.now()
         self.brick.message_write(sp.CMD_INBOX, sp.encode_request(req), reply=reply)
+
+    def _lost_since(self, posted: float) -> bool:
+        """The mailbox was found empty by a read sent long enough after ``posted``: what was
+        posted then (or its response) is lost."""
+        return self._empty_at is not None and \
+            self._empty_at >= posted + self.timing.empty_after_s
 
     def _poll(self) -> sp.Response | None:
         """Read one valid response of this session, or None (empty box, lost, stale, damaged)."""
+        asked = self.clock.now()
         try:
             raw = self.brick.message_read(sp.RESPONSE_MAILBOX, 0, True)
         except EmptyMailboxError:
+            self._empty_at = asked
             return None
         except LinkTimeoutError as exc:
             # the protocol recovers lost reads; only a long silence is fatal (_silent)
@@ -247,7 +266,7 @@ class BrickSession:
         if self.clock.now() - since <= self.timing.max_silent_s:
             return
         try:
-            gone = self._running_program() is None
+            gone = self._running_program(patient=False) is None
         except LinkTimeoutError:
             gone = False
         if gone:
@@ -273,11 +292,15 @@ class BrickSession:
             self._silent(start)
 
     def _await(self, accept: Callable[[sp.Response], bool]) -> sp.Response | None:
-        """Poll until a response passes ``accept`` or the acknowledgement timeout runs out."""
+        """Poll until a response passes ``accept``; None once the acknowledgement timeout
+        runs out or the mailbox shows that the request or its response was lost."""
         deadline = Deadline(self.clock, self.timing.ack_timeout_s)
+        posted = self._last_post
         while not deadline.expired():
             resp = self._poll()
             if resp is None:
+                if self._lost_since(posted):
+                    return None
                 self.clock.sleep(self.timing.poll_gap_s)
             elif accept(resp):
                 return resp
@@ -325,13 +348,27 @@ class BrickSession:
                 raise StreamError(f"brick {self.name}: {sp.PROGRAM_NAME} did not start within "
                                   f"{self.timing.program_start_timeout_s:g} s")
 
-    def _running_program(self) -> str | None:
+    def _direct(self, call: Callable[[], _T]) -> _T:
+        """A direct command, asked again when the brick gave up on it, until no valid frame
+        came for ``max_silent_s`` (the budget of the execution, not of one command)."""
+        start = self.clock.now()
+        while True:
+            try:
+                return call()
+            except LinkTimeoutError:
+                valid = [t for t in (start, self._last_valid, self.brick.last_valid_s)
+                         if t is not None]
+                if self.clock.now() - max(valid) > self.timing.max_silent_s:
+                    raise
+
+    def _running_program(self, patient: bool = True) -> str | None:
         """The running program's name, or None; asked until two answers agree, since
         a direct-command reply has no checksum and a damaged name must not be trusted."""
         answers: list[str | None] = []
         for _ in range(5):
             try:
-                name: str | None = self.brick.get_current_program_name()
+                name: str | None = (self._direct(self.brick.get_current_program_name) if patient
+                                    else self.brick.get_current_program_name())
             except NoActiveProgramError:
                 name = None
             if name == sp.PROGRAM_NAME or name in answers:
@@ -382,7 +419,7 @@ class BrickSession:
         for port in self.port_numbers:
             previous = None
             for _ in range(8):
-                value = self.brick.get_output_state(port).rotation_count
+                value = self._direct(partial(self.brick.get_output_state, port)).rotation_count
                 if value == previous:
                     break
                 previous = value
@@ -443,7 +480,8 @@ class BrickSession:
                     self.retransmissions += 1
                 continue
             if resp is None:
-                if now - goback_at > self.timing.ack_timeout_s:
+                if now - goback_at > self.timing.ack_timeout_s or (
+                        next_i > acked and self._lost_since(max(goback_at, self._last_post))):
                     self._silent(start)
                     next_i = acked  # nothing acknowledged for a while: go back
                     goback_at = now
@@ -569,7 +607,8 @@ class BrickSession:
                                            resp.code))
         if resp is None:
             if now - self._go_last_sent > min(self.timing.ack_timeout_s,
-                                              self.timing.query_interval_s):
+                                              self.timing.query_interval_s) \
+                    or self._lost_since(self._go_last_sent):
                 self._silent(self._go_started)
                 self.retransmissions += 1
                 self.post_go(self._go_start_at, copies=1)
@@ -668,14 +707,16 @@ class BrickSession:
                                   f"{Code(resp.code).name.lower().replace('_', ' ')} "
                                   f"(it logged {resp.logged} of {n} rows)")
             if resp is None:
+                lost = self._lost_since(self._last_post)
                 for first, sent in list(outstanding.items()):
-                    if now - sent > self.timing.ack_timeout_s:
+                    if lost or now - sent > self.timing.ack_timeout_s:
                         del outstanding[first]
                         missing.insert(0, next(c for c in chunks if c[0] == first))
                         self.retransmissions += 1
                 self._silent(start)
                 self.clock.sleep(self.timing.poll_gap_s)
-        self._event("log read", f"{n} rows")
+        self._event("log read", f"{n} rows; {self.retransmissions} message(s) sent again and "
+                                f"{self.damaged_responses} damaged response(s) in all")
         if rows is None:
             self.phase = "done"
         return tuple(self._log_rows[r] for r in range(n))
