@@ -1,6 +1,7 @@
 """`cplus execute`: a cplus.trajectory/1 file run on emulated bricks through the serial path."""
 from __future__ import annotations
 
+import importlib
 import json
 from pathlib import Path
 
@@ -310,3 +311,19 @@ def test_cplus_run_is_fast_by_default_and_names_every_file(tmp_path, capsys):
         assert f"wrote {out / name}\n" in err, name
     log = ExecutionLog.loads((out / "execution.json").read_text())
     assert log.complete and log.time_scale == 10
+
+
+def test_cplus_run_keeps_real_time_for_given_bricks(tmp_path):
+    run = importlib.import_module("cplus.cli.run")  # (cplus.cli.run is also a function)
+    domain = str(ROOT / "domains/payload/payload.cp")
+    out = str(tmp_path / "out")
+    args = run.build_parser().parse_args([domain, "--out", out])
+    run._validate(args)
+    assert (args.time_scale, args.latency) == (10.0, False)  # emulated: fast by default
+    args = run.build_parser().parse_args([domain, "--out", out, "--brick", "r1=/dev/rfcomm0",
+                                          "--brick", "r2=/dev/rfcomm1"])
+    run._validate(args)
+    assert args.time_scale == 1.0  # real bricks keep time
+    args = run.build_parser().parse_args([domain, "--out", out, "--time-scale", "1", "--latency"])
+    run._validate(args)
+    assert (args.time_scale, args.latency) == (1.0, True)

@@ -136,10 +136,10 @@ def add_execution_options(p: argparse.ArgumentParser, *, fast: bool = False) -> 
                               + ("" if fast else " (default)"))
     latency.add_argument("--no-latency", dest="latency", action="store_false",
                          help="emulated bricks answer at once" + (" (default)" if fast else ""))
-    p.add_argument("--time-scale", type=positive, default=10.0 if fast else 1.0, metavar="X",
+    p.add_argument("--time-scale", type=positive, default=None if fast else 1.0, metavar="X",
                    help="emulated bricks run X times faster than real time (default "
-                        f"{10 if fast else 1}; 1 = real time); with --brick, the bricks' own "
-                        "time scale")
+                        f"{'10, or 1 with --brick' if fast else 1}; 1 = real time); with --brick, "
+                        "the bricks' own time scale")
 
 
 def parse_bricks(items: list[str], prog: str) -> dict[str, str]:

@@ -30,6 +30,8 @@ from cplus.cli.plan import add_common
 
 __all__ = ["build_parser", "main"]
 
+#: How much faster than real time emulated bricks run by default.
+FAST_TIME_SCALE = 10.0
 #: The brick program's tick range (``nxt_link.SetpointStream``).
 _TICK_MS = (10, 10000)
 
@@ -77,6 +79,8 @@ def _validate(args: argparse.Namespace) -> tuple[str, dict[str, str]]:
                        f"{args.points_per_step} = a tick of {tick:g} ms; it must be a whole number "
                        f"of milliseconds from {_TICK_MS[0]} to {_TICK_MS[1]}")
     ports = execute.parse_bricks(args.brick, prog)
+    if args.time_scale is None:  # emulated bricks are fast unless asked; real ones keep time
+        args.time_scale = 1.0 if ports else FAST_TIME_SCALE
     if os.path.exists(args.out) and not os.path.isdir(args.out):
         raise CliError(f"{prog}: error: --out {args.out} is not a directory")
     problem = execute.output_problem(os.path.join(args.out, "plan.txt"))
