@@ -406,7 +406,10 @@ class _Execution:
         failed = self.current
         lost = isinstance(exc, (LinkTimeoutError, LinkDisconnectedError))
         self._stop_all(failed, self.opts.timing.max_silent_s)
-        if failed is not None and failed in self.opened:
+        if failed is not None and failed in self.opened \
+                and not isinstance(exc, LinkDisconnectedError):  # its port cannot be reopened
+            # one short try at a brick that went silent (its link may come back); a brick that
+            # refused something still answers and is stopped like the others
             self.sessions[failed].stop(2 * self.opts.timing.ack_timeout_s if lost
                                        else self.opts.timing.max_silent_s)
         for s in self.streams:

@@ -201,8 +201,8 @@ class BrickSession:
             self._on_event(event, detail)
 
     def _post(self, req: sp.Request, *, reply: bool = False) -> None:
-        self._last_post = self.clock.now()
         self.brick.message_write(sp.CMD_INBOX, sp.encode_request(req), reply=reply)
+        self._last_post = self.clock.now()
 
     def _lost_since(self, posted: float) -> bool:
         """The mailbox was found empty by a read sent long enough after ``posted``: what was

@@ -177,3 +177,55 @@ def test_the_start_skew_is_measured_from_the_log(rig, wave):
     rig2.add("r2")
     on_time = execute_streams(two_streams(wave), rig2.bricks, options=OPTIONS).start_skew()
     assert on_time.min == 0.0 and on_time.estimate < 0.02 and on_time.max < 0.06
+
+
+class Unplugged:
+    """A transport whose link drops for good once ``when()`` holds (a reopen fails too)."""
+
+    def __init__(self, inner, when) -> None:
+        self.inner, self.when = inner, when
+        self.name, self.clock = inner.name, inner.clock
+        self.gone = False
+
+    def _check(self) -> None:
+        if self.gone or self.when():
+            self.gone = True
+            raise errors.LinkDisconnectedError(f"{self.name}: link lost")
+
+    def send(self, telegram: bytes) -> None:
+        self._check()
+        self.inner.send(telegram)
+
+    def recv(self, deadline):
+        self._check()
+        return self.inner.recv(deadline)
+
+    def discard_input(self, quiet_s: float) -> int:
+        self._check()
+        return self.inner.discard_input(quiet_s)
+
+    def reconnect(self, deadline) -> None:
+        self.clock.advance_to(deadline.at)
+        raise errors.LinkDisconnectedError(f"{self.name}: could not reconnect")
+
+    def close(self) -> None:
+        self.inner.close()
+
+
+def test_a_link_that_cannot_be_reopened_ends_the_run_at_once(rig, wave):
+    rig.add("r1")
+    rig.add("r2")
+    program2 = rig.emulators["r2"].program
+    unplugged = Brick(Unplugged(rig.bricks["r2"].transport,
+                                lambda: program2.state == State.RUNNING and program2.logged >= 20),
+                      name="r2", policy=rig.bricks["r2"].policy)
+    with pytest.raises(errors.ExecutionFailed) as info:
+        execute_streams(two_streams(wave), {"r1": rig.bricks["r1"], "r2": unplugged},
+                        options=OPTIONS)
+    assert str(info.value) == ("brick r2: link lost and memory:r2 could not be reopened within "
+                               "2 s")
+    log = info.value.log
+    assert log.stopped.brick == "r2"
+    program1 = rig.emulators["r1"].program
+    assert program1.state == State.STOPPED
+    assert log.brick("r1").measured_deg == tuple(program1.measured_rows())
