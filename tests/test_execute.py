@@ -236,7 +236,7 @@ def test_a_failed_run_still_writes_its_log_and_report(traj_file, tmp_path, capsy
     assert log.stopped.reason == err.split(": ", 1)[1].strip()
     assert [b.reached for b in log.bricks] == ["connect", "connect"]
     report = report_path.read_text()
-    assert "INCOMPLETE: the execution stopped at" in report and "(brick r1)" in report
+    assert "INCOMPLETE: the execution stopped at" in report and ": brick r1 is running" in report
     assert "r1: 0 of 21 ticks measured" in report and "(no measurements)" in report
 
 

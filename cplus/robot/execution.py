@@ -255,7 +255,8 @@ class TrackingReport:
         mm = (lambda v: f"  ({v * self.unit_mm:.1f} mm)") if self.unit_mm else (lambda v: "")
         lines = [header] if header else []
         if self.stopped is not None:
-            who = f" (brick {self.stopped.brick})" if self.stopped.brick else ""
+            who = f" (brick {self.stopped.brick})" if self.stopped.brick and not \
+                self.stopped.reason.startswith(f"brick {self.stopped.brick}") else ""
             lines.append(f"INCOMPLETE: the execution stopped at {self.stopped.t_s:.2f} s{who}: "
                          f"{self.stopped.reason}")
             for r in self.robots:
