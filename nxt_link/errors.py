@@ -221,16 +221,34 @@ class StreamError(LinkError):
 class ExecutionFailed(LinkError):
     """An execution stopped before its end (the message is the cause's).
 
+    Raised through :meth:`of`, it is also an instance of its cause's class, so code that
+    catches ``StreamError`` or ``LinkTimeoutError`` around an execution still does.
+
     Attributes:
         log: the incomplete :class:`~nxt_link.execlog.ExecutionLog`: what every
             brick recorded, the reason and the time it stopped.
         brick: the brick that failed, or None.
     """
 
+    _kinds: dict[type, type] = {}
+
     def __init__(self, message: str, log: object, brick: str | None = None) -> None:
-        super().__init__(message)
+        Exception.__init__(self, message)
         self.log = log
         self.brick = brick
+
+    @classmethod
+    def of(cls, cause: LinkError, log: object, brick: str | None = None) -> ExecutionFailed:
+        """The failure caused by ``cause``: an ExecutionFailed that is also a ``type(cause)``."""
+        kind = cls._kinds.get(type(cause))
+        if kind is None:
+            kind = cls if isinstance(cause, cls) else type(cls.__name__, (cls, type(cause)),
+                                                           {"__module__": __name__})
+            cls._kinds[type(cause)] = kind
+        failure: ExecutionFailed = kind.__new__(kind)  # type: ignore[call-overload]
+        failure.__dict__.update(getattr(cause, "__dict__", {}))  # opcode, status, ...
+        ExecutionFailed.__init__(failure, str(cause), log, brick)
+        return failure
 
 
 class ExecutionInterrupted(KeyboardInterrupt):

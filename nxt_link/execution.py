@@ -227,7 +227,9 @@ def execute_streams(streams: Sequence[SetpointStream], bricks: Mapping[str, Bric
         ExecutionFailed: a brick refused something, lacks the program, failed to
             reach its initial configuration, or its link failed beyond recovery;
             the other bricks were stopped at once and ``.log`` holds what every
-            brick recorded (incomplete, with the reason and the time).
+            brick recorded (incomplete, with the reason and the time). It is also
+            an instance of the cause's class (``StreamError``, ``LinkTimeoutError``,
+            ...), which is its ``__cause__``.
         ExecutionInterrupted: Ctrl-C; the bricks were told to stop.
 
     Example (in-memory emulator, virtual clock)::
@@ -316,7 +318,7 @@ class _Execution:
         except LinkError as exc:
             stopped = self._stopped(str(exc))
             self._abort(exc)
-            raise ExecutionFailed(str(exc), self._log(stopped), stopped.brick) from exc
+            raise ExecutionFailed.of(exc, self._log(stopped), stopped.brick) from exc
         finally:
             for s in self.streams:
                 self.bricks[s.brick].on_event = _unchain(self.bricks[s.brick].on_event)

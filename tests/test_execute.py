@@ -327,3 +327,27 @@ def test_cplus_run_keeps_real_time_for_given_bricks(tmp_path):
     args = run.build_parser().parse_args([domain, "--out", out, "--time-scale", "1", "--latency"])
     run._validate(args)
     assert (args.time_scale, args.latency) == (1.0, True)
+
+
+def test_a_trajectory_that_continues_from_elsewhere_is_streamed_in_the_encoders_frame():
+    """A re-plan starts where the arms stopped; the brick's encoders count from the first start."""
+    scene = tj.load_scene(str(SCENE))
+    holds = {"pl1": "r1", "pl2": "r2"}
+
+    def at(p1, p2):
+        return tj.StepState({"r1": p1, "r2": p2}, {"pl1": p1, "pl2": p2}, holds)
+
+    first = tj.build_trajectory(scene, [at((0, 0), (0, 5)), at((1, 0), (1, 5))], points_per_step=5,
+                                step_time_s=0.5)
+    later = tj.build_trajectory(scene, [at((1, 0), (1, 5)), at((2, 0), (2, 5))], points_per_step=5,
+                                step_time_s=0.5)
+    own = streams_from_trajectory(later)
+    framed = streams_from_trajectory(later, origin=first)
+    for a, b, f in zip(own, framed, streams_from_trajectory(first)):
+        assert a.rows[0] == (0, 0, 0)  # its own frame: zero at its own start
+        # in the encoders' frame it starts where the first one ended, and moves the same way
+        assert all(abs(x - y) <= 1 for x, y in zip(b.rows[0], f.rows[-1]))
+        assert all(abs((r1[j] - r0[j]) - (s1[j] - s0[j])) <= 1
+                   for (r0, r1), (s0, s1) in zip(zip(a.rows, a.rows[1:]), zip(b.rows, b.rows[1:]))
+                   for j in range(3))
+        assert b.limits == f.limits

@@ -111,21 +111,41 @@ def _motors_text(motors: Mapping[str, tuple[str, float, float]]) -> str:
     return ", ".join(f"{p}:{j}x{r:g}" + (f"{o:+g}" if o else "") for p, (j, r, o) in sorted(motors.items()))
 
 
-def streams_from_trajectory(traj: trajectory.Trajectory, scene: trajectory.Scene | None = None
+def streams_from_trajectory(traj: trajectory.Trajectory, scene: trajectory.Scene | None = None,
+                            *, origin: trajectory.Trajectory | None = None
                             ) -> list[nxt_link.SetpointStream]:
     """One setpoint stream per robot: its ports, the tick, its integer motor degrees.
 
     The motor limits are :func:`motor_limits` (from the scene when given); the brick program
     enforces them as well.
 
+    A trajectory's setpoints count from its own first sample, where the encoders are zero when
+    the brick program starts there. A trajectory that continues from elsewhere (a re-plan from
+    where the arms stopped) runs on encoders that count from an earlier start: ``origin`` is
+    the trajectory at whose first sample they read zero, and the setpoints and limits are
+    recomputed from the samples in that frame (its robots must have the same motors).
+
     Raises:
-        SetpointError: a robot's setpoints cannot be streamed (ports, limits, size), or the
-            file disagrees with the scene.
+        SetpointError: a robot's setpoints cannot be streamed (ports, limits, size), the file
+            disagrees with the scene, or ``origin`` has other motors.
     """
-    limits = motor_limits(traj, scene)
+    frame = origin or traj
+    limits = motor_limits(frame, scene)
     streams = []
     for robot in traj.robots:
-        rows = tuple(tuple(int(v) for v in row) for row in np.asarray(robot.setpoints_deg))
+        rows_deg = np.asarray(robot.setpoints_deg)
+        if origin is not None:
+            try:
+                base = origin.robot(robot.name)
+            except KeyError:
+                raise SetpointError(f"robot {robot.name!r} is not in the origin trajectory") from None
+            if [(m.port, m.joint, m.deg_per_unit, m.offset_deg) for m in base.motors] != \
+                    [(m.port, m.joint, m.deg_per_unit, m.offset_deg) for m in robot.motors]:
+                raise SetpointError(f"robot {robot.name}: the origin trajectory has other motors")
+            rows_deg = np.column_stack([
+                np.rint(m.motor_deg(robot.s if m.joint == "s" else robot.theta_deg))
+                for m in base.motors])
+        rows = tuple(tuple(int(v) for v in row) for row in rows_deg)
         streams.append(nxt_link.SetpointStream(robot.name, robot.ports, int(traj.tick_ms), rows,
                                                limits[robot.name]))
     return streams
