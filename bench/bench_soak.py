@@ -14,9 +14,11 @@ Two ways to host the bricks:
 * ``--bricks memory``: the in-memory transport on a virtual clock, the same client code and the
   same emulator, a run in about a second of CPU; the "time" column is then simulated time.
 
-Per run it prints: success, whether every setpoint is exact, the retries (commands sent again
-after a timeout or an untrusted reply, plus protocol messages sent again), the reconnects, the
-damaged replies seen and the time. Then the successes and the median time. Target: 20 of 20
+Per run it prints: success (the execution completed and the bricks did not certainly start more
+than a tick apart, which ``cplus execute`` would fail), whether every setpoint is exact, the
+retries (commands sent again after a timeout or an untrusted reply, plus protocol messages sent
+again), the reconnects, the damaged replies seen, the start skew measured from the log and the
+time. Then the successes and the median time. Target: 20 of 20
 succeed with every setpoint exact.
 
 Usage: ``python bench/bench_soak.py [--runs 20] [--bricks pty|memory] [--time-scale 1]
@@ -71,6 +73,7 @@ class Outcome:
     damaged: int
     seconds: float
     error: str = ""
+    skew_ms: float | None = None
 
 
 def _emulator(name: str, seed: int, args: argparse.Namespace) -> nxt_link.BrickEmulator:
@@ -114,6 +117,11 @@ def one_run(k: int, traj: trajectory.Trajectory, streams, args: argparse.Namespa
         for s in servers:
             s.stop()
     exact = all(emulators[s.brick].program.reference_rows() == list(s.rows) for s in streams)
+    skew = log.start_skew() if log is not None else None
+    tick_s = streams[0].tick_ms / 1000.0
+    if skew is not None and skew.min > tick_s and not error:
+        error = (f"the bricks started {skew.estimate * 1000:.0f} ms apart (at least "
+                 f"{skew.min * 1000:.0f} ms), more than one tick")
     if log is not None and not error:
         exact = exact and all(log.brick(s.brick).measured_deg
                               == tuple(emulators[s.brick].program.measured_rows()) for s in streams)
@@ -125,7 +133,7 @@ def one_run(k: int, traj: trajectory.Trajectory, streams, args: argparse.Namespa
     return Outcome(not error, exact, resent + _resent_messages(log),
                    sum(b.stats["reconnects"] for b in bricks.values()),
                    sum(b.stats["damaged"] for b in bricks.values()) + events["damaged response"],
-                   seconds, error)
+                   seconds, error, None if skew is None else skew.estimate * 1000)
 
 
 def _resent_messages(log) -> int:
@@ -159,17 +167,21 @@ def main() -> int:
           + (f", disconnect after {args.disconnect_after} frames" if args.disconnect_after else ""),
           flush=True)
     print(f"{'run':>4} {'result':<7} {'exact':<6} {'retries':>8} {'reconnects':>10} "
-          f"{'damaged':>8} {'time s':>8}", flush=True)
+          f"{'damaged':>8} {'skew ms':>8} {'time s':>8}", flush=True)
     outcomes = []
     for k in range(args.runs):
         o = one_run(k, traj, streams, args)
         outcomes.append(o)
         print(f"{k:>4} {'ok' if o.ok else 'FAILED':<7} {'yes' if o.exact else 'NO':<6} "
-              f"{o.retries:>8} {o.reconnects:>10} {o.damaged:>8} {o.seconds:>8.1f}"
+              f"{o.retries:>8} {o.reconnects:>10} {o.damaged:>8} "
+              f"{'-' if o.skew_ms is None else format(o.skew_ms, '.0f'):>8} {o.seconds:>8.1f}"
               + (f"  {o.error}" if o.error else ""), flush=True)
     good = sum(o.ok and o.exact for o in outcomes)
     times = [o.seconds for o in outcomes]
-    print(f"{good} of {len(outcomes)} succeeded with every setpoint exact; time per run: median "
+    skews = [o.skew_ms for o in outcomes if o.skew_ms is not None]
+    print(f"{good} of {len(outcomes)} succeeded with every setpoint exact (and the bricks started "
+          f"within a tick: skew median {statistics.median(skews) if skews else 0:.0f} ms, max "
+          f"{max(skews) if skews else 0:.0f} ms); time per run: median "
           f"{statistics.median(times):.1f} s (min {min(times):.1f}, max {max(times):.1f}); "
           f"retries median {statistics.median(o.retries for o in outcomes):.0f}; "
           f"{os.cpu_count()} CPUs, load average {os.getloadavg()[0]:.1f}")

@@ -44,6 +44,7 @@ from functools import partial
 from typing import TypeVar
 
 from nxt_link import stream_protocol as sp
+from nxt_link import telegram as tg
 from nxt_link.brick import Brick
 from nxt_link.clock import Deadline
 from nxt_link.errors import (
@@ -67,7 +68,8 @@ PORT_NUMBERS = {"A": 0, "B": 1, "C": 2}
 WINDOW = 4  # one below the mailbox depth of 5
 _QUERY_ID0 = 0x8000  # ids of unsequenced requests start here, sequenced ones below
 MAX_GO_DELAY_MS = 30000  # echoed in an int16 ACK field
-GO_COPIES = 3  # at 30 % loss, all three are lost once in 37
+GO_COPIES = 3  # at 30 % loss, all three are lost once in 37 ...
+GO_RESEND_S = 0.1  # ... so one more copy every 0.1 s until acknowledged
 
 
 @dataclass(frozen=True, slots=True)
@@ -210,17 +212,28 @@ class BrickSession:
         return self._empty_at is not None and \
             self._empty_at >= posted + self.timing.empty_after_s
 
-    def _poll(self) -> sp.Response | None:
-        """Read one valid response of this session, or None (empty box, lost, stale, damaged)."""
+    def _poll(self, *, once: bool = False) -> sp.Response | None:
+        """Read one valid response of this session, or None (empty box, lost, stale, damaged).
+
+        ``once``: a single MESSAGEREAD attempt, so that a caller with something urgent to
+        send (GO before the start time) gets control back after one reply timeout.
+        """
         asked = self.clock.now()
         try:
-            raw = self.brick.message_read(sp.RESPONSE_MAILBOX, 0, True)
+            if once:
+                reply = self.brick.request(tg.MessageRead(sp.RESPONSE_MAILBOX, 0, True),
+                                           retry=False)
+                assert isinstance(reply, tg.MessageReadReply)
+                raw = reply.payload
+            else:
+                raw = self.brick.message_read(sp.RESPONSE_MAILBOX, 0, True)
         except EmptyMailboxError:
             self._empty_at = asked
             return None
         except LinkTimeoutError as exc:
             # the protocol recovers lost reads; only a long silence is fatal (_silent)
-            self._event("read timeout", str(exc))
+            if not once:  # (a single attempt's timeout is already the brick's event)
+                self._event("read timeout", str(exc))
             return None
         except NoActiveProgramError:
             self._confirm_program_gone()
@@ -586,7 +599,7 @@ class BrickSession:
             at most the time from s to the acknowledgement.
         """
         assert self._go_seq is not None, "post_go first"
-        resp = self._poll()
+        resp = self._poll(once=True)
         now = self.clock.now()
         if isinstance(resp, sp.Ack) and resp.seq == self._go_seq:
             if resp.code in (Code.OK, Code.DUPLICATE):
@@ -606,9 +619,11 @@ class BrickSession:
                 raise StreamError(_refusal(self.name, sp.Go(self.session, self._go_seq),
                                            resp.code))
         if resp is None:
-            if now - self._go_last_sent > min(self.timing.ack_timeout_s,
-                                              self.timing.query_interval_s) \
-                    or self._lost_since(self._go_last_sent):
+            # before the start time a copy goes out every GO_RESEND_S: some copy must arrive
+            # in time, and copies cost nothing (the brick applies the first it gets)
+            every = GO_RESEND_S if now < self._go_start_at else min(
+                self.timing.ack_timeout_s, self.timing.query_interval_s)
+            if now - self._go_last_sent > every or self._lost_since(self._go_last_sent):
                 self._silent(self._go_started)
                 self.retransmissions += 1
                 self.post_go(self._go_start_at, copies=1)
