@@ -1,4 +1,8 @@
-"""``cplus ground FILE --maxstep N --dimacs OUT``: the CNF of one horizon in DIMACS form."""
+"""``cplus ground FILE --maxstep N --dimacs OUT``: the CNF of one horizon in DIMACS form.
+
+A robot task (a ``scene.toml`` beside the domain, or ``--scene``) is grounded with the
+scene's externals (``collision/4``), after its bindings are checked against the domain.
+"""
 from __future__ import annotations
 
 import argparse
@@ -17,14 +21,19 @@ def build_parser() -> OneLineArgumentParser:
     p.add_argument("--query", "-q", metavar="LABEL", help="add this query's conditions")
     p.add_argument("--extern", action="append", default=[], metavar="FILE.py",
                    help="a Python file whose functions are external predicates/functions")
+    p.add_argument("--scene", metavar="FILE",
+                   help="a robot task's scene (default: scene.toml beside the domain, if there is one)")
     return p
 
 
 def main(args: argparse.Namespace) -> int:
     from cplus.api import Domain
+    from cplus.robot.task import RobotTask, scene_beside
     from cplus.sat.dimacs import horizon_cnf, write_dimacs
     warn = Warnings()
-    domain = Domain.load(args.file, externals(args.extern))
+    scene = args.scene or scene_beside(args.file)
+    domain = (RobotTask.load(args.file, scene, args.extern).domain if scene
+              else Domain.load(args.file, externals(args.extern)))
     q = query(domain, args.query, args.file) if args.query else None
     nvars, clauses, names = horizon_cnf(domain.theory, args.maxstep, q)
     warn(domain.diagnostics)

@@ -176,6 +176,31 @@ class NogoodStore:
         for t in range(self.h.m + 1):
             self.vectors.step(self.h, t)
 
+    def excludes(self, states: list[dict]) -> str | None:
+        """What in the store forbids a history with these states (fluent -> value per step),
+        as text, or ``None``: the solver's view of the clauses, evaluated in Python (to tell
+        why a plan cannot be proposed, and to test the store)."""
+        for nogood, _ in self.windows:
+            for t in range(len(states) - nogood.span):
+                if not any(self._holds(states, t, lit) for lit in nogood.lits) and \
+                        not any((states[t + off][gc] <= v) == sign for off, gc, v, sign in nogood.bounds):
+                    return f"{nogood.text} (at step {t})"
+        if self.vectors is not None:
+            (x1, y1, x2, y2) = self.vectors.fluents
+            turns = set(self.vectors.pairs)
+            vec = [(s[x2] - s[x1], s[y2] - s[y1]) for s in states]
+            for t in range(len(states) - 1):
+                if (vec[t], vec[t + 1]) in turns:
+                    return f"payload turn {vec[t]} -> {vec[t + 1]} (at step {t})"
+        return None
+
+    def _holds(self, states: list[dict], t: int, lit: tuple[int, int]) -> bool:
+        off, a = lit
+        gc, value = self.atoms.gc_of[abs(a)], self.atoms.value_of[abs(a)]
+        v = states[t + off][gc]
+        true = v == "true" if value is None else v == value
+        return true == (a > 0)
+
     def _step(self, t: int) -> None:
         for order in self.order.values():
             order.step(self.h, t)

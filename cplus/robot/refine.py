@@ -135,6 +135,7 @@ class RefinementResult:
     horizon: int | None = None       # the last maxstep the loop worked at
     precheck: Precheck | None = None
     session: QuerySession | None = None
+    store: NogoodStore | None = None     # what the solver was taught (NogoodStore.excludes explains a plan)
 
     @property
     def found(self) -> bool:
@@ -201,7 +202,7 @@ def refine(task: RobotTask, label: str = "0", max_iterations: int | None = None,
     session = QuerySession(domain.theory, query, solver or DEFAULT_SOLVER, max_horizon)  # type: ignore[attr-defined]
     result = RefinementResult(RefineStatus.NO_PLAN, query, form, session=session)
     horizon = session.horizon
-    store = NogoodStore(horizon, domain.theory.atoms)  # type: ignore[attr-defined]
+    store = result.store = NogoodStore(horizon, domain.theory.atoms)  # type: ignore[attr-defined]
     guard = None
     if refine and form is NogoodForm.POSITIONS:
         # behind one assumption, so that an unsatisfiable horizon tells whether it needed them
@@ -301,13 +302,16 @@ def _nogoods(task: RobotTask, hist: History, states: list, violations: tuple, fo
 
 
 def _precheck(task: RobotTask, store: NogoodStore, guard: int, eager: bool | None) -> Precheck:
-    """The eager pre-check: nogoods for single-body motions and payload turns, before the first solve."""
+    """The eager pre-check: nogoods for single-body motions and payload turns, before the first
+    solve; ``eager`` False: nothing, True: everything, None: pairs of points on small grids only."""
     import trajectory
+    if eager is False:
+        return Precheck()
     t0 = time.perf_counter()
     scene = task.scene
     grid = scene.grid  # type: ignore[attr-defined]
     n = (grid.x_max - grid.x_min + 1) * (grid.y_max - grid.y_min + 1)
-    pairs = eager if eager is not None else n * n <= EAGER_PAIRS_UP_TO
+    pairs = eager or n * n <= EAGER_PAIRS_UP_TO
     bad = trajectory.bad_single_body_motions(scene, pairs=pairs)  # type: ignore[arg-type]
     for b in bad:
         box = {(k, b.robot, axis): (int(p[axis]), int(p[axis])) for k, p in enumerate(b.points) for axis in (0, 1)}
