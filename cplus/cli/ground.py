@@ -32,8 +32,8 @@ def main(args: argparse.Namespace) -> int:
     from cplus.sat.dimacs import horizon_cnf, write_dimacs
     warn = Warnings()
     scene = args.scene or scene_beside(args.file)
-    domain = (RobotTask.load(args.file, scene, args.extern).domain if scene
-              else Domain.load(args.file, externals(args.extern)))
+    domain: Domain = (RobotTask.load(args.file, scene, args.extern).domain if scene  # type: ignore[assignment]
+                      else Domain.load(args.file, externals(args.extern)))
     q = query(domain, args.query, args.file) if args.query else None
     nvars, clauses, names = horizon_cnf(domain.theory, args.maxstep, q)
     warn(domain.diagnostics)
