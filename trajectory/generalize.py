@@ -33,7 +33,6 @@ True
 
 from __future__ import annotations
 
-import itertools
 import math
 from collections.abc import Callable, Sequence
 
@@ -109,7 +108,8 @@ def _grow(fails: Callable[[np.ndarray], np.ndarray], start: list[int], bounds: l
                 if spent + size > budget:
                     continue
                 spent += size
-                slab = np.array(list(itertools.product(*ranges)), dtype=float)
+                slab = np.stack(np.meshgrid(*(np.arange(r.start, r.stop, dtype=float) for r in ranges),
+                                            indexing="ij"), axis=-1).reshape(-1, len(ranges))
                 if bool(np.all(fails(slab))):
                     if value < lo[d]:
                         lo[d] = value
@@ -176,18 +176,25 @@ def payload_motions_fail(a1: np.ndarray, a2: np.ndarray, b1: np.ndarray, b2: np.
 
 
 def _sweeps_hit(a1, a2, b1, b2, obstacles) -> np.ndarray:
-    """The first-contact test of `geometry.first_sweep_contact`, for many motions at once."""
-    start = shapely.linestrings(np.stack([a1, a2], axis=1))
-    path1 = shapely.linestrings(np.stack([a1, b1], axis=1))
-    path2 = shapely.linestrings(np.stack([a2, b2], axis=1))
+    """The first-contact test of `geometry.first_sweep_contact`, for many motions at once: the
+    start segment or an end's path meets the polygon, or a vertex of it is swept."""
     hit = np.zeros(len(a1), dtype=bool)
-    e1, e2 = b1 - a1, b2 - a2
-    d0 = a2 - a1
-    dd = e2 - e1
+    pts = np.stack([a1, a2, b1, b2])
+    lo, hi = pts.min(axis=0), pts.max(axis=0)
     for poly in obstacles:
-        hit |= shapely.intersects(start, poly) | shapely.intersects(path1, poly) | shapely.intersects(path2, poly)
-        for vx, vy in shapely.get_coordinates(poly.exterior)[:-1]:
-            hit |= _vertex_swept(a1, a2, e1, e2, d0, dd, np.array([vx, vy]))
+        x0, y0, x1, y1 = poly.bounds
+        near = np.flatnonzero(~hit & (lo[:, 0] <= x1) & (hi[:, 0] >= x0) & (lo[:, 1] <= y1) & (hi[:, 1] >= y0))
+        if not len(near):
+            continue
+        n1, n2, m1, m2 = a1[near], a2[near], b1[near], b2[near]
+        lines = shapely.linestrings(np.concatenate([np.stack([n1, n2], axis=1), np.stack([n1, m1], axis=1),
+                                                    np.stack([n2, m2], axis=1)]))
+        touched = shapely.intersects(lines, poly).reshape(3, -1).any(axis=0)
+        vertices = shapely.get_coordinates(poly.exterior)[:-1]
+        rest = ~touched
+        if rest.any():
+            touched[rest] = _vertex_swept(n1[rest], n2[rest], m1[rest], m2[rest], vertices)
+        hit[near] = touched
     return hit
 
 
@@ -195,41 +202,44 @@ def _cross(p: np.ndarray, q: np.ndarray) -> np.ndarray:
     return p[..., 0] * q[..., 1] - p[..., 1] * q[..., 0]
 
 
-def _vertex_swept(a1, a2, e1, e2, d0, dd, v) -> np.ndarray:
-    """`geometry.first_vertex_sweep` for many motions: is ``v`` ever on the moving segment?"""
-    w0, z0 = v - a1, v - a2
+def _vertex_swept(a1, a2, b1, b2, vertices) -> np.ndarray:
+    """`geometry.first_vertex_sweep` for many motions (rows) and vertices (columns) at once:
+    is some vertex ever on the moving segment?"""
+    e1, e2 = (b1 - a1)[:, None, :], (b2 - a2)[:, None, :]
+    d0 = (a2 - a1)[:, None, :]
+    dd = e2 - e1
+    w0, z0 = vertices[None, :, :] - a1[:, None, :], vertices[None, :, :] - a2[:, None, :]
     ca = -_cross(dd, e1)
     cb = _cross(dd, w0) - _cross(d0, e1)
     cc = _cross(d0, w0)
-    da = (e1 * e2).sum(axis=1)
-    db = -((w0 * e2).sum(axis=1) + (e1 * z0).sum(axis=1))
-    dc = (w0 * z0).sum(axis=1)
+    da = (e1 * e2).sum(axis=2)
+    db = -((w0 * e2).sum(axis=2) + (e1 * z0).sum(axis=2))
+    dc = (w0 * z0).sum(axis=2)
     tiny = 1e-12
-    hit = np.zeros(len(a1), dtype=bool)
-    roots = []
+    ca, da = np.broadcast_to(ca, cc.shape), np.broadcast_to(da, cc.shape)
+    hit = np.zeros(cc.shape, dtype=bool)
     quad = np.abs(ca) > tiny
+    lin = ~quad & (np.abs(cb) > tiny)
     disc = cb * cb - 4.0 * ca * cc
     real = quad & (disc >= 0.0)
     sq = np.sqrt(np.where(real, disc, 0.0))
     qq = -0.5 * (cb + np.copysign(sq, cb))
     with np.errstate(divide="ignore", invalid="ignore"):
-        roots.append(np.where(real, qq / ca, np.nan))
-        roots.append(np.where(real & (qq != 0.0), cc / qq, np.nan))
-        lin = ~quad & (np.abs(cb) > tiny)
-        roots.append(np.where(lin, -cc / cb, np.nan))
+        roots = (np.where(real, qq / ca, np.nan), np.where(real & (qq != 0.0), cc / qq, np.nan),
+                 np.where(lin, -cc / cb, np.nan))
     for u in roots:
         ok = (u >= 0.0) & (u <= 1.0)
         uu = np.where(ok, u, 0.0)
         hit |= ok & ((da * uu + db) * uu + dc <= 0.0)
-    # v on the moving line at every time: swept when it is ever between the ends
-    flat = ~quad & ~(np.abs(cb) > tiny) & (np.abs(cc) <= tiny)
+    # the vertex on the moving line at every time: swept when it is ever between the ends
+    flat = ~quad & ~lin & (np.abs(cc) <= tiny)
     if flat.any():
         with np.errstate(divide="ignore", invalid="ignore"):
             vert = np.where(da > 0.0, -db / (2.0 * da), 0.0)
         inside = (vert > 0.0) & (vert < 1.0)
         d_min = np.minimum(np.minimum(dc, da + db + dc), np.where(inside, (da * vert + db) * vert + dc, dc))
         hit |= flat & (d_min <= 0.0)
-    return hit
+    return hit.any(axis=1)
 
 
 # ---------------------------------------------------------------------------- a robot

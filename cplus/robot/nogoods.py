@@ -27,23 +27,21 @@ class Nogood:
 
     ``conditions`` are ``(step offset, constant, value)``, a value being an inclusive range
     ``(min, max)`` for a widened coordinate.  The clause is ``lits``, each ``(step offset,
-    signed atom)`` (a value that differs), and ``bounds``, each ``(step offset, constant,
-    value, sign)``: the order literal "constant <= value" or its negation (a range is left
-    below its minimum or above its maximum: two literals however wide it is).  ``form`` is
-    ``positions`` (bound coordinates only, and holders where they matter) or ``actions`` (the
-    paper's form: executed actions where the bodies are).
+    signed atom)``: a value that differs, or for a range every value outside it (each
+    constant has exactly one value).  ``form`` is ``positions`` (bound coordinates only, and
+    holders where they matter) or ``actions`` (the paper's form: executed actions where the
+    bodies are).
     """
 
     form: str
     text: str
     conditions: tuple[tuple[int, str, object], ...]
     lits: tuple[tuple[int, int], ...]
-    bounds: tuple[tuple[int, GroundConst, int, bool], ...]
     span: int        # motions covered: 0 for one state, 1 for a motion between two steps, ...
 
     @property
     def key(self) -> tuple:
-        return self.span, frozenset(self.lits), frozenset((o, gc.id, v, sg) for o, gc, v, sg in self.bounds)
+        return self.span, frozenset(self.lits)
 
     def to_json(self) -> dict:
         def cond(off: int, constant: str, v: object) -> dict:
@@ -126,7 +124,7 @@ def action_nogood(task, hist: History, step: int) -> Nogood:
 
 def _nogood(task, form: str, text: str, conds: list[tuple[int, GroundConst, object]], span: int,
             ranges: dict | None = None) -> Nogood:
-    """The clause: a value that differs, or (for a range) one below or above it."""
+    """The clause: a value that differs, or (for a range) one outside it."""
     atoms = task.domain.theory.atoms
     lits = []
     for off, gc, v in conds:
@@ -134,16 +132,11 @@ def _nogood(task, form: str, text: str, conds: list[tuple[int, GroundConst, obje
         if a == 0:
             raise AssertionError(f"{gc.text}={v} is no atom")  # values come from models and the grid
         lits.append((off, -a))
-    bounds: list[tuple[int, GroundConst, int, bool]] = []
     shown: list[tuple[int, str, object]] = [(off, gc.text, v) for off, gc, v in conds]
     for (off, gc), (lo, hi) in (ranges or {}).items():
-        values = sorted(gc.domain)
-        if lo > values[0]:
-            bounds.append((off, gc, lo - 1, True))
-        if hi < values[-1]:
-            bounds.append((off, gc, hi, False))
+        lits.extend((off, atoms.lit(gc, v)) for v in gc.domain if not lo <= v <= hi)  # type: ignore[operator]
         shown.append((off, gc.text, (lo, hi)))
-    return Nogood(form, text, tuple(sorted(shown, key=lambda c: (c[0], c[1]))), tuple(lits), tuple(bounds), span)
+    return Nogood(form, text, tuple(sorted(shown, key=lambda c: (c[0], c[1]))), tuple(lits), span)
 
 
 class NogoodStore:
@@ -155,15 +148,9 @@ class NogoodStore:
         self.atoms = atoms
         self.windows: list[tuple[Nogood, int | None]] = []
         self.vectors: _Vectors | None = None
-        self.order: dict[int, _Order] = {}      # by ground constant id
         horizon.each_step(self._step)
 
     def add(self, nogood: Nogood, guard: int | None = None) -> None:
-        for _, gc, _, _ in nogood.bounds:
-            if gc.id not in self.order:
-                order = self.order[gc.id] = _Order(gc, self.atoms)
-                for t in range(self.h.m + 1):
-                    order.step(self.h, t)
         self.windows.append((nogood, guard))
         for t in range(self.h.m - nogood.span + 1):
             self._window(nogood, t, guard)
@@ -182,8 +169,7 @@ class NogoodStore:
         why a plan cannot be proposed, and to test the store)."""
         for nogood, _ in self.windows:
             for t in range(len(states) - nogood.span):
-                if not any(self._holds(states, t, lit) for lit in nogood.lits) and \
-                        not any((states[t + off][gc] <= v) == sign for off, gc, v, sign in nogood.bounds):
+                if not any(self._holds(states, t, lit) for lit in nogood.lits):
                     return f"{nogood.text} (at step {t})"
         if self.vectors is not None:
             (x1, y1, x2, y2) = self.vectors.fluents
@@ -202,8 +188,6 @@ class NogoodStore:
         return true == (a > 0)
 
     def _step(self, t: int) -> None:
-        for order in self.order.values():
-            order.step(self.h, t)
         for nogood, guard in self.windows:
             if t >= nogood.span:
                 self._window(nogood, t - nogood.span, guard)
@@ -213,38 +197,9 @@ class NogoodStore:
     def _window(self, nogood: Nogood, t: int, guard: int | None) -> None:
         var = self.h.var
         clause = [var(a, t + off) if a > 0 else -var(-a, t + off) for off, a in nogood.lits]
-        for off, gc, v, sign in nogood.bounds:
-            le = self.order[gc.id].le[t + off][v]
-            clause.append(le if sign else -le)
         if guard is not None:
             clause.append(-guard)
         self.h.solver.add_clause(clause)
-
-
-class _Order:
-    """The order encoding of one integer constant, per step: ``le[t][v]`` is "value <= v" (for
-    every value but the largest), defined both ways from the one-hot value atoms."""
-
-    def __init__(self, gc: GroundConst, atoms) -> None:
-        self.values = sorted(gc.domain)
-        self.atoms = [atoms.lit(gc, v) for v in self.values]
-        self.le: list[dict[int, int]] = []
-
-    def step(self, h, t: int) -> None:
-        add = h.solver.add_clause
-        table: dict[int, int] = {}
-        prev = None
-        for v, a in zip(self.values[:-1], self.atoms):
-            le = h.new_var()
-            x = h.var(a, t)
-            add([-x, le])
-            if prev is None:
-                add([-le, x])
-            else:
-                add([-prev, le])
-                add([-le, prev, x])
-            table[v] = prev = le
-        self.le.append(table)
 
 
 class _Vectors:
