@@ -239,7 +239,7 @@ def _vertex_swept(a1, a2, b1, b2, vertices) -> np.ndarray:
         inside = (vert > 0.0) & (vert < 1.0)
         d_min = np.minimum(np.minimum(dc, da + db + dc), np.where(inside, (da * vert + db) * vert + dc, dc))
         hit |= flat & (d_min <= 0.0)
-    return hit.any(axis=1)
+    return np.asarray(hit.any(axis=1))
 
 
 # ---------------------------------------------------------------------------- a robot

@@ -30,7 +30,7 @@ The paper's external ``collision/4`` is the same idea for obstacles at grid poin
 >>> bad = bad_single_body_motions(scene)
 >>> sorted({len(b.points) for b in bad}), all(b.robot in scene.robot_names for b in bad)
 ([1, 2], True)
->>> ((0, 5), (3, 4)) in failing_length_pairs(scene)      # a quarter turn too fast: 22.5 < 23
+>>> ((0, 3), (3, 1)) in failing_length_pairs(scene)      # turned too fast: 6.2 < 8 half-way
 True
 """
 

@@ -62,8 +62,8 @@ def add_robot_options(p: argparse.ArgumentParser) -> None:
                    help="what a violation teaches: the positions it depends on, at every step (default), or "
                         "the paper's form, the actions executed where the bodies are")
     g.add_argument("--eager", choices=("auto", "yes", "no"), default="auto",
-                   help="classify single-body motions between grid points and payload turns before the first "
-                        "solve: all of them (yes), none (no), or pairs of points only on small grids (auto)")
+                   help="before the first solve, hand the solver the points an arm cannot hold and the payload "
+                        "turns (auto), also every failing move between two grid points (yes), or nothing (no)")
     g.add_argument("--trajectory", metavar="OUT.json", help="write the joint trajectory (cplus.trajectory/1)")
     g.add_argument("--csv", metavar="OUT.csv", help="write the joint trajectory as CSV")
     g.add_argument("--plot", metavar="OUT.png", help="plot the plan (PNG or SVG)")

@@ -134,7 +134,7 @@ def _nogood(task, form: str, text: str, conds: list[tuple[int, GroundConst, obje
         lits.append((off, -a))
     shown: list[tuple[int, str, object]] = [(off, gc.text, v) for off, gc, v in conds]
     for (off, gc), (lo, hi) in (ranges or {}).items():
-        lits.extend((off, atoms.lit(gc, v)) for v in gc.domain if not lo <= v <= hi)  # type: ignore[operator]
+        lits.extend((off, atoms.lit(gc, v)) for v in gc.domain if not lo <= v <= hi)
         shown.append((off, gc.text, (lo, hi)))
     return Nogood(form, text, tuple(sorted(shown, key=lambda c: (c[0], c[1]))), tuple(lits), span)
 

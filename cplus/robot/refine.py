@@ -9,9 +9,12 @@ whatever the uninvolved robot does, that motion is never proposed again, and sin
 clause only excludes plans that would fail the check, running out of plans is a proof that
 none is collision-free.
 
-Before the first solve the loop may also hand the solver every bad single-body motion between
-grid points (:func:`trajectory.bad_single_body_motions`, the eager pre-check), chosen by the
-grid's size (:data:`EAGER_PAIRS_UP_TO`).
+Before the first solve the loop hands the solver what is cheap to know up front (the eager
+pre-check): the grid points an arm cannot hold (a number linear in the grid's size) and the
+payload turns too fast for its length (a number independent of it); every straight move
+between grid points (the square of the grid's size) only when asked (``eager=True``): on the
+payload scenes and the small test grids those cost more solver time than the few iterations
+they save (measured in bench/ and docs/trajectory.md).
 
 The paper's form (:attr:`NogoodForm.ACTIONS`) forbids the actions executed at the first
 violating step while the bodies are where they are, one violation per plan; it is kept for
@@ -34,16 +37,11 @@ from cplus.robot.nogoods import Nogood, NogoodStore, action_nogood, position_nog
 from cplus.robot.task import RobotTask, TaskError
 from cplus.sat.horizon import HorizonStats, QuerySession
 
-__all__ = ["DEFAULT_MAX_HORIZON", "EAGER_PAIRS_UP_TO", "Iteration", "NogoodForm", "Precheck", "RefineStatus",
+__all__ = ["DEFAULT_MAX_HORIZON", "Iteration", "NogoodForm", "Precheck", "RefineStatus",
            "RefinementResult", "refine"]
 
 DEFAULT_MAX_HORIZON = 40
 """Where an open maxstep range (``N..infinity``) stops during refinement unless told."""
-
-EAGER_PAIRS_UP_TO = 0
-"""The eager pre-check classifies every pair of grid points (per robot) when there are at most
-this many; points a robot cannot hold are always classified (see docs/trajectory.md)."""
-
 
 class RefineStatus(StrEnum):
     """How a refinement ended (the ``status`` of its JSON result)."""
@@ -185,9 +183,9 @@ def refine(task: RobotTask, label: str = "0", max_iterations: int | None = None,
     """Plan, check every step continuously, learn, plan again in the same solver.
 
     ``max_iterations`` (``None`` or 0: no limit) bounds the plans examined; reaching it ends
-    with :attr:`RefineStatus.GAVE_UP`.  ``eager`` forces the pre-check of pairs of grid
-    points on or off (``None``: by the grid's size).  ``refine=False`` checks the first plan
-    only.
+    with :attr:`RefineStatus.GAVE_UP`.  ``eager``: ``None`` pre-checks points and payload
+    turns, ``True`` also every move between two grid points, ``False`` nothing (all is learned
+    as plans meet it).  ``refine=False`` checks the first plan only.
 
     Raises:
         TaskError: the start or goal cannot be reached, or the checker refuses the plan's states.
@@ -204,11 +202,11 @@ def refine(task: RobotTask, label: str = "0", max_iterations: int | None = None,
     horizon = session.horizon
     store = result.store = NogoodStore(horizon, domain.theory.atoms)  # type: ignore[attr-defined]
     guard = None
-    if refine and form is NogoodForm.POSITIONS:
+    if refine and form is NogoodForm.POSITIONS and eager is not False:
         # behind one assumption, so that an unsatisfiable horizon tells whether it needed them
         guard = horizon.new_var()
         session.assumptions.append(guard)
-        result.precheck = _precheck(task, store, guard, eager)
+        result.precheck = _precheck(task, store, guard, bool(eager))
         if on_precheck:
             on_precheck(result.precheck)
     learned: set[tuple] = set()
@@ -301,17 +299,14 @@ def _nogoods(task: RobotTask, hist: History, states: list, violations: tuple, fo
     return out
 
 
-def _precheck(task: RobotTask, store: NogoodStore, guard: int, eager: bool | None) -> Precheck:
-    """The eager pre-check: nogoods for single-body motions and payload turns, before the first
-    solve; ``eager`` False: nothing, True: everything, None: pairs of points on small grids only."""
+def _precheck(task: RobotTask, store: NogoodStore, guard: int, pairs: bool) -> Precheck:
+    """The eager pre-check: nogoods for the points an arm cannot hold and the payload turns,
+    and with ``pairs`` for every failing move between two grid points, before the first solve."""
     import trajectory
-    if eager is False:
-        return Precheck()
     t0 = time.perf_counter()
     scene = task.scene
     grid = scene.grid  # type: ignore[attr-defined]
     n = (grid.x_max - grid.x_min + 1) * (grid.y_max - grid.y_min + 1)
-    pairs = eager or n * n <= EAGER_PAIRS_UP_TO
     bad = trajectory.bad_single_body_motions(scene, pairs=pairs)  # type: ignore[arg-type]
     for b in bad:
         box = {(k, b.robot, axis): (int(p[axis]), int(p[axis])) for k, p in enumerate(b.points) for axis in (0, 1)}
