@@ -43,6 +43,7 @@ __all__ = ["DEFAULT_MAX_HORIZON", "Iteration", "NogoodForm", "Precheck", "Refine
 DEFAULT_MAX_HORIZON = 40
 """Where an open maxstep range (``N..infinity``) stops during refinement unless told."""
 
+
 class RefineStatus(StrEnum):
     """How a refinement ended (the ``status`` of its JSON result)."""
 
@@ -249,8 +250,9 @@ def refine(task: RobotTask, label: str = "0", max_iterations: int | None = None,
                     learned.add(ng.key)
                     store.add(ng)
                     new.append(ng)
-            if not new:
-                raise AssertionError("a plan was proposed again after its violation was forbidden")
+            if not new:   # cannot happen: the plan violates each of its nogoods, which the solver had
+                raise TaskError(f"internal error: the solver proposed a plan of length {m} that its learned "
+                                "nogoods forbid")
             it = Iteration(number, m, violations, tuple(new))
             if max_iterations and number >= max_iterations:
                 proved = f"; none with maxstep {query.lo}..{m - 1}" if m > query.lo else ""
