@@ -125,7 +125,7 @@ def test_cli_runs_refinement_and_exports(tmp_path, capsys):
 def test_no_refine_shows_the_raw_first_plan_and_says_it_is_unsafe(capsys):
     code = main(["plan", str(DOMAIN), "--no-refine"])
     out, err = capsys.readouterr()
-    assert code == 6
+    assert code == 9
     assert "ACTIONS:" in out and "% refinement 1:" in err and "between steps" in err
     assert "forbidding" not in err and "not collision-free" in err
 
@@ -134,7 +134,7 @@ def test_refusing_to_export_an_unsafe_plan_still_prints_the_result(tmp_path, cap
     code = main(["plan", str(DOMAIN), "--no-refine", "--json", "--trajectory", str(tmp_path / "t.json"),
                  "--plot", str(tmp_path / "p.svg")])
     out, err = capsys.readouterr()
-    assert code == 6
+    assert code == 9
     res = json.loads(out)["results"][0]
     assert res["status"] == "unsafe" and res["histories"] and res["refinement"][0]["violations"]
     assert "not collision-free" in err and "not written" in err

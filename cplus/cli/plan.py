@@ -55,7 +55,7 @@ def add_robot_options(p: argparse.ArgumentParser) -> None:
     g = p.add_argument_group("robot tasks (a scene.toml beside the domain, or --scene)")
     g.add_argument("--scene", metavar="FILE", help="scene file (default: scene.toml beside the domain)")
     g.add_argument("--no-refine", action="store_true",
-                   help="check the first plan and show it, do not refine it (exit 6 if it is not collision-free)")
+                   help="check the first plan and show it, do not refine it (exit 9 if it is not collision-free)")
     g.add_argument("--max-iterations", type=nonneg, default=0, metavar="N",
                    help="give up (exit 5) after N refinement iterations (default 0: no limit)")
     g.add_argument("--nogoods", choices=("positions", "actions"), default="positions",

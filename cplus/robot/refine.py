@@ -27,7 +27,7 @@ The result carries a :class:`RefineStatus`; the command line maps it to an exit 
 from __future__ import annotations
 
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
 from enum import StrEnum
 
@@ -135,6 +135,7 @@ class RefinementResult:
     precheck: Precheck | None = None
     session: QuerySession | None = None
     store: NogoodStore | None = None     # what the solver was taught (NogoodStore.excludes explains a plan)
+    known: list[Nogood] = field(default_factory=list)   # nogoods given to refine() (learned before)
 
     @property
     def found(self) -> bool:
@@ -144,6 +145,11 @@ class RefinementResult:
     def learned(self) -> int:
         """Nogoods learned by the loop (the pre-check's not counted)."""
         return sum(len(it.learned) for it in self.iterations)
+
+    @property
+    def nogoods(self) -> list[Nogood]:
+        """Every nogood this refinement knew or learned: to give the next one (``known``)."""
+        return self.known + [ng for it in self.iterations for ng in it.learned]
 
     @property
     def stats(self) -> list[HorizonStats]:
@@ -180,13 +186,18 @@ def refine(task: RobotTask, label: str = "0", max_iterations: int | None = None,
            eager: bool | None = None,
            on_iteration: Callable[[Iteration], None] | None = None,
            on_horizon: Callable[[HorizonStats], None] | None = None,
-           on_precheck: Callable[[Precheck], None] | None = None) -> RefinementResult:
+           on_precheck: Callable[[Precheck], None] | None = None,
+           session: QuerySession | None = None, known: Iterable[Nogood] = ()) -> RefinementResult:
     """Plan, check every step continuously, learn, plan again in the same solver.
 
     ``max_iterations`` (``None`` or 0: no limit) bounds the plans examined; reaching it ends
     with :attr:`RefineStatus.GAVE_UP`.  ``eager``: ``None`` pre-checks points and payload
     turns, ``True`` also every move between two grid points, ``False`` nothing (all is learned
-    as plans meet it).  ``refine=False`` checks the first plan only.
+    as plans meet it).  ``refine=False`` checks the first plan only.  ``session``: a live
+    solver to refine in (not yet solved), instead of a new one for the query ``label``, and
+    ``known``: nogoods learned before (:attr:`RefinementResult.nogoods` of an earlier
+    refinement of the same domain), forbidden from the start; the online monitor re-plans
+    from the state the arms were found in with both.
 
     Raises:
         TaskError: the start or goal cannot be reached, or the checker refuses the plan's states.
@@ -198,7 +209,10 @@ def refine(task: RobotTask, label: str = "0", max_iterations: int | None = None,
     task.check_start_goal(query)
     if query.hi is None and max_horizon is None:
         max_horizon = DEFAULT_MAX_HORIZON
-    session = QuerySession(domain.theory, query, solver or DEFAULT_SOLVER, max_horizon)  # type: ignore[attr-defined]
+    if session is None:
+        session = QuerySession(domain.theory, query, solver or DEFAULT_SOLVER, max_horizon)  # type: ignore[attr-defined]
+    else:
+        query, max_horizon = session.query, session.max_horizon
     result = RefinementResult(RefineStatus.NO_PLAN, query, form, session=session)
     horizon = session.horizon
     store = result.store = NogoodStore(horizon, domain.theory.atoms)  # type: ignore[attr-defined]
@@ -211,6 +225,11 @@ def refine(task: RobotTask, label: str = "0", max_iterations: int | None = None,
         if on_precheck:
             on_precheck(result.precheck)
     learned: set[tuple] = set()
+    for ng in known:
+        if ng.key not in learned:
+            learned.add(ng.key)
+            store.add(ng)
+            result.known.append(ng)
     plans_exist = False     # does the domain have a plan in the range, geometry aside?
     number = 0
 
