@@ -71,10 +71,6 @@ class SatSolver:
         self._model = self._s.get_model() if ok else None
         return bool(ok)
 
-    def core(self) -> list[int]:
-        """After an unsatisfiable solve: the assumptions that made it so (a subset)."""
-        return list(self._s.get_core() or [])
-
     def value(self, var: int) -> bool:
         """Truth value of a variable in the last model (unassigned counts as false)."""
         m = self._model
