@@ -11,8 +11,8 @@ __all__ = ["build_parser", "main"]
 
 def build_parser() -> OneLineArgumentParser:
     p = OneLineArgumentParser(prog="cplus ground", description="Write the CNF of one horizon in DIMACS form.")
-    p.add_argument("file")
-    p.add_argument("--maxstep", type=nonneg, required=True, metavar="N")
+    p.add_argument("file", help="the C+ file ('-' reads standard input)")
+    p.add_argument("--maxstep", type=nonneg, required=True, metavar="N", help="the horizon to write")
     p.add_argument("--dimacs", required=True, metavar="OUT", help="output file ('-' for stdout)")
     p.add_argument("--query", "-q", metavar="LABEL", help="add this query's conditions")
     p.add_argument("--extern", action="append", default=[], metavar="FILE.py",
