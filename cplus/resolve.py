@@ -850,6 +850,8 @@ class _Resolver:
 
     def _add(self, law: ast.Law, head: ir.Formula | None, body: ir.Formula, after: ir.Formula | None,
              where: ir.Formula | None, origin: str, force: str | None = None) -> None:
+        if head is not None:
+            head = ir.conj(_truth_of(lit) for lit in ir.conjuncts(head)) if head != ir.TRUE else head
         if head is not None and head == ir.TRUE:
             return
         if head == ir.FALSE:
@@ -1043,6 +1045,13 @@ class _Resolver:
         self._check_ground_size()
         self.sig.finalize()
         _Validator(self.sig).run(self.program)
+
+
+def _truth_of(lit: ir.Formula) -> ir.Formula:
+    """A head literal with ``-true``/``-false`` read as ``false``/``true``."""
+    if isinstance(lit, ir.Not) and isinstance(lit.arg, ir.Truth):
+        return ir.Truth(not lit.arg.value)
+    return lit
 
 
 class _TooDeep(Exception):

@@ -39,7 +39,7 @@ def shape(e) -> str:
 
 
 @pytest.mark.parametrize("text, expected", [
-    # the examples of cplus-language.md A.4
+    # the examples of operator precedence (docs/language.md, section 4)
     ("-door(d1)=open & bell ++ alarm", "((not((door(d1) = open)) & bell) ++ alarm)"),
     ("p & q ->> r ++ s <->> t", "(((p & q) ->> (r ++ s)) <->> t)"),
     ("level(T)+1 >= cap(T)*2", "((level(T) + 1) >= (cap(T) * 2))"),
@@ -445,3 +445,13 @@ def test_a_byte_order_mark_is_not_text(tmp_path):
         load_program(str(path))
     assert info.value.render().startswith(f"{path}:2:8: error: unknown name 'q'")
     assert load_text("\ufeff:- constants p :: inertialFluent.").signature.lookup("p", 0)
+
+
+@pytest.mark.parametrize("law, states", [
+    ("caused -true if q.", 2), ("caused -false.", 4), ("caused p & -false.", 2), ("caused p & -true if q.", 2),
+    ("default -true.", 4),
+])
+def test_negated_truth_values_in_heads(law, states):
+    """``-true`` in a head is ``false`` (a constraint), ``-false`` is ``true`` (nothing caused)."""
+    text = f":- constants p, q :: inertialFluent.\n{law}\n:- query maxstep :: 0."
+    assert histories(text) == states
