@@ -28,7 +28,7 @@ from cplus.errors import CPlusSyntaxError, Diagnostics, Location, Source
 from cplus.limits import MAX_INT, MAX_NESTING
 from cplus.signature import USER_KINDS
 
-__all__ = ["parse_program", "split_statements", "RESERVED", "expression_depth"]
+__all__ = ["parse_program", "split_statements", "RESERVED"]
 
 RESERVED = frozenset("""
     abs after all always by caused causes constants constraint decrements default exogenous hide
@@ -188,20 +188,6 @@ def parse_program(text: str, path: str = "<input>",
 
 _EXPR_NODES = (ast.Num, ast.Name, ast.Param, ast.MaxStep, ast.Unary, ast.Binary, ast.Quant, ast.Stamp,
                ast.Range, ast.SortRef)
-
-
-def expression_depth(node) -> int:
-    """How deeply expressions nest inside ``node`` (any AST node; computed without recursion)."""
-    deepest = 0
-    stack: list[tuple[object, int]] = [(node, 0)]
-    while stack:
-        obj, depth = stack.pop()
-        if isinstance(obj, _EXPR_NODES):
-            depth += 1
-            deepest = max(deepest, depth)
-        if isinstance(obj, tuple):
-            stack.extend((child, depth) for child in obj if isinstance(child, tuple))
-    return deepest
 
 
 def _too_deep(stmt) -> ast.Expr | None:

@@ -23,6 +23,11 @@ def build_parser() -> OneLineArgumentParser:
 def main(args: argparse.Namespace) -> int:
     from cplus.api import Domain
     from cplus.sat.dimacs import horizon_cnf, write_dimacs
+    if args.dimacs != "-":   # before grounding, which may take a while
+        problem = _unwritable(args.dimacs)
+        if problem:
+            print(f"cplus ground: cannot write '{args.dimacs}': {problem}", file=sys.stderr)
+            return EXIT_INPUT
     warn = Warnings()
     domain = Domain.load(args.file, externals(args.extern))
     q = query(domain, args.query, args.file) if args.query else None
@@ -40,3 +45,16 @@ def main(args: argparse.Namespace) -> int:
         print(f"% wrote {args.dimacs}: {nvars} variables, {len(clauses)} clauses (maxstep {args.maxstep})",
               file=sys.stderr)
     return EXIT_OK
+
+
+def _unwritable(path: str) -> str | None:
+    """Why ``path`` cannot be written, or None (checked without creating or truncating it)."""
+    import os
+    folder = os.path.dirname(os.path.abspath(path))
+    if os.path.isdir(path):
+        return "it is a directory"
+    if not os.path.isdir(folder):
+        return f"no such directory '{folder}'"
+    if os.path.exists(path):
+        return None if os.access(path, os.W_OK) else "permission denied"
+    return None if os.access(folder, os.W_OK | os.X_OK) else f"permission denied in '{folder}'"

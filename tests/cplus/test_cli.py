@@ -234,3 +234,10 @@ def test_the_api_values_are_the_json_values(lamp, capsys):
     api = Domain.load(lamp).solve("on").histories[0]
     assert [api.state_text(t) for t in range(2)] == hist["states"] == [{"lit": False}, {"lit": True}]
     assert api.value("flip", 0) is True and api.value("lit", 1) is True
+
+
+@pytest.mark.parametrize("target, fragment", [("NODIR/out.cnf", "no such directory"), (".", "it is a directory")])
+def test_ground_checks_its_output_before_grounding(lamp, tmp_path, capsys, target, fragment):
+    target = str(tmp_path / target.replace("NODIR", "missing")) if target != "." else str(tmp_path)
+    code, out, err = run(["ground", lamp, "--maxstep", "1", "--dimacs", target], capsys)
+    assert code == 2 and err.startswith(f"cplus ground: cannot write '{target}': {fragment}") and out == ""

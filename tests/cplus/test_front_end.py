@@ -455,3 +455,10 @@ def test_negated_truth_values_in_heads(law, states):
     """``-true`` in a head is ``false`` (a constraint), ``-false`` is ``true`` (nothing caused)."""
     text = f":- constants p, q :: inertialFluent.\n{law}\n:- query maxstep :: 0."
     assert histories(text) == states
+
+
+def test_a_long_line_is_cut_around_the_caret_in_messages(tmp_path):
+    err = located(tmp_path, ":- constants p :: inertialFluent.\ncaused p if " + " & ".join(["p"] * 2000) + " & zz.")
+    _, line, caret = err.render().splitlines()
+    assert len(line) < 120 and line.strip().startswith("...") and line.endswith("zz.")
+    assert line[caret.index("^"):caret.index("^") + 2] == "zz"
