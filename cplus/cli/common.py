@@ -141,8 +141,12 @@ def query(domain, label: str, path: str):
 
 
 def file_loc(path: str):
+    """The start of a file, for errors about the file as a whole (standard input is not read
+    again: it has been read once already)."""
     from cplus.errors import Location, Source
-    from cplus.load import read_text
+    from cplus.load import STDIN, display_name, read_text
+    if path == STDIN:
+        return Location(Source(display_name(path), ""), 0, 0)
     return Location(Source(path, read_text(path)), 0, 0)
 
 
