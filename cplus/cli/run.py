@@ -44,13 +44,13 @@ def build_parser() -> OneLineArgumentParser:
     p.add_argument("--scene", metavar="FILE", help="scene file (default: scene.toml beside the domain)")
     p.add_argument("--out", default="out", metavar="DIR",
                    help="where to write the plan, trajectory, execution log and pictures (default out/)")
-    p.add_argument("--max-iterations", type=nonneg, default=100, metavar="N",
-                   help="refinement iterations before giving up (default 100)")
+    p.add_argument("--max-iterations", type=nonneg, default=0, metavar="N",
+                   help="give up (exit 5) after N refinement iterations (default 0: no limit)")
     p.add_argument("--points-per-step", type=nonneg, default=10, metavar="K",
-                   help="trajectory samples per plan step (default 10)")
+                   help="trajectory samples between two plan steps (default 10)")
     p.add_argument("--step-time", type=float, default=1.0, metavar="SECONDS",
-                   help="duration of one plan step (default 1 s); step time / points per step is "
-                        "the tick, a whole number of milliseconds from 10 to 10000")
+                   help="duration of one plan step in the trajectory (default 1.0); step time / "
+                        "points per step is the tick, a whole number of milliseconds from 10 to 10000")
     execute.add_execution_options(p, fast=True)
     add_common(p)
     return p
