@@ -15,10 +15,11 @@ from collections.abc import Iterator
 from dataclasses import dataclass
 
 from cplus import ir
-from cplus.errors import GroundingError
+from cplus.errors import GroundingError, Location
 from cplus.ground.compile import Ctx, bind, compile_formula
 from cplus.ground.pf import PF, mk_and
 from cplus.ground.theory import GroundTheory
+from cplus.limits import MAX_SOLVER_VARS, clause_bytes, fmt, memory_budget, too_large
 from cplus.program import QuerySpec
 from cplus.sat.cnf import ClauseBuilder
 from cplus.sat.solver import DEFAULT_SOLVER, SatSolver
@@ -99,8 +100,11 @@ class Horizon:
         starts = [0] + ends[:-1]
         self.solver.add_clauses(mapped[a:b] for a, b in zip(starts, ends))
 
-    def extend_to(self, m: int) -> None:
-        """Add transitions until the horizon is m."""
+    def extend_to(self, m: int, loc: Location | None = None) -> None:
+        """Add transitions until the horizon is m (refused at once, located at ``loc``, when
+        the clauses of horizon m cannot fit in memory)."""
+        if m > self.m:
+            self._check_size(m, loc)
         while self.m < m:
             t = self.m
             self._add_block()
@@ -108,6 +112,20 @@ class Horizon:
             for f in self.extra:
                 self.builder.add(self._at(f, t))
             self.m += 1
+
+    def _check_size(self, m: int, loc: Location | None) -> None:
+        steps = m - self.m
+        tpl = self.t_trans
+        if tpl._literals is None:
+            tpl._literals = sum(len(c) for c in tpl.clauses)
+        per_var = self.layout.N + tpl.top - self.layout.base_top
+        need = steps * (clause_bytes(len(tpl.clauses), tpl._literals) + 64 * per_var)
+        if need > memory_budget():
+            raise GroundingError(too_large(f"maxstep {fmt(m)} means {fmt(steps * len(tpl.clauses))} clauses "
+                                           f"({fmt(len(tpl.clauses))} per step)", need), loc)
+        if self.top + steps * per_var > MAX_SOLVER_VARS:
+            raise GroundingError(f"maxstep {fmt(m)} means {fmt(self.top + steps * per_var)} solver variables, "
+                                 f"more than the solver's limit of {fmt(MAX_SOLVER_VARS)}", loc)
 
     def _at(self, f: PF, t: int) -> PF:
         """A transition formula over template codes, placed at transition t."""
@@ -221,7 +239,7 @@ class QuerySession:
         if self.act is not None:
             h.solver.add_clause([-self.act])    # retire the previous horizon's goal
         self.out_of_range = []
-        h.extend_to(m)
+        h.extend_to(m, self.query.loc)
         self._add_items(m)
         self._projection = None
         t1 = time.perf_counter()

@@ -28,6 +28,7 @@ class Template:
     top: int                      # highest template id used
     name: str
     _flat: tuple | None = None
+    _literals: int | None = None
 
     def flat(self) -> tuple:
         """All literals in one numpy array, and the end offset of each clause (cached)."""
