@@ -16,7 +16,8 @@ from dataclasses import dataclass
 
 from cplus.ground.pf import PF, map_lits, mk_and
 from cplus.ground.theory import GroundTheory, initially_free
-from cplus.sat.cnf import ClauseBuilder, simplify_units
+from cplus.sat.cnf import ClauseBuilder, _without, simplify_units
+from cplus.sat.tables import TABLE_LIMIT, encode_table
 from cplus.signature import GroundConst
 
 __all__ = ["Layout", "Template", "build_templates"]
@@ -166,22 +167,13 @@ def _complete_atoms(b: _Builder, gcs: list[GroundConst], slot: int, heads: dict,
             b.cb.exactly_one(ts)
 
 
-_TABLE_LIMIT = 60000     # full assignments of the body constants we are willing to enumerate
-
-
 def _table_completion(b: _Builder, gc: GroundConst, slot: int, heads: dict) -> bool:
-    """Completion of a constant whose rules are tables over other constants.
-
-    When every rule for ``gc`` at this slot has a body that is a conjunction of atoms
-    ``d=w`` of other constants (at most one atom per constant), the completion of all of
-    gc's values together says: some rule fires.  Given the soundness clauses (body -> head)
-    and gc's exactly-one axiom this is equivalent to literal completion, and it needs no
-    auxiliary variable per rule: it forbids each assignment of the body constants that no
-    rule covers (a physics law over three integer fluents, say, becomes a few thousand short
-    clauses instead of a defined variable per rule).  Returns False when the rules do not
-    have that shape or the assignments are too many to enumerate; the caller then writes the
-    ordinary completion.
-    """
+    """Completion of a constant whose rules are tables over other constants (see
+    :mod:`cplus.sat.tables`): every rule for ``gc`` at this slot has a body that is a
+    conjunction of atoms ``d=w`` of other constants (at most one atom per constant), or is
+    self-supporting with such a rest (inertia, defaults).  Returns False when the rules do
+    not have that shape or the table is too large; the caller then writes the ordinary
+    completion."""
     layout = b.layout
     atoms = layout.theory.atoms
     lits = atoms.head_lits(gc)
@@ -189,48 +181,47 @@ def _table_completion(b: _Builder, gc: GroundConst, slot: int, heads: dict) -> b
     for aid, _ in lits:
         t = layout.tid_atom(abs(aid), slot)
         head_tids.append(t if aid > 0 else -t)
-    cubes: list[tuple[int, dict]] = []
+    strong: list[tuple[int, dict]] = []
+    weak: list[tuple[int, dict]] = []
     keys: set = set()
-    for h in head_tids:
+    for hi, h in enumerate(head_tids):
         for body in heads.get(h, ()):
-            cube = _cube(layout, body, gc, slot)
+            if body is False:
+                continue
+            rest = _without(body, h)
+            target = body if rest is None else rest
+            cube = {} if target is True else _cube(layout, target, gc, slot)
             if cube is None:
                 return False
-            cubes.append((h, cube))
+            (strong if rest is None else weak).append((hi, cube))
             keys.update(cube)
-    if not cubes:
+    if not strong:
         return False
     order = sorted(keys, key=lambda k: (k[0].id, k[1]))
     size = 1
     for key in order:
         size *= len(key[0].domain)
-        if size > _TABLE_LIMIT:
+        if size > TABLE_LIMIT:
             return False
+    pos = {k: i for i, k in enumerate(order)}
     cb = b.cb
-    lit = {k: _value_lits(layout, k) for k in order}
-    covered: dict[tuple, set] = {}
-    for h, cube in cubes:
-        cb.add_clause([-lit[k][v] for k, v in cube.items()] + [h])
-        pattern = tuple(k for k in order if k in cube)
-        covered.setdefault(pattern, set()).add(tuple(cube[k] for k in pattern))
-    from itertools import product
-    domains = [k[0].domain for k in order]
-    neg = [{v: -lit[k][v] for v in k[0].domain} for k in order]
-    add = cb.add_clause
-    if len(covered) == 1 and len(next(iter(covered))) == len(order):   # every cube is full
-        full_set = next(iter(covered.values()))
-        for full in product(*domains):
-            if full not in full_set:
-                add([n[v] for n, v in zip(neg, full)])
-    else:
-        index = {k: i for i, k in enumerate(order)}
-        patterns = [(tuple(index[k] for k in p), vals) for p, vals in covered.items()]
-        for full in product(*domains):
-            if not any(tuple(full[i] for i in idx) in vals for idx, vals in patterns):
-                add([n[v] for n, v in zip(neg, full)])
+    if not encode_table([k[0].domain for k in order], [_value_lits(layout, k) for k in order], head_tids,
+                        [(h, {pos[k]: v for k, v in c.items()}) for h, c in strong],
+                        [(h, {pos[k]: v for k, v in c.items()}) for h, c in weak],
+                        _nonempty(cb), b._new, cb.at_most_one):  # type: ignore[arg-type]
+        return False
     if not gc.boolean:
         cb.exactly_one(head_tids)
     return True
+
+
+def _nonempty(cb: ClauseBuilder):
+    def add(clause: list[int]) -> None:
+        if clause:
+            cb.add_clause(clause)
+        else:
+            cb.add(False)
+    return add
 
 
 def _value_lits(layout: Layout, key: tuple) -> dict:
