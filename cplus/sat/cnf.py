@@ -43,7 +43,7 @@ class ClauseBuilder:
         v = self._defs.get(key)
         if v is not None:
             return v
-        lits = [self.lit(g) for g in items]
+        lits = [g if type(g) is int else self.lit(g) for g in items]
         v = self.new_var()
         add = self.add_clause
         if op == "&":
@@ -55,7 +55,7 @@ class ClauseBuilder:
             for c in lits:
                 add([v, -c])
         self._defs[key] = v
-        neg_key = ("|" if op == "&" else "&", frozenset(neg(g) for g in items))
+        neg_key = ("|" if op == "&" else "&", frozenset(-g if type(g) is int else neg(g) for g in items))
         self._defs.setdefault(neg_key, -v)
         return v
 

@@ -37,9 +37,9 @@ def encode_table(domains: list[tuple], value_lits: list[dict], head_lits: list[i
 
     ``domains[k]`` are the values of body constant k and ``value_lits[k][w]`` the literal of
     ``k=w``; ``head_lits[h]`` is the literal of the constant's h-th value; ``strong`` and
-    ``weak`` are cubes ``(h, {k: w})``.
+    ``weak`` are cubes ``(h, {k: w})``.  Small tables are built with lists (numpy's import
+    costs more than a small domain's whole run), large ones with numpy arrays.
     """
-    import numpy as np
     shape = tuple(len(d) for d in domains)
     cells = 1
     for n in shape:
@@ -47,6 +47,70 @@ def encode_table(domains: list[tuple], value_lits: list[dict], head_lits: list[i
     if cells > TABLE_LIMIT or not shape:
         return False
     index = [{w: i for i, w in enumerate(d)} for d in domains]
+    built = (_build_small if cells <= _SMALL else _build_large)(shape, index, strong, weak)
+    if built is None:
+        return False
+    flat, order, levels = built
+    _write(flat, levels, [value_lits[k] for k in order], [domains[k] for k in order], head_lits,
+           add_clause, new_var, at_most_one)
+    return True
+
+
+_SMALL = 4096
+
+
+def _build_small(shape: tuple, index: list[dict], strong: list, weak: list):
+    """(cells in the chosen axis order, the order, node ids per level) with lists."""
+    from itertools import product
+    n = len(shape)
+    strides = [1] * n
+    for k in range(n - 2, -1, -1):
+        strides[k] = strides[k + 1] * shape[k + 1]
+
+    def cells_of(cube: dict) -> list[int]:
+        axes = [(index[k][cube[k]],) if k in cube else range(shape[k]) for k in range(n)]
+        return [sum(i * st for i, st in zip(ix, strides)) for ix in product(*axes)]
+    table = [NONE] * (strides[0] * shape[0])
+    for h, cube in strong:
+        for c in cells_of(cube):
+            v = table[c]
+            table[c] = h if v == NONE or v == h else CONFLICT
+    soft = [NONE] * len(table)
+    for h, cube in weak:
+        for c in cells_of(cube):
+            if soft[c] not in (NONE, h):
+                return None
+            soft[c] = h
+    table = [NONE if v == CONFLICT else (soft[i] if v == NONE else v) for i, v in enumerate(table)]
+
+    def transposed(perm: list[int]) -> list[int]:
+        return [table[sum(i * strides[k] for i, k in zip(ix, perm))]
+                for ix in product(*(range(shape[k]) for k in perm))]
+
+    def distinct(flat: list[int], rows: int) -> list[int]:
+        width = len(flat) // rows
+        ids: dict[tuple, int] = {}
+        return [ids.setdefault(tuple(flat[r * width:(r + 1) * width]), len(ids)) for r in range(rows)]
+
+    def count(perm: list[int], prefix: int) -> int:
+        rows = 1
+        for k in perm[:prefix]:
+            rows *= shape[k]
+        return max(distinct(transposed(perm), rows)) + 1
+
+    order = _greedy(n, count)
+    flat = transposed(order)
+    levels = [[0]]
+    rows = 1
+    for k in order[:-1]:
+        rows *= shape[k]
+        levels.append(distinct(flat, rows))
+    return flat, order, levels
+
+
+def _build_large(shape: tuple, index: list[dict], strong: list, weak: list):
+    """The same with numpy arrays (views for cubes, hashed rows for sub-tables)."""
+    import numpy as np
     table = np.full(shape, NONE, dtype=np.int32)
     for h, cube in strong:
         region = table[_where(cube, index, len(shape))]       # a view: written in place
@@ -57,14 +121,38 @@ def encode_table(domains: list[tuple], value_lits: list[dict], head_lits: list[i
         for h, cube in weak:
             region = soft[_where(cube, index, len(shape))]
             if ((region != NONE) & (region != h)).any():
-                return False        # a choice between weak values: not a table
+                return None
             region[...] = h
         table = np.where(table == NONE, soft, table)
     table[table == CONFLICT] = NONE
-    order = _order(table)
-    _write(table.transpose(order), [value_lits[k] for k in order], [domains[k] for k in order], head_lits,
-           add_clause, new_var, at_most_one)
-    return True
+
+    hashed = (table + 3).astype(np.uint64)      # distinct positive codes, for row hashing
+
+    def count(perm: list[int], prefix: int) -> int:
+        return int(_distinct(table.transpose(perm), prefix, hashed.transpose(perm)).max()) + 1
+
+    order = _greedy(table.ndim, count)
+    t = table.transpose(order)
+    levels = [[0]] + [_distinct(t, i).tolist() for i in range(1, t.ndim)]
+    return t.reshape(-1).tolist(), order, levels
+
+
+def _greedy(n: int, count) -> list[int]:
+    """Axes in the order that keeps the diagram small: greedily, the axis after which the
+    fewest distinct sub-tables remain."""
+    chosen: list[int] = []
+    while len(chosen) < n - 1:
+        best, best_count = -1, None
+        for k in range(n):
+            if k in chosen:
+                continue
+            perm = chosen + [k] + [j for j in range(n) if j not in chosen and j != k]
+            c = count(perm, len(chosen) + 1)
+            if best_count is None or c < best_count:
+                best, best_count = k, c
+        chosen.append(best)
+    chosen.extend(k for k in range(n) if k not in chosen)
+    return chosen
 
 
 def _where(cube: dict, index: list[dict], n: int) -> tuple:
@@ -79,17 +167,20 @@ def _where(cube: dict, index: list[dict], n: int) -> tuple:
     return tuple(out)
 
 
-def _distinct(table, prefix: int):
+def _distinct(table, prefix: int, hashed=None):
     """Ids of the distinct sub-tables after fixing the first ``prefix`` axes (row-major).
 
     Rows are grouped by a 64-bit hash (a random linear form, wrapping), then checked
     against their group's first row; only on a collision is the exact (slow) row sort used.
     """
     import numpy as np
-    rows = np.ascontiguousarray(table.reshape(int(np.prod(table.shape[:prefix], dtype=np.int64)), -1))
-    weights = np.random.default_rng(len(rows[0])).integers(1, 2**63, size=rows.shape[1], dtype=np.uint64)
+    n_rows = int(np.prod(table.shape[:prefix], dtype=np.int64))
+    rows = table.reshape(n_rows, -1)
+    codes = (table + 3).astype(np.uint64) if hashed is None else hashed
+    codes = codes.reshape(n_rows, -1)
+    weights = np.random.default_rng(rows.shape[1]).integers(1, 2**63, size=rows.shape[1], dtype=np.uint64)
     with np.errstate(over="ignore"):
-        keys = ((rows.astype(np.uint64) + np.uint64(3)) * weights).sum(axis=1, dtype=np.uint64)
+        keys = codes @ weights
     _, first, inverse = np.unique(keys, return_index=True, return_inverse=True)
     inverse = inverse.reshape(-1)
     if not (rows == rows[first[inverse]]).all():      # a hash collision: sort the rows themselves
@@ -98,49 +189,30 @@ def _distinct(table, prefix: int):
     return inverse
 
 
-def _order(table) -> list[int]:
-    """Axes in the order that keeps the diagram small: greedily, the axis after which the
-    fewest distinct sub-tables remain."""
-    n = table.ndim
-    chosen: list[int] = []
-    while len(chosen) < n - 1:
-        best, best_count = -1, None
-        for k in range(n):
-            if k in chosen:
-                continue
-            perm = chosen + [k] + [j for j in range(n) if j not in chosen and j != k]
-            count = int(_distinct(table.transpose(perm), len(chosen) + 1).max()) + 1
-            if best_count is None or count < best_count:
-                best, best_count = k, count
-        chosen.append(best)
-    chosen.extend(k for k in range(n) if k not in chosen)
-    return chosen
-
-
-def _write(table, value_lits: list[dict], domains: list[tuple], head_lits: list[int],
-           add_clause, new_var, at_most_one) -> None:
-    import numpy as np
-    n = table.ndim
-    # node ids per prefix, for every level 0..n-1 (level 0: the root, one prefix)
-    levels = [np.zeros(1, dtype=np.int64)] + [_distinct(table, i) for i in range(1, n)]
-    # a node whose sub-table is all NONE is "impossible": no variable for it
-    flat = table.reshape(-1)
+def _write(flat: list[int], levels: list[list[int]], value_lits: list[dict], domains: list[tuple],
+           head_lits: list[int], add_clause, new_var, at_most_one) -> None:
+    """Clauses of the diagram: ``levels[i][p]`` is the node reached by prefix p of length i."""
+    n = len(levels)
     dead: list[set[int]] = []
     for i in range(n):
         ids = levels[i]
-        width = flat.size // ids.size
-        alive = (flat.reshape(ids.size, width) != NONE).any(axis=1)
-        dead.append(set(np.unique(ids[~alive]).tolist()))
+        width = len(flat) // len(ids)
+        alive: dict[int, bool] = {}
+        for p, node in enumerate(ids):
+            if not alive.get(node):
+                alive[node] = any(v != NONE for v in flat[p * width:(p + 1) * width])
+        dead.append({node for node, ok in alive.items() if not ok})
     lit_of: list[dict[int, int]] = [{} for _ in range(n)]   # node id -> solver literal (level >= 1)
     for i in range(1, n):
-        ids = np.unique(levels[i]).tolist()
-        live = [j for j in ids if j not in dead[i]]
+        live = sorted(set(levels[i]) - dead[i])
         for j in live:
             lit_of[i][j] = new_var()
         at_most_one([lit_of[i][j] for j in live])
     for i in range(n):
         ids = levels[i]
-        first = _first_prefix(ids)
+        first: dict[int, int] = {}
+        for p, node in enumerate(ids):
+            first.setdefault(node, p)
         d = len(domains[i])
         for node, prefix in first.items():
             if node in dead[i]:
@@ -149,10 +221,10 @@ def _write(table, value_lits: list[dict], domains: list[tuple], head_lits: list[
                 continue
             parent = [] if i == 0 else [-lit_of[i][node]]
             if i + 1 < n:
-                children = [int(c) for c in levels[i + 1][prefix * d:(prefix + 1) * d]]
+                children = levels[i + 1][prefix * d:(prefix + 1) * d]
                 targets = [None if c in dead[i + 1] else lit_of[i + 1][c] for c in children]
             else:
-                cells = flat[prefix * d:(prefix + 1) * d].tolist()
+                cells = flat[prefix * d:(prefix + 1) * d]
                 targets = [None if c == NONE else head_lits[c] for c in cells]
             if len(set(targets)) == 1:          # the value of this constant does not matter here
                 t = targets[0]
@@ -163,10 +235,3 @@ def _write(table, value_lits: list[dict], domains: list[tuple], head_lits: list[
                 if t is not None:
                     clause.append(t)
                 add_clause(clause)
-
-
-def _first_prefix(ids) -> dict[int, int]:
-    """For each node id, the first prefix (row) that reaches it."""
-    import numpy as np
-    uniq, first = np.unique(ids, return_index=True)
-    return dict(zip(uniq.tolist(), first.tolist()))

@@ -100,7 +100,22 @@ class Layout:
 
 
 def _to_tids(layout: Layout, f: PF) -> PF:
-    return map_lits(f, layout.tid)
+    """A formula over template literal codes, renamed to template ids (the hot path of
+    template building: bodies are mostly flat conjunctions of literals)."""
+    if type(f) is int:
+        return layout.tid(f)
+    if type(f) is bool:
+        return f
+    get, tid = layout._tids.get, layout.tid
+    op, items = f  # type: ignore[misc]
+    out = []
+    for g in items:
+        if type(g) is int:
+            t = get(g)
+            out.append(t if t is not None else tid(g))
+        else:
+            out.append(_to_tids(layout, g))
+    return (op, tuple(out))
 
 
 def _shift_static(f: PF) -> PF:
