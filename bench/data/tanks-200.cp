@@ -23,12 +23,21 @@
   level(tank)                :: inertialFluent(amount);
   pour(tank, tank)           :: exogenousAction.
 
-pour(T, a) causes level(a) = L1 + min(L, capA - L1) if level(T) = L & level(a) = L1 where T \= a.
-pour(T, a) causes level(T) = L - min(L, capA - L1) if level(T) = L & level(a) = L1 where T \= a.
-pour(T, b) causes level(b) = L1 + min(L, capB - L1) if level(T) = L & level(b) = L1 where T \= b & L1 =< capB.
-pour(T, b) causes level(T) = L - min(L, capB - L1) if level(T) = L & level(b) = L1 where T \= b & L1 =< capB.
-pour(T, c) causes level(c) = L1 + min(L, capC - L1) if level(T) = L & level(c) = L1 where T \= c & L1 =< capC.
-pour(T, c) causes level(T) = L - min(L, capC - L1) if level(T) = L & level(c) = L1 where T \= c & L1 =< capC.
+% pouring into a: everything, or until a is full
+pour(T, a) causes level(a) = L1 + L if level(T) = L & level(a) = L1 where T \= a & L1 + L =< capA.
+pour(T, a) causes level(T) = 0 if level(T) = L & level(a) = L1 where T \= a & L1 + L =< capA.
+pour(T, a) causes level(a) = capA if level(T) = L & level(a) = L1 where T \= a & L1 + L > capA.
+pour(T, a) causes level(T) = L - (capA - L1) if level(T) = L & level(a) = L1 where T \= a & L1 + L > capA.
+% pouring into b: everything, or until b is full
+pour(T, b) causes level(b) = L1 + L if level(T) = L & level(b) = L1 where T \= b & L1 + L =< capB & L1 =< capB.
+pour(T, b) causes level(T) = 0 if level(T) = L & level(b) = L1 where T \= b & L1 + L =< capB & L1 =< capB.
+pour(T, b) causes level(b) = capB if level(T) = L & level(b) = L1 where T \= b & L1 + L > capB & L1 =< capB.
+pour(T, b) causes level(T) = L - (capB - L1) if level(T) = L & level(b) = L1 where T \= b & L1 + L > capB & L1 =< capB.
+% pouring into c: everything, or until c is full
+pour(T, c) causes level(c) = L1 + L if level(T) = L & level(c) = L1 where T \= c & L1 + L =< capC & L1 =< capC.
+pour(T, c) causes level(T) = 0 if level(T) = L & level(c) = L1 where T \= c & L1 + L =< capC & L1 =< capC.
+pour(T, c) causes level(c) = capC if level(T) = L & level(c) = L1 where T \= c & L1 + L > capC & L1 =< capC.
+pour(T, c) causes level(T) = L - (capC - L1) if level(T) = L & level(c) = L1 where T \= c & L1 + L > capC & L1 =< capC.
 
 nonexecutable pour(T, T).
 

@@ -108,7 +108,7 @@ def _to_tids(layout: Layout, f: PF) -> PF:
         return f
     get, tid = layout._tids.get, layout.tid
     op, items = f  # type: ignore[misc]
-    out = []
+    out: list[PF] = []
     for g in items:
         if type(g) is int:
             t = get(g)
