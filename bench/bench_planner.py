@@ -252,8 +252,8 @@ def main() -> int:
         print(f"\nratio = ours / peer (wall times of the whole commands); geometric mean {geo:.2f} over "
               f"{len(ratios)} benchmarks; {sum(r <= 1.0 for r in ratios)} at or below 1.0")
     if hard:
-        print("hard benchmarks (>= %.1f s solving), ours / bare solve: %s" % (
-            HARD_SOLVE, ", ".join(f"{n} {x:.1f}x" for n, x in hard)))
+        shown = ", ".join(f"{n} {x:.1f}x" for n, x in hard)
+        print(f"hard benchmarks (>= {HARD_SOLVE:.1f} s solving), ours / bare solve: {shown}")
     print("columns: seconds; the split is measured in a fresh process (import = our modules), "
           "'bare' = the solver alone on the final horizon's CNF")
     if args.record and peer:

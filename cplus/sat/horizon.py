@@ -22,6 +22,7 @@ from cplus.ground.theory import GroundTheory
 from cplus.limits import MAX_SOLVER_VARS, clause_bytes, fmt, memory_budget, too_large
 from cplus.program import QuerySpec
 from cplus.sat.cnf import ClauseBuilder
+from cplus.sat.reach import unreachable
 from cplus.sat.solver import DEFAULT_SOLVER, SatSolver
 from cplus.sat.templates import Template, build_templates
 
@@ -44,10 +45,14 @@ class HorizonStats:
 class Horizon:
     """The clauses of D_m for growing m in one incremental solver."""
 
-    def __init__(self, theory: GroundTheory, solver: str = DEFAULT_SOLVER, solver_factory=SatSolver) -> None:
+    def __init__(self, theory: GroundTheory, solver: str = DEFAULT_SOLVER, solver_factory=SatSolver,
+                 fixed: set[int] | None = None) -> None:
+        """``fixed``: positive atoms that hold at step 0 in every history wanted (a query's
+        initial state); fluent values unreachable from them are left out of the templates."""
         t0 = time.perf_counter()
         self.theory = theory
-        self.layout, self.t_rigid, self.t_init, self.t_trans = build_templates(theory)
+        dead = unreachable(theory, fixed) if fixed else set()
+        self.layout, self.t_rigid, self.t_init, self.t_trans = build_templates(theory, dead)
         self.template_s = time.perf_counter() - t0
         self.solver = solver_factory(solver)
         L = self.layout
@@ -153,7 +158,6 @@ class QuerySession:
                  max_horizon: int | None = None, solver_factory=SatSolver) -> None:
         self.theory = theory
         self.query = query
-        self.horizon = Horizon(theory, solver, solver_factory)
         self.max_horizon = max_horizon
         self.sig = theory.sig
         self.atoms = theory.atoms
@@ -162,6 +166,7 @@ class QuerySession:
         for formula, loc in query.items:
             dynamic = ir.mentions(formula, (ir.MaxStepT,)) or _has_step_var(formula)
             self.items.append([formula, loc, compile_formula(formula, self.ctx), dynamic, False])
+        self.horizon = Horizon(theory, solver, solver_factory, self._fixed_at_zero())
         self.stats: list[HorizonStats] = []
         self.act: int | None = None
         self.found: int | None = None
@@ -169,6 +174,25 @@ class QuerySession:
         self._projection: list[tuple[int, int | None]] | None = None
 
     # ------------------------------------------------------------------ query items
+    def _fixed_at_zero(self) -> set[int]:
+        """Positive atoms the query's permanent items force at step 0 (other literals are
+        read as true, which only weakens the items: what the weakened items force, the
+        items force)."""
+        def mklit(aid: int, t: object) -> PF:
+            return aid if t == 0 and not self.atoms.gc_of[abs(aid)].decl.kind == "rigid" else True  # type: ignore[union-attr]
+        ctx = Ctx(self.sig, self.atoms, mklit)
+        fixed: set[int] = set()
+        for formula, _ in self.query.items:
+            if ir.mentions(formula, (ir.MaxStepT,)) or _has_step_var(formula):
+                continue
+            try:
+                pf = _ground_formula(self.sig, formula, ctx, self.query.lo)
+            except Exception:   # the real grounding of the item reports it
+                continue
+            items = pf[1] if type(pf) is tuple and pf[0] == "&" else (pf,)
+            fixed.update(g for g in items if type(g) is int and g > 0)
+        return fixed
+
     def _mklit(self, aid: int, t: object) -> PF:
         a = aid if aid > 0 else -aid
         gc = self.atoms.gc_of[a]
@@ -285,6 +309,13 @@ class QuerySession:
                 out.extend(h.var(aid, t) for t in range(last + 1))
             self._projection = out  # type: ignore[assignment]
         return self._projection  # type: ignore[return-value]
+
+
+def _ground_formula(sig, formula: ir.Formula, ctx: Ctx, maxstep: int) -> PF:
+    fn = compile_formula(formula, ctx)
+    parts: list[PF] = []
+    bind(sig, ir.free_vars(formula), [], lambda env: parts.append(fn(env, None)), {"$maxstep": maxstep})
+    return mk_and(parts)
 
 
 def _has_step_var(f) -> bool:

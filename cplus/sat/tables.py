@@ -112,7 +112,19 @@ def _build_large(shape: tuple, index: list[dict], strong: list, weak: list):
     """The same with numpy arrays (views for cubes, hashed rows for sub-tables)."""
     import numpy as np
     table = np.full(shape, NONE, dtype=np.int32)
+    n = len(shape)
+    full = [(h, cube) for h, cube in strong if len(cube) == n]
+    if full:        # rows that fix every body constant: all at once
+        cells = np.ravel_multi_index(np.array([[index[k][c[k]] for h, c in full] for k in range(n)]), shape)
+        hs = np.array([h for h, _ in full], dtype=np.int32)
+        by_cell = np.lexsort((hs, cells))
+        sc, sh = cells[by_cell], hs[by_cell]
+        clash = sc[1:][(sc[1:] == sc[:-1]) & (sh[1:] != sh[:-1])]
+        table.flat[cells] = hs
+        table.flat[clash] = CONFLICT
     for h, cube in strong:
+        if len(cube) == n:
+            continue
         region = table[_where(cube, index, len(shape))]       # a view: written in place
         region[(region != h) & (region != NONE)] = CONFLICT
         region[region == NONE] = h
@@ -133,7 +145,7 @@ def _build_large(shape: tuple, index: list[dict], strong: list, weak: list):
 
     order = _greedy(table.ndim, count)
     t = table.transpose(order)
-    levels = [[0]] + [_distinct(t, i).tolist() for i in range(1, t.ndim)]
+    levels: list[list[int]] = [[0]] + [_distinct(t, i).tolist() for i in range(1, t.ndim)]
     return t.reshape(-1).tolist(), order, levels
 
 

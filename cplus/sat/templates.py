@@ -63,6 +63,7 @@ class Layout:
                 self.step_atoms.append(aid)
         self.R = len(self.rigid_atoms)
         self.N = len(self.step_atoms)
+        self.dead: frozenset[int] = frozenset()
         self._tids: dict[int, int] = {}
 
     def tid(self, code: int) -> int:
@@ -125,9 +126,23 @@ def _shift_static(f: PF) -> PF:
     return map_lits(f, shift)
 
 
-def build_templates(theory: GroundTheory) -> tuple[Layout, Template, Template, Template]:
+def build_templates(theory: GroundTheory, dead: set[int] | frozenset[int] = frozenset()
+                    ) -> tuple[Layout, Template, Template, Template]:
+    """The three templates; ``dead`` atoms (fluent values no history can take, see
+    :mod:`cplus.sat.reach`) are false at every step, and every rule, constraint and table
+    row that needs one of them is left out."""
     layout = Layout(theory)
+    layout.dead = frozenset(dead)
     return layout, _rigid(layout), _initial(layout), _transition(layout)
+
+
+def _needs_dead(dead: frozenset[int], body: PF) -> bool:
+    """Whether a body (over template codes) has a positive top-level atom that is dead."""
+    items = body[1] if type(body) is tuple and body[0] == "&" else (body,)
+    for g in items:
+        if type(g) is int and g > 0 and (g - 1) // 3 in dead:
+            return True
+    return False
 
 
 class _Builder:
@@ -156,7 +171,10 @@ class _Builder:
 
 def _heads(theory: GroundTheory, layout: Layout, rules: list[tuple[int, PF]], shift: bool = False) -> dict:
     out: dict[int, list[PF]] = {}
+    dead = layout.dead
     for code, body in rules:
+        if dead and ((code > 0 and (code - 1) // 3 in dead) or _needs_dead(dead, body)):
+            continue
         if shift:
             code, body = _shift_static(code), _shift_static(body)  # type: ignore[assignment]
         out.setdefault(layout.tid(code), []).append(_to_tids(layout, body))
@@ -204,7 +222,12 @@ def _table_completion(b: _Builder, gc: GroundConst, slot: int, heads: dict) -> b
             if body is False:
                 continue
             rest = _without(body, h)
-            target = body if rest is None else rest
+            if rest is not None:
+                # self-supporting rules (inertia) as weak table rows give the same models but
+                # propagate badly backwards from a goal (hanoi-6-3 solved 12x slower): the
+                # ordinary completion keeps them
+                return False
+            target = body
             cube = {} if target is True else _cube(layout, target, gc, slot)
             if cube is None:
                 return False
@@ -215,12 +238,13 @@ def _table_completion(b: _Builder, gc: GroundConst, slot: int, heads: dict) -> b
     order = sorted(keys, key=lambda k: (k[0].id, k[1]))
     size = 1
     for key in order:
-        size *= len(key[0].domain)
+        size *= len(_live_values(layout, key[0]))
         if size > TABLE_LIMIT:
             return False
     pos = {k: i for i, k in enumerate(order)}
     cb = b.cb
-    if not encode_table([k[0].domain for k in order], [_value_lits(layout, k) for k in order], head_tids,
+    domains = [_live_values(layout, k[0]) for k in order]
+    if not encode_table(domains, [_value_lits(layout, k) for k in order], head_tids,
                         [(h, {pos[k]: v for k, v in c.items()}) for h, c in strong],
                         [(h, {pos[k]: v for k, v in c.items()}) for h, c in weak],
                         _nonempty(cb), b._new, cb.at_most_one):  # type: ignore[arg-type]
@@ -239,6 +263,20 @@ def _nonempty(cb: ClauseBuilder):
     return add
 
 
+def _live_values(layout: Layout, gc: GroundConst) -> tuple:
+    """The values of a constant that are not dead."""
+    if not layout.dead or gc.boolean:
+        return gc.domain
+    lit = layout.theory.atoms.lit
+    return tuple(v for v in gc.domain if lit(gc, v) not in layout.dead)
+
+
+def _dead_units(b: _Builder, slots: tuple[int, ...]) -> None:
+    for aid in sorted(b.layout.dead):
+        for slot in slots:
+            b.cb.add_clause([-b.layout.tid_atom(aid, slot)])
+
+
 def _value_lits(layout: Layout, key: tuple) -> dict:
     """Template literal of ``constant=value`` at a slot, for every value."""
     other, s = key
@@ -254,13 +292,24 @@ def _cube(layout: Layout, body: PF, gc: GroundConst, slot: int) -> dict | None:
     other than gc@slot, each at most once; None otherwise."""
     items = body[1] if type(body) is tuple and body[0] == "&" else (body,)
     atoms = layout.theory.atoms
+    gc_of, value_of = atoms.gc_of, atoms.value_of
+    base, R, N = layout.base_top, layout.R, layout.N
+    rigid, step = layout.rigid_atoms, layout.step_atoms
     cube: dict = {}
     for lit in items:
-        if type(lit) is not int or abs(lit) > layout.base_top:
+        if type(lit) is not int:
             return None
-        aid, s = layout.atom_of_tid(abs(lit))
-        other = atoms.gc_of[aid]
-        value = atoms.value_of[aid]
+        t = lit if lit > 0 else -lit
+        if t > base:
+            return None
+        if t <= R:
+            aid, s = rigid[t - 1], 2
+        elif t <= R + N:
+            aid, s = step[t - R - 1], 0
+        else:
+            aid, s = step[t - R - N - 1], 1
+        other = gc_of[aid]
+        value = value_of[aid]
         if value is None:
             value = "true" if lit > 0 else "false"
         elif lit < 0:
@@ -274,7 +323,10 @@ def _cube(layout: Layout, body: PF, gc: GroundConst, slot: int) -> dict | None:
 
 def _constraints(b: _Builder, bodies: list[PF], shift: bool = False) -> None:
     from cplus.ground.pf import neg
+    dead = b.layout.dead
     for body in bodies:
+        if dead and _needs_dead(dead, body):
+            continue
         if shift:
             body = _shift_static(body)
         b.cb.add(neg(_to_tids(b.layout, body)))
@@ -296,6 +348,7 @@ def _fluents(th: GroundTheory, additive: bool) -> list[GroundConst]:
 def _initial(layout: Layout) -> Template:
     th = layout.theory
     b = _Builder(layout, "initial")
+    _dead_units(b, (0,))
     heads = _heads(th, layout, th.rules["static"])
     free = lambda gc: initially_free(gc.decl)  # noqa: E731
     _complete_atoms(b, _fluents(th, False), 0, heads, free)
@@ -309,6 +362,7 @@ def _initial(layout: Layout) -> Template:
 def _transition(layout: Layout) -> Template:
     th = layout.theory
     b = _Builder(layout, "transition")
+    _dead_units(b, (0, 1))
     actions = [gc for gc in th.sig.ground if gc.decl.is_action and gc.decl.kind != "additiveAction"]
     _complete_atoms(b, actions, 0, _heads(th, layout, th.rules["action"]))
     heads = _heads(th, layout, th.rules["static"], shift=True)

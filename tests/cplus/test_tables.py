@@ -46,9 +46,19 @@ def expected_rows(domains, values, strong, weak):
 
 
 @settings(max_examples=150, deadline=None)
-@given(tables())
-def test_models_are_the_rows_of_the_table(spec):
+@given(tables(), st.booleans())
+def test_models_are_the_rows_of_the_table(spec, large):
+    """Both builders: lists (small tables) and numpy arrays (large ones)."""
+    from cplus.sat import tables as module
     domains, values, strong, weak = spec
+    old, module._SMALL = module._SMALL, (0 if large else module._SMALL)
+    try:
+        check_table(domains, values, strong, weak)
+    finally:
+        module._SMALL = old
+
+
+def check_table(domains, values, strong, weak):
     top = [0]
 
     def new_var():
