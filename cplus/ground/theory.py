@@ -35,6 +35,7 @@ from cplus.ground.compile import (
     evaluate_all,
 )
 from cplus.ground.pf import PF, mk_and, neg
+from cplus.ground.vector import ground_vectorized
 from cplus.limits import RULE_BYTES, fmt, too_large
 from cplus.program import BasicLaw, IncrementLaw, Program
 from cplus.signature import SIMPLE_KINDS, ConstDecl, GroundConst, RangeSort, StepSort
@@ -189,6 +190,12 @@ class _Grounder:
 
         if law.frame is not None:
             self._frame_law(law, variables, filters, parts, rules, constraints)
+            return
+        done = ground_vectorized(self, law, variables, filters, head_slot) if variables else None
+        if done is not None:
+            rules.extend(done[0])
+            constraints.extend(done[1])
+            self._check_rules(law.loc)
             return
         heads = [self._head_fn(h) for h in ir.conjuncts(law.head)] if law.head is not None else None
         if heads == []:   # head `true`

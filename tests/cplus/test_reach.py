@@ -55,7 +55,7 @@ def test_jugs_keep_their_histories_and_lose_impossible_levels():
 def domains(draw):
     top = draw(st.integers(2, 6))
     laws = []
-    for i in range(draw(st.integers(1, 4))):
+    for _ in range(draw(st.integers(1, 4))):
         act = draw(st.sampled_from(["a", "b"]))
         cst = draw(st.sampled_from(["x", "y"]))
         k = draw(st.integers(1, 3))
