@@ -18,6 +18,7 @@ externals, time stamps) returns None and goes the ordinary way.
 """
 from __future__ import annotations
 
+import sys
 from itertools import product
 
 from cplus import ir
@@ -27,6 +28,7 @@ from cplus.signature import KindSort, StepSort, order_key
 __all__ = ["ground_vectorized", "MIN_CELLS", "MAX_CELLS"]
 
 MIN_CELLS = 2048          # fewer bindings: the closures are as fast as setting up arrays
+COLD_CELLS = 30000        # ... and while numpy is not loaded yet, its import (70 ms) must pay too
 MAX_CELLS = 4_000_000     # more: the arrays themselves get large
 
 
@@ -87,7 +89,7 @@ class _Law:
         cells = 1
         for d in self.doms:
             cells *= len(d)
-        if not MIN_CELLS <= cells <= MAX_CELLS:
+        if not MIN_CELLS <= cells <= MAX_CELLS or (cells < COLD_CELLS and "numpy" not in sys.modules):
             raise _Unsupported
         self.shape = tuple(len(d) for d in self.doms)
 

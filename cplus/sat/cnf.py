@@ -12,6 +12,7 @@ it; a body that is just h makes h free.
 """
 from __future__ import annotations
 
+import sys
 from collections.abc import Callable, Iterable
 
 from cplus.ground.pf import PF, mk_and, mk_or, neg
@@ -168,12 +169,13 @@ def simplify_units(clauses: list[list[int]], keep: int | None = None) -> list[li
     """
     if not any(len(c) == 1 for c in clauses):
         return clauses
-    if len(clauses) >= _NUMPY_FROM:
+    if len(clauses) >= _NUMPY_FROM and ("numpy" in sys.modules or len(clauses) >= _NUMPY_COLD):
         return _simplify_numpy(clauses, keep)
     return _simplify_python(clauses, keep)
 
 
-_NUMPY_FROM = 20000
+_NUMPY_FROM = 20000     # clauses; numpy once it is loaded
+_NUMPY_COLD = 60000     # ... and above this even when it must be imported for it
 _CONFLICT = [[1], [-1]]
 
 

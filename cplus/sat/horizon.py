@@ -10,6 +10,7 @@ next and across refinement iterations.
 """
 from __future__ import annotations
 
+import sys
 import time
 from collections.abc import Iterator
 from dataclasses import dataclass
@@ -28,7 +29,7 @@ from cplus.sat.templates import Template, build_templates
 
 __all__ = ["Horizon", "QuerySession", "HorizonStats"]
 
-_VECTORIZE_FROM = 20000   # clauses; below this, numpy's import and set-up cost more than they save
+_VECTORIZE_FROM = 20000   # clauses; below this numpy's set-up costs more than it saves (and its import always)
 
 
 @dataclass
@@ -95,10 +96,15 @@ class Horizon:
         off.extend(range(b0, b0 + L.N))
         off.extend(range(b1, b1 + L.N))
         off.extend(range(aux, aux + n_aux))
-        if len(tpl.clauses) < _VECTORIZE_FROM:
-            self.solver.add_clauses([off[x] if x > 0 else -off[-x] for x in c] for c in tpl.clauses)
+        if len(tpl.clauses) < _VECTORIZE_FROM or "numpy" not in sys.modules:
+            # literal x of the template is entry x + top of a signed table: one C-level lookup
+            # per literal, and the solver reads the map object itself (no list per clause)
+            top = tpl.top
+            table = [-off[top - i] for i in range(top)] + off
+            get = table.__getitem__
+            self.solver.add_clauses(map(get, c) for c in tpl.shifted())
             return
-        # large templates: rename every literal at once with numpy, then cut into clauses
+        # large templates once numpy is loaded anyway: rename every literal at once
         import numpy as np
         flat, ends = tpl.flat()
         mapped = (np.asarray(off, dtype=np.int64)[np.abs(flat)] * np.sign(flat)).tolist()

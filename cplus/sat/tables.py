@@ -18,6 +18,7 @@ plain table needs a clause per cell (30,000).
 """
 from __future__ import annotations
 
+import sys
 from collections.abc import Callable
 
 __all__ = ["encode_table", "TABLE_LIMIT"]
@@ -47,7 +48,8 @@ def encode_table(domains: list[tuple], value_lits: list[dict], head_lits: list[i
     if cells > TABLE_LIMIT or not shape:
         return False
     index = [{w: i for i, w in enumerate(d)} for d in domains]
-    built = (_build_small if cells <= _SMALL else _build_large)(shape, index, strong, weak)
+    large = cells > _SMALL and ("numpy" in sys.modules or cells > _COLD)
+    built = (_build_large if large else _build_small)(shape, index, strong, weak)
     if built is None:
         return False
     flat, order, levels = built
@@ -56,7 +58,8 @@ def encode_table(domains: list[tuple], value_lits: list[dict], head_lits: list[i
     return True
 
 
-_SMALL = 4096
+_SMALL = 4096      # cells; above, numpy arrays once numpy is loaded
+_COLD = 30000      # ... and above this even when it must be imported for it
 
 
 def _build_small(shape: tuple, index: list[dict], strong: list, weak: list):

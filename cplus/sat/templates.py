@@ -30,6 +30,14 @@ class Template:
     name: str
     _flat: tuple | None = None
     _literals: int | None = None
+    _shifted: list | None = None
+
+    def shifted(self) -> list[list[int]]:
+        """The clauses with every literal x as x + top, an index into a signed table (cached)."""
+        if self._shifted is None:
+            top = self.top
+            self._shifted = [[x + top for x in c] for c in self.clauses]
+        return self._shifted
 
     def flat(self) -> tuple:
         """All literals in one numpy array, and the end offset of each clause (cached)."""

@@ -51,11 +51,13 @@ def test_models_are_the_rows_of_the_table(spec, large):
     """Both builders: lists (small tables) and numpy arrays (large ones)."""
     from cplus.sat import tables as module
     domains, values, strong, weak = spec
-    old, module._SMALL = module._SMALL, (0 if large else module._SMALL)
+    old = module._SMALL, module._COLD
+    if large:
+        module._SMALL, module._COLD = 0, 0
     try:
         check_table(domains, values, strong, weak)
     finally:
-        module._SMALL = old
+        module._SMALL, module._COLD = old
 
 
 def check_table(domains, values, strong, weak):
