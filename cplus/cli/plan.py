@@ -31,9 +31,10 @@ __all__ = ["build_parser", "main", "add_common", "add_robot_options"]
 
 def build_parser() -> OneLineArgumentParser:
     p = OneLineArgumentParser(prog="cplus plan", description="Answer the queries of a C+ file.")
-    p.add_argument("file")
-    p.add_argument("--query", "-q", metavar="LABEL", help="run only this query ('states': all states)")
-    p.add_argument("-n", type=nonneg, default=1, metavar="N", help="number of solutions (0 = all)")
+    p.add_argument("file", help="the C+ file ('-' reads standard input)")
+    p.add_argument("--query", "-q", metavar="LABEL", help="run only this query ('states': every state)")
+    p.add_argument("-n", type=nonneg, default=None, metavar="N",
+                   help="number of solutions (0 = all; default 1, all for '--query states')")
     p.add_argument("--json", action="store_true", help="print the result as cplus.plan/1 JSON")
     p.add_argument("--stats", action="store_true", help="print sizes and times per horizon on stderr")
     add_common(p)
@@ -58,14 +59,18 @@ def add_robot_options(p: argparse.ArgumentParser) -> None:
     g.add_argument("--trajectory", metavar="OUT.json", help="write the joint trajectory (cplus.trajectory/1)")
     g.add_argument("--csv", metavar="OUT.csv", help="write the joint trajectory as CSV")
     g.add_argument("--plot", metavar="OUT.png", help="plot the plan (PNG or SVG)")
-    g.add_argument("--points-per-step", type=nonneg, default=10, metavar="K")
-    g.add_argument("--step-time", type=float, default=1.0, metavar="SECONDS")
+    g.add_argument("--points-per-step", type=nonneg, default=10, metavar="K",
+                   help="trajectory samples between two plan steps (default 10)")
+    g.add_argument("--step-time", type=float, default=1.0, metavar="SECONDS",
+                   help="duration of one plan step in the trajectory (default 1.0)")
 
 
 def main(args: argparse.Namespace) -> int:
+    from cplus.load import STDIN
     from cplus.robot.task import scene_beside
-    scene_path = args.scene or scene_beside(args.file)
+    scene_path = args.scene or (None if args.file == STDIN else scene_beside(args.file))
     if scene_path is not None:
+        args.n = 1 if args.n is None else args.n
         return _plan_robot_task(args, scene_path)
     return _plan_domain(args)
 
@@ -97,7 +102,9 @@ def _plan_domain(args: argparse.Namespace) -> int:
     for q in queries:
         if len(queries) > 1 and not args.json:
             print(f"% query {q.label}")
-        result = domain.solve(q.label, args.n, args.solver or DEFAULT_SOLVER, args.max_horizon,
+        every_state = q.label == "states" and q.loc is None   # the built-in query, not a file's
+        wanted = args.n if args.n is not None else 0 if every_state else 1
+        result = domain.solve(q.label, wanted, args.solver or DEFAULT_SOLVER, args.max_horizon,
                               horizon_progress(args.stats))
         clear_progress(args.stats)
         warn(domain.diagnostics)
@@ -108,7 +115,7 @@ def _plan_domain(args: argparse.Namespace) -> int:
         if args.json:
             docs.append(domain.to_json(result))
         else:
-            sys.stdout.write(domain.format(result, numbered=args.n != 1))
+            sys.stdout.write(domain.format(result))
         if result.status is PlanStatus.NO_PLAN:
             code = max(code, EXIT_NO_PLAN)
         elif result.status is PlanStatus.HORIZON_LIMIT:

@@ -36,7 +36,7 @@ from cplus.ground.compile import (
 )
 from cplus.ground.pf import PF, mk_and, neg
 from cplus.ground.vector import ground_vectorized
-from cplus.limits import RULE_BYTES, fmt, too_large
+from cplus.limits import RULE_BYTES, count, too_large
 from cplus.program import BasicLaw, IncrementLaw, Program
 from cplus.signature import SIMPLE_KINDS, ConstDecl, GroundConst, RangeSort, StepSort
 
@@ -147,15 +147,15 @@ class _Grounder:
         many; any law is stopped as soon as the rules grounded so far cannot fit (checked
         every 4096 bindings)."""
         doms = {n: domain_of(self.sig, v, {}) for n, v in variables.items()}
-        count = 1
+        cells = 1
         for d in doms.values():
-            count *= len(d)
-        if count > self.rule_budget:
-            estimate = count if not filters else _sampled(doms, filters, count)
+            cells *= len(d)
+        if cells > self.rule_budget:
+            estimate = cells if not filters else _sampled(doms, filters, cells)
             if estimate > self.rule_budget:
                 names = ", ".join(variables)
                 what = "every combination" if not filters else "the combinations that pass the conditions"
-                raise GroundingError(too_large(f"this law has about {fmt(estimate)} instances ({what} of "
+                raise GroundingError(too_large(f"this law has about {count(estimate)} instances ({what} of "
                                                f"{names})", estimate * RULE_BYTES), loc)
         seen = [0]
         check = self._check_rules
@@ -171,7 +171,7 @@ class _Grounder:
         th = self.theory
         total = sum(map(len, th.rules.values())) + sum(map(len, th.constraints.values()))
         if total > self.rule_budget:
-            raise GroundingError(too_large(f"grounding reached {fmt(total)} rules at this law", total * RULE_BYTES),
+            raise GroundingError(too_large(f"grounding reached {count(total)} rules at this law", total * RULE_BYTES),
                                  loc)
 
     # ------------------------------------------------------------------ laws
@@ -439,7 +439,7 @@ class _Grounder:
             self.theory.noconcurrency.append(group)
 
 
-def _sampled(doms: dict[str, tuple], filters: list, count: int, samples: int = 4096) -> int:
+def _sampled(doms: dict[str, tuple], filters: list, cells: int, samples: int = 4096) -> int:
     """Estimated number of bindings that pass every filter, from a fixed random sample."""
     import random
     rnd = random.Random(0)
@@ -452,7 +452,7 @@ def _sampled(doms: dict[str, tuple], filters: list, count: int, samples: int = 4
         except GroundingError:
             ok = False
         passed += ok
-    return count * passed // samples
+    return cells * passed // samples
 
 
 def ground_program(program: Program) -> GroundTheory:

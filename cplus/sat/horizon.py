@@ -20,12 +20,12 @@ from cplus.errors import GroundingError, Location
 from cplus.ground.compile import Ctx, bind, compile_formula
 from cplus.ground.pf import PF, mk_and
 from cplus.ground.theory import GroundTheory
-from cplus.limits import MAX_SOLVER_VARS, clause_bytes, fmt, memory_budget, too_large
+from cplus.limits import MAX_SOLVER_VARS, clause_bytes, count, memory_budget, too_large
 from cplus.program import QuerySpec
 from cplus.sat.cnf import ClauseBuilder
 from cplus.sat.reach import unreachable
 from cplus.sat.solver import DEFAULT_SOLVER, SatSolver
-from cplus.sat.templates import Template, build_templates
+from cplus.sat.templates import Layout, Template, build_templates
 
 __all__ = ["Horizon", "QuerySession", "HorizonStats"]
 
@@ -47,13 +47,17 @@ class Horizon:
     """The clauses of D_m for growing m in one incremental solver."""
 
     def __init__(self, theory: GroundTheory, solver: str = DEFAULT_SOLVER, solver_factory=SatSolver,
+                 templates: tuple[Layout, Template, Template, Template] | None = None,
                  fixed: set[int] | None = None) -> None:
-        """``fixed``: positive atoms that hold at step 0 in every history wanted (a query's
-        initial state); fluent values unreachable from them are left out of the templates."""
+        """``templates``: the result of :func:`build_templates` for ``theory``, when the caller
+        keeps it for several solvers (the online loop makes one per re-plan).  Otherwise they
+        are built here, and ``fixed`` (positive atoms that hold at step 0 in every history
+        wanted: a query's initial state) leaves out fluent values unreachable from them."""
         t0 = time.perf_counter()
         self.theory = theory
-        dead = unreachable(theory, fixed) if fixed else set()
-        self.layout, self.t_rigid, self.t_init, self.t_trans = build_templates(theory, dead)
+        if templates is None:
+            templates = build_templates(theory, unreachable(theory, fixed) if fixed else set())
+        self.layout, self.t_rigid, self.t_init, self.t_trans = templates
         self.template_s = time.perf_counter() - t0
         self.solver = solver_factory(solver)
         L = self.layout
@@ -132,11 +136,11 @@ class Horizon:
         per_var = self.layout.N + tpl.top - self.layout.base_top
         need = steps * (clause_bytes(len(tpl.clauses), tpl._literals) + 64 * per_var)
         if need > memory_budget():
-            raise GroundingError(too_large(f"maxstep {fmt(m)} means {fmt(steps * len(tpl.clauses))} clauses "
-                                           f"({fmt(len(tpl.clauses))} per step)", need), loc)
+            raise GroundingError(too_large(f"maxstep {count(m)} means {count(steps * len(tpl.clauses))} clauses "
+                                           f"({count(len(tpl.clauses))} per step)", need), loc)
         if self.top + steps * per_var > MAX_SOLVER_VARS:
-            raise GroundingError(f"maxstep {fmt(m)} means {fmt(self.top + steps * per_var)} solver variables, "
-                                 f"more than the solver's limit of {fmt(MAX_SOLVER_VARS)}", loc)
+            raise GroundingError(f"maxstep {count(m)} means {count(self.top + steps * per_var)} solver variables, "
+                                 f"more than the solver's limit of {count(MAX_SOLVER_VARS)}", loc)
 
     def _at(self, f: PF, t: int) -> PF:
         """A transition formula over template codes, placed at transition t."""
@@ -161,7 +165,8 @@ class QuerySession:
     """Answer one query: horizons in ascending order, then models at the first good one."""
 
     def __init__(self, theory: GroundTheory, query: QuerySpec, solver: str = DEFAULT_SOLVER,
-                 max_horizon: int | None = None, solver_factory=SatSolver) -> None:
+                 max_horizon: int | None = None, solver_factory=SatSolver,
+                 templates: tuple[Layout, Template, Template, Template] | None = None) -> None:
         self.theory = theory
         self.query = query
         self.max_horizon = max_horizon
@@ -172,7 +177,8 @@ class QuerySession:
         for formula, loc in query.items:
             dynamic = ir.mentions(formula, (ir.MaxStepT,)) or _has_step_var(formula)
             self.items.append([formula, loc, compile_formula(formula, self.ctx), dynamic, False])
-        self.horizon = Horizon(theory, solver, solver_factory, self._fixed_at_zero())
+        self.horizon = Horizon(theory, solver, solver_factory, templates,
+                               None if templates is not None else self._fixed_at_zero())
         self.stats: list[HorizonStats] = []
         self.act: int | None = None
         self.found: int | None = None

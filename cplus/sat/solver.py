@@ -59,16 +59,24 @@ class _Native:
         self._mod = pysolvers
         self._prefix = prefix
         self.handle = getattr(pysolvers, prefix + "_new")()
+        self._assumptions: list[int] = []
         self.add_clause = functools.partial(getattr(pysolvers, prefix + "_add_cl"), self.handle)
         self._solve = getattr(pysolvers, prefix + "_solve")
         self._model = getattr(pysolvers, prefix + "_model")
 
     def solve(self, assumptions: list[int]) -> bool:
         main = int(threading.current_thread() is threading.main_thread())
+        self._assumptions = assumptions
         return bool(self._solve(self.handle, assumptions, main))
 
     def get_model(self) -> list[int]:
         return self._model(self.handle) or []
+
+    def get_core(self) -> list[int]:
+        fn = getattr(self._mod, self._prefix + "_core")
+        if self._prefix.startswith("cadical"):      # CaDiCaL asks which assumptions to test
+            return fn(self.handle, self._assumptions) or []
+        return fn(self.handle) or []
 
     def delete(self) -> None:
         if self.handle is not None:
@@ -93,6 +101,9 @@ class _Generic:
 
     def get_model(self) -> list[int]:
         return self._s.get_model() or []
+
+    def get_core(self) -> list[int]:
+        return self._s.get_core() or []
 
     def delete(self) -> None:
         self._s.delete()
@@ -143,6 +154,12 @@ class SatSolver:
         m = self._model
         assert m is not None, "no model"
         return var <= len(m) and m[var - 1] > 0
+
+    def core(self) -> list[int]:
+        """After an unsatisfiable :meth:`solve`: assumptions that together cannot hold (a
+        subset of those given; not necessarily minimal)."""
+        assert self._b is not None
+        return list(self._b.get_core() or [])
 
     @property
     def model(self) -> list[int]:
