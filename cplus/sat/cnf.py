@@ -17,7 +17,7 @@ from collections.abc import Callable, Iterable
 
 from cplus.ground.pf import PF, mk_and, mk_or, neg
 
-__all__ = ["ClauseBuilder", "simplify_units"]
+__all__ = ["ClauseBuilder", "simplify_units", "CONFLICT"]
 
 _PAIRWISE_MAX = 6
 _UNIT_PASSES = 100
@@ -176,7 +176,8 @@ def simplify_units(clauses: list[list[int]], keep: int | None = None) -> list[li
 
 _NUMPY_FROM = 20000     # clauses; numpy once it is loaded
 _NUMPY_COLD = 60000     # ... and above this even when it must be imported for it
-_CONFLICT = [[1], [-1]]
+CONFLICT = [[1], [-1]]
+"""What :func:`simplify_units` returns when the clauses have no model (compare by identity)."""
 
 
 def _simplify_python(clauses: list[list[int]], keep: int | None) -> list[list[int]]:
@@ -185,7 +186,7 @@ def _simplify_python(clauses: list[list[int]], keep: int | None) -> list[list[in
         if len(c) == 1:
             lit = c[0]
             if value.get(abs(lit), lit > 0) != (lit > 0):
-                return _CONFLICT
+                return CONFLICT
             value[abs(lit)] = lit > 0
     current = [c for c in clauses if len(c) > 1]
     complete = False
@@ -205,7 +206,7 @@ def _simplify_python(clauses: list[list[int]], keep: int | None) -> list[list[in
             if satisfied:
                 continue
             if not kept:
-                return _CONFLICT
+                return CONFLICT
             if len(kept) == 1:
                 lit = kept[0]
                 value[abs(lit)] = lit > 0
@@ -228,7 +229,7 @@ def _simplify_numpy(clauses: list[list[int]], keep: int | None) -> list[list[int
     n = len(clauses)
     lens = np.fromiter(map(len, clauses), dtype=np.int64, count=n)
     if not lens.all():
-        return _CONFLICT
+        return CONFLICT
     flat = np.fromiter(chain.from_iterable(clauses), dtype=np.int64, count=int(lens.sum()))
     starts = np.zeros(n, dtype=np.int64)
     np.cumsum(lens[:-1], out=starts[1:])
@@ -248,19 +249,19 @@ def _simplify_numpy(clauses: list[list[int]], keep: int | None) -> list[list[int
         return True
 
     if not assign(flat[starts[lens == 1]]):
-        return _CONFLICT
+        return CONFLICT
     while True:
         lv = val[var] * sign
         sat = np.add.reduceat((lv == 1).astype(np.int32), starts) > 0
         free = np.add.reduceat((lv == 0).astype(np.int32), starts)
         open_ = ~sat
         if (open_ & (free == 0)).any():
-            return _CONFLICT
+            return CONFLICT
         unit = open_ & (free == 1)
         if not unit.any():
             break
         if not assign(flat[(lv == 0) & unit[cid]]):
-            return _CONFLICT
+            return CONFLICT
     keep_lit = (lv == 0) & (open_ & (free > 1))[cid]
     kept = flat[keep_lit].tolist()
     kept_lens = free[open_ & (free > 1)].tolist()

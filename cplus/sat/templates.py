@@ -16,7 +16,7 @@ from dataclasses import dataclass
 
 from cplus.ground.pf import PF, map_lits, mk_and
 from cplus.ground.theory import GroundTheory, initially_free
-from cplus.sat.cnf import ClauseBuilder, _without, simplify_units
+from cplus.sat.cnf import CONFLICT, ClauseBuilder, _without, simplify_units
 from cplus.sat.tables import TABLE_LIMIT, encode_table
 from cplus.signature import GroundConst
 
@@ -169,6 +169,8 @@ class _Builder:
         densely (every instance of the template allocates that many solver variables)."""
         base = self.layout.base_top
         clauses = simplify_units(self.cb.clauses, keep=base)
+        if clauses is CONFLICT:   # no model at all: say so with a variable of this template's own
+            return Template([[base + 1], [-(base + 1)]], base + 1, self.name)
         used = sorted({abs(x) for c in clauses for x in c if abs(x) > base})
         renumber = {v: base + i for i, v in enumerate(used, start=1)}
         if len(used) < self.top - base:

@@ -191,9 +191,6 @@ def test_generated_laws_plan_or_fail_with_a_located_error(text):
     domain.to_json(result)
 
 
-@pytest.mark.xfail(strict=True, raises=ValueError, reason=(
-    "sat: simplify_units reports a contradiction as [[1], [-1]], but in the rigid template of a domain "
-    "without rigid constants variable 1 is renamed to 0, and pysat refuses the literal 0"))
 @pytest.mark.parametrize("law", ["constraint false.", "constraint p == q."])
 def test_an_always_violated_constraint_without_rigid_constants_has_no_plan(law):
     """Found by the fuzzing above: every domain with this law has no history."""
