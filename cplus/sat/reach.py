@@ -48,35 +48,39 @@ def unreachable(theory: GroundTheory, fixed: set[int]) -> set[int]:
             possible.update(ids)
     if not candidates or candidates <= possible:
         return set()
+    closed = candidates - possible          # not (yet) possible
     watch: dict[int, list[int]] = {}
     heads: list[int] = []
     missing: list[int] = []
-    queue = list(possible)
+    queue: list[int] = []
     for cls in ("static", "dynamic"):
         for code, body in theory.rules[cls]:
-            if code < 0:
-                continue
             head = (code - 1) // 3
-            if head not in candidates or head in possible:
+            if code < 0 or head not in closed:
                 continue
             items = body[1] if type(body) is tuple and body[0] == "&" else (body,)
-            need = {(g - 1) // 3 for g in items if type(g) is int and g > 0 and g != code}
-            need = {a for a in need if a in candidates and a not in possible}
+            need = [a for a in [(g - 1) // 3 for g in items if type(g) is int and g > 0 and g != code]
+                    if a in closed]
             if not need:
-                if head not in possible:
-                    possible.add(head)
-                    queue.append(head)
+                closed.discard(head)
+                queue.append(head)
                 continue
+            if len(need) > 1:
+                need = list(set(need))
             i = len(heads)
             heads.append(head)
             missing.append(len(need))
             for a in need:
-                watch.setdefault(a, []).append(i)
+                w = watch.get(a)
+                if w is None:
+                    watch[a] = [i]
+                else:
+                    w.append(i)
     while queue:
         a = queue.pop()
         for i in watch.pop(a, ()):
             missing[i] -= 1
-            if missing[i] == 0 and heads[i] not in possible:
-                possible.add(heads[i])
+            if missing[i] == 0 and heads[i] in closed:
+                closed.discard(heads[i])
                 queue.append(heads[i])
-    return candidates - possible
+    return closed
