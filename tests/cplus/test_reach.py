@@ -79,3 +79,14 @@ def domains(draw):
 def test_pruning_never_changes_the_histories(text):
     n, m = counts(text)
     assert n == m
+
+
+def test_a_disjunctive_body_needs_only_one_of_its_atoms():
+    """``x = 3`` is caused when y is 1 or 2; y is only ever 1, so 3 is reachable (a
+    conjunctive reading of the body would prune it and lose the history)."""
+    text = (":- sorts n. :- objects 0..3 :: n.\n"
+            ":- constants x :: inertialFluent(n); y :: inertialFluent(n); go :: exogenousAction.\n"
+            "go causes x = 3 if y = 1 ++ y = 2.\n"
+            ":- query maxstep :: 1; 0: x = 0 & y = 1; 1: x = 3.\n")
+    n, m = counts(text)
+    assert n == m == 1
