@@ -1,4 +1,8 @@
-"""``cplus ground FILE --maxstep N --dimacs OUT``: the CNF of one horizon in DIMACS form."""
+"""``cplus ground FILE --maxstep N --dimacs OUT``: the CNF of one horizon in DIMACS form.
+
+A robot task (a ``scene.toml`` beside the domain, or ``--scene``) is grounded with the
+scene's externals (``collision/4``), after its bindings are checked against the domain.
+"""
 from __future__ import annotations
 
 import argparse
@@ -17,11 +21,14 @@ def build_parser() -> OneLineArgumentParser:
     p.add_argument("--query", "-q", metavar="LABEL", help="add this query's conditions")
     p.add_argument("--extern", action="append", default=[], metavar="FILE.py",
                    help="a Python file whose functions are external predicates/functions")
+    p.add_argument("--scene", metavar="FILE",
+                   help="a robot task's scene (default: scene.toml beside the domain, if there is one)")
     return p
 
 
 def main(args: argparse.Namespace) -> int:
     from cplus.api import Domain
+    from cplus.robot.task import RobotTask, scene_beside
     from cplus.sat.dimacs import horizon_cnf, write_dimacs
     if args.dimacs != "-":   # before grounding, which may take a while
         problem = _unwritable(args.dimacs)
@@ -29,7 +36,10 @@ def main(args: argparse.Namespace) -> int:
             print(f"cplus ground: cannot write '{args.dimacs}': {problem}", file=sys.stderr)
             return EXIT_INPUT
     warn = Warnings()
-    domain = Domain.load(args.file, externals(args.extern))
+    from cplus.load import STDIN
+    scene = args.scene or (None if args.file == STDIN else scene_beside(args.file))
+    domain: Domain = (RobotTask.load(args.file, scene, args.extern).domain if scene  # type: ignore[assignment]
+                      else Domain.load(args.file, externals(args.extern)))
     q = query(domain, args.query, args.file) if args.query else None
     nvars, clauses, names = horizon_cnf(domain.theory, args.maxstep, q)
     warn(domain.diagnostics)

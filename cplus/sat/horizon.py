@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import sys
 import time
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 
 from cplus import ir
@@ -66,6 +66,7 @@ class Horizon:
         self._rigid_range = range(1, L.R + 1)
         self.m = -1
         self.extra: list[PF] = []          # transition constraints added later (refinement)
+        self.step_hooks: list[Callable[[int], None]] = []   # see each_step
         self.builder = ClauseBuilder(self.new_var, self.solver.add_clause)
         self._instantiate(self.t_rigid, 0, 0)
         self._add_block()
@@ -127,6 +128,8 @@ class Horizon:
             for f in self.extra:
                 self.builder.add(self._at(f, t))
             self.m += 1
+            for hook in self.step_hooks:
+                hook(self.m)
 
     def _check_size(self, m: int, loc: Location | None) -> None:
         steps = m - self.m
@@ -150,6 +153,16 @@ class Horizon:
             aid, slot = divmod(code - 1, 3)
             return self.var(aid, None if slot == 2 else t + slot)
         return map_lits(f, place)
+
+    def each_step(self, hook: Callable[[int], None]) -> None:
+        """Call ``hook(t)`` for every step ``t`` of the horizon: now for 0..m, later for each
+        new step once its clauses are in.  The hook may allocate variables (:meth:`new_var`)
+        and add clauses over any step up to ``t`` (:meth:`var`): the way to constrain every
+        step, present and future, with clauses that are not transition formulas (nogoods over
+        several steps, auxiliary variables per step)."""
+        self.step_hooks.append(hook)
+        for t in range(self.m + 1):
+            hook(t)
 
     def forbid_everywhere(self, f: PF) -> None:
         """Add ``not f`` (a transition formula over template codes) at every transition,
@@ -180,6 +193,7 @@ class QuerySession:
         self.horizon = Horizon(theory, solver, solver_factory, templates,
                                None if templates is not None else self._fixed_at_zero())
         self.stats: list[HorizonStats] = []
+        self.assumptions: list[int] = []   # assumed at every solve, besides the horizon's own
         self.act: int | None = None
         self.found: int | None = None
         self.out_of_range: list = []
@@ -279,7 +293,7 @@ class QuerySession:
         self._add_items(m)
         self._projection = None
         t1 = time.perf_counter()
-        ok = h.solver.solve([self.act])
+        ok = h.solver.solve([self.act, *self.assumptions])
         t2 = time.perf_counter()
         self.stats.append(HorizonStats(m, h.top, h.solver.count, t1 - t0, t2 - t1, ok, 1 if ok else 0))
         return ok
@@ -288,7 +302,7 @@ class QuerySession:
         """Solve again at the current horizon (after clauses were added)."""
         h = self.horizon
         t0 = time.perf_counter()
-        ok = h.solver.solve([self.act])
+        ok = h.solver.solve([self.act, *self.assumptions])
         st = self.stats[-1]
         st.solve_s += time.perf_counter() - t0
         st.satisfiable = ok
