@@ -13,22 +13,24 @@ it was in earlier in the slice, it will go round that cycle until the slice's
 budget runs out.
 
 :class:`SpinDetector` finds such a cycle with Brent's algorithm, comparing the
-state at turn boundaries with snapshots taken at exponentially spaced
-boundaries, and returns how many whole cycles can be skipped: the instruction
-counter advances by them without running them, and the slice then runs its
-last cycles (and the truncated last turns) for real. Nothing observable
-differs from running every instruction: the same memory, program counters,
-queues, instruction count and I/O at the end of the slice.
+state at turn boundaries (every 20 instructions while it looks) with snapshots
+taken at exponentially spaced boundaries, and returns how many whole cycles
+can be skipped: the instruction counter advances by them without running
+them, and the slice then runs its last cycles (and the truncated last turns)
+for real. Nothing observable differs from running every instruction: the same
+memory, program counters, queues, instruction count and I/O at the end of the
+slice.
 
 It is conservative: it only looks once a slice has run :data:`SPIN_AFTER`
 instructions (:data:`SPIN_SOON` after a slice that used its whole budget) and
-some clump has polled (read the tick, an input or output
-port, or a read-only system call); a cycle only counts if no instruction with
-an effect outside the VM's memory ran during it (an output or input write, a
-message sent or removed, a tone, a drawing, a file operation, a random
-number: :attr:`nxt_link.vm.machine.VM.io_epoch`); floats must match bit for
-bit. A loop that changes its state every time round (counting its iterations,
-drawing the time) is not a cycle and still costs its full slice.
+some clump has polled (read the tick, an input or output port, or a read-only
+system call); a cycle only counts if no instruction with an effect outside
+the VM's memory ran during it (an output or input write, a message sent or
+removed, a tone, a drawing, a file operation, a random number:
+:attr:`nxt_link.vm.machine.VM.io_epoch`); floats must match bit for bit. A
+loop that changes its state every time round (counting its iterations,
+drawing the time) is not a cycle and still costs its full slice. With a slice
+of :data:`SPIN_AFTER` instructions or fewer (the default 500) it never looks.
 """
 from __future__ import annotations
 
