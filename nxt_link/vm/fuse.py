@@ -27,12 +27,12 @@ generated line belongs to one instruction (:meth:`Fuser.locate`), which gives
 the faulting program counter and how many instructions of the block ran.
 
 The generated source of a program depends only on its executable, so its code
-object is cached (:func:`_code_for`) and a second activation of the same
-program only binds fresh closures.
+object is cached (:func:`_code_for`, the last 16 programs) and a second
+activation of the same program only binds fresh closures.
 """
 from __future__ import annotations
 
-from collections import OrderedDict
+import functools
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from types import CodeType, TracebackType
@@ -44,8 +44,6 @@ __all__ = ["Fuser", "Step", "MAX_BLOCK"]
 #: when it fits in what is left of the turn
 MAX_BLOCK = 20
 _FILENAME = "<nxt-vm fused block>"
-_CACHE_SIZE = 16
-_CODE_CACHE: OrderedDict[str, CodeType] = OrderedDict()
 
 Op = Callable[[], int]
 
@@ -225,13 +223,7 @@ def _indent(src: str) -> str:
     return "".join("    " + line + "\n" for line in src.split("\n"))
 
 
+@functools.lru_cache(maxsize=16)
 def _code_for(source: str) -> CodeType:
-    code = _CODE_CACHE.get(source)
-    if code is None:
-        code = compile(source, _FILENAME, "exec")
-        _CODE_CACHE[source] = code
-        while len(_CODE_CACHE) > _CACHE_SIZE:
-            _CODE_CACHE.popitem(last=False)
-    else:
-        _CODE_CACHE.move_to_end(source)
-    return code
+    """The compiled generated source (a program started again is not compiled again)."""
+    return compile(source, _FILENAME, "exec")
