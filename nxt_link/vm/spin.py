@@ -4,7 +4,7 @@ With ``instructions_per_ms=None`` (an infinitely fast brick) every slice runs
 until all clumps wait, at most a million instructions. An NXC busy-wait
 (``while (CurrentTick() < t);``, ``until (ReceiveRemoteString(...) == NO_ERR);``)
 never waits, so each simulated millisecond would cost a million interpreted
-instructions, about 40 ms of real time. Within one slice, though, the world is
+instructions, about 100 ms of real time. Within one slice, though, the world is
 frozen: the tick, the motors' counters, the sensors and the mailboxes only
 change between slices. A program that polls them without changing anything
 outside its own memory is a deterministic machine, and if its whole state
