@@ -186,7 +186,9 @@ class VM:
         # it, a clump alone in the queue stays alone until its turn ends with an event
         self._solo_ok = not any(ins.opcode == (2 if ins.short else 0x2D)
                                 for c in exe.clumps for ins in decode_clump(exe.code, c))
-        self._fns, self._lens = self._fuser.build(compiled, blocks=fused)
+        fns, lens = self._fuser.build(compiled, blocks=fused)
+        #: per clump: block functions (or instructions) and lengths by offset, instructions
+        self._code = [(f, n, ops) for f, n, ops in zip(fns, lens, self.ops)]
 
     def _add_cluster_members(self) -> None:
         """Members of top-level clusters are addressable (they are top-level storage)."""
@@ -262,9 +264,7 @@ class VM:
             return False
         budget = self.budget
         executed = 0
-        fns_all = self._fns
-        lens_all = self._lens
-        ops_all = self.ops
+        code = self._code
         pcs = self.pcs
         solo_ok = self._solo_ok
         spin_from = ((SPIN_SOON if self._spent else SPIN_AFTER) if self._skip_busy_waits
@@ -281,9 +281,7 @@ class VM:
                         self.skipped += skip
                         spin_from = _NEVER
                 c = rq[0]
-                fns = fns_all[c]
-                lens = lens_all[c]
-                ops = ops_all[c]
+                fns, lens, ops = code[c]
                 pc = pcs[c]
                 # the turn: 20 instructions, fewer when the slice is nearly used up; at
                 # least one even past the end of the slice (as after a clump switch).
@@ -1176,15 +1174,16 @@ class VM:
         m = self.mem
         rt = self.types[ret].tc
         stored = [store(rt, k) for k in range(len(self.exe.clumps))]  # the caller's index
+        rq, restq = self.runq, self.restq
 
         def f() -> int:
-            caller = self.runq.pop(0)
+            caller = rq.pop(0)
             m[ret] = stored[caller]
-            if callee in self.runq or callee in self.restq:
-                self.runq.insert(0, caller)
+            if callee in rq or callee in restq:
+                rq.insert(0, caller)
                 raise _Fault(f"{name}: subroutine clump {callee} called while it is already "
                              f"running (recursion, or two tasks calling it at once)")
-            self.runq.append(callee)
+            rq.append(callee)
             self._event = _SUSPEND
             return ~nxt
         return f
@@ -1194,14 +1193,18 @@ class VM:
         m = self.mem
 
         float_ret = self.types[ret].tc == TC.FLOAT
+        clumps = len(self.exe.clumps)
+        rq = self.runq
 
         def f() -> int:
-            me = self.runq.pop(0)
+            me = rq.pop(0)
             caller = (int(m[ret]) if float_ret else m[ret]) & 0xFF
-            if caller >= len(self.exe.clumps):
-                self.runq.insert(0, me)
+            if caller >= clumps:
+                rq.insert(0, me)
                 raise _Fault(f"SUBRET: return to clump {caller}, which does not exist")
-            self._enqueue(caller)
+            if caller in rq:
+                self._enqueue(caller)  # the error
+            rq.append(caller)
             self._event = _DONE
             return -1
         return f
