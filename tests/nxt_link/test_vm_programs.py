@@ -203,6 +203,21 @@ def test_disassembly_lists_every_clump(rxe):
     assert any("SUBCALL" in line for line in lines) and any("SYSCALL" in line for line in lines)
 
 
+def test_a_subroutine_called_by_two_tasks_at_once_is_an_error(tmp_path: Path):
+    src = tmp_path / "twice.nxc"
+    src.write_text("void f() { Wait(10); }\ntask t1() { f(); }\ntask t2() { Wait(2); f(); }\n"
+                   "task main() { Precedes(t1, t2); }\n")
+    rxe = compile_nxc(src).rxe
+    for fused in (True, False):
+        fw = Firmware(FirmwareParams(vm_fused=fused), flash_files={"t.rxe": rxe})
+        fw.start_program_now("t.rxe")
+        for _ in range(50):
+            fw.tick()
+        (error,) = fw.program_errors
+        assert "SUBCALL: subroutine clump" in error and "called while it is already running" in error
+        assert fw.program is None
+
+
 def test_running_out_of_memory_is_an_error(tmp_path: Path):
     src = tmp_path / "big.nxc"
     src.write_text("long a[];\ntask main() { long n = 20000; ArrayInit(a, 0, n); }\n")
