@@ -38,7 +38,7 @@ from typing import Protocol
 from nxt_link import telegram as tg
 from nxt_link.brick_io import FirmwareIO
 from nxt_link.errors import TelegramError
-from nxt_link.input_module import InputPort
+from nxt_link.input_module import InputPort, step_ports
 from nxt_link.motor_model import MotorParams
 from nxt_link.output_module import RESET_NONE, OutputPort
 from nxt_link.telegram import Opcode, OutputMode, RegulationMode, RunState
@@ -284,8 +284,7 @@ class Firmware:
     def tick(self) -> None:
         """Advance one millisecond: inputs, program start/stop, program slice, outputs."""
         self.now_ms = now = self.now_ms + 1
-        for inp in self.inputs:
-            inp.step()
+        step_ports(self.inputs)
         if self._pending_stop:
             self._pending_stop = False
             if self.program is not None:

@@ -1,9 +1,10 @@
-"""The emulator's shortcuts change nothing: motor, output port and screen against
-straightforward reference implementations, bit for bit.
+"""The emulator's shortcuts change nothing: motor, output port, input ports and screen
+against straightforward reference implementations, bit for bit.
 
 The motor and output port step once per simulated millisecond per port, so they
 are written out for speed (one function, shortcuts for a motor at rest, for a
-plain running port); the screen drops only the cells a character overlaps. The
+plain running port); the input module skips the ports it would leave as they
+are; the screen drops only the cells a character overlaps. The
 references below are the readable versions they replaced; random command
 sequences must leave both in identical states (floats compared exactly), so
 any divergence in the arithmetic or its order fails.
@@ -16,6 +17,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from nxt_link.brick_io import FONT_WIDTH, LCD_LINES, LCD_WIDTH, Display
+from nxt_link.input_module import InputPort, step_ports
 from nxt_link.motor_model import MotorParams, MotorPhysics
 from nxt_link.output_module import OutputPort
 
@@ -186,3 +188,33 @@ def test_the_screen_draws_as_the_reference(calls):
         fast.text(x, y, text)
         ref.text(x, y, text)
         assert fast.cells == ref.cells and fast.lines() == ref.lines()
+
+
+# (port, sensor type or None, mode or None, raw or None, invalid written or None, ms)
+INPUT_EVENTS = st.lists(st.tuples(
+    st.integers(0, 3), st.sampled_from([None, 0, 1, 3, 5, 7, 9, 10]),
+    st.sampled_from([None, 0x00, 0x20, 0x40, 0x80, 0xA0, 0xE0]),
+    st.sampled_from([None, 0, 183, 400, 700, 1023]), st.sampled_from([None, True, False]),
+    st.integers(1, 60)), max_size=10)
+
+
+@settings(deadline=None, max_examples=60)
+@given(INPUT_EVENTS)
+def test_the_input_module_skips_only_ports_it_would_leave_alone(events):
+    fast, ref = [InputPort() for _ in range(4)], [InputPort() for _ in range(4)]
+    for port, sensor, mode, raw, invalid, ms in events:
+        for ports in (fast, ref):
+            p = ports[port]
+            if sensor is not None:
+                p.sensor_type = sensor
+            if mode is not None:
+                p.sensor_mode = mode
+            if raw is not None:
+                p.raw = raw
+            if invalid is not None:
+                p.invalid = invalid
+        for _ in range(ms):
+            step_ports(fast)
+            for p in ref:
+                p.step()
+            assert fast == ref
