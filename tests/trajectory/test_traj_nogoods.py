@@ -173,6 +173,18 @@ def test_a_widened_robot_box_fails_everywhere(example_scene):
     assert all(member_fails(example_scene, cause, m) for m in members(box))
 
 
+def test_the_shipped_task_s_box_is_the_one_its_refinement_log_shows(payload_scene):
+    """The box of the shipped task's first violation (the payload carried past the post), as
+    ``cplus plan domains/payload/payload.cp`` prints it: the plans found depend on exactly
+    which motions a nogood forbids, so growing must not change with its implementation."""
+    states = [carried((4, 2), (4, 7)), carried((8, 2), (8, 7))]
+    v = first_violation(payload_scene, states)
+    assert v.kind is ViolationKind.PAYLOAD_COLLISION
+    box = widen(payload_scene, states, cause_of(payload_scene, states, v))
+    assert box == {(0, "pl1", 0): (1, 6), (0, "pl1", 1): (0, 4), (0, "pl2", 0): (3, 5), (0, "pl2", 1): (6, 7),
+                   (1, "pl1", 0): (7, 9), (1, "pl1", 1): (1, 3), (1, "pl2", 0): (7, 9), (1, "pl2", 1): (6, 7)}
+
+
 def test_causes_over_several_motions_or_holders_are_not_widened(example_scene):
     states = plan(((1, 1), (1, 4)), ((4, 1), (4, 4)))
     for cause in (Cause(("r1",), 0, 1, holds=True), Cause(("r1",), 0, 2)):
