@@ -65,7 +65,8 @@ def refine_once(scene: Path, form: str) -> dict:
 
 
 _PHASES = r"""
-import sys, time, json
+import gc, sys, time, json
+gc.disable()        # as the command does (cplus.cli.main)
 cpu = time.process_time
 t0 = cpu()
 import numpy, shapely
