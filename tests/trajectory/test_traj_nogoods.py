@@ -205,6 +205,18 @@ def test_the_vectorised_payload_test_never_says_fail_when_the_checker_does_not(p
     assert not says or checker
 
 
+@given(motions=st.lists(payload_motions(), min_size=1, max_size=12))
+@settings(max_examples=60, deadline=None)
+def test_asking_whether_every_motion_fails_is_asking_each(payload_scene, motions):
+    """Widening only asks "does every motion of this slab fail?", and stops at the first clean
+    one; the answer must be the per-motion test's, whatever the slab."""
+    from trajectory.generalize import MARGIN, _payload_test
+    rows = np.array([[*a1, *a2, *b1, *b2] for a1, a2, b1, b2 in motions], dtype=float)
+    each = payload_motions_fail(rows[:, 0:2], rows[:, 2:4], rows[:, 4:6], rows[:, 6:8],
+                                payload_scene.workspace.shrunk(MARGIN), *payload_scene.payload.length_sq_band)
+    assert _payload_test(payload_scene, 1, [0, 1])(rows) is bool(each.all())
+
+
 # ---------------------------------------------------------------------------- pre-check
 
 
