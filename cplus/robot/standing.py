@@ -1,0 +1,313 @@
+"""Planning for a standing goal on one solver per run, within a budget.
+
+A server keeps a robot working towards a *standing goal* ("nothing pending") while requests
+re-open it. Every request and cancellation means a re-plan, and a re-plan must be quick:
+:meth:`OnlineModel.plan` builds a fresh solver each time (encoding every step again), and the
+shortest plan for many requests at once is a hard search. This module answers both:
+
+* **One solver per run.** :class:`StandingPlanner` instantiates the step templates once, up
+  to the longest horizon needed so far (extended on demand), with every event false at every
+  step. A state is a set of assumptions at step 0, and "the goal holds at some step ``j <= m``"
+  is one activation literal per ``m``. A re-plan is solving with those assumptions, and what
+  the solver learned about the domain in earlier cycles stays. Reaching the goal "at some step
+  up to ``m``" is monotone in ``m``, so the shortest horizon is found by a galloping search
+  from a hint (the previous plan's length) instead of trying every horizon from 0. The steps
+  after a plan's end belong to the horizon too: this assumes that from every state the robot
+  can reach, some step is possible (in a domain where doing nothing is always possible, as
+  with inertial fluents and no law that forces an action, that holds).
+* **A budget, then the goals in order.** The shortest plan for the whole goal is searched
+  with a budget of solver conflicts (deterministic, unlike a time limit). Within it, the
+  plan is the shortest. When the budget runs out (many requests in flight), the plan serves
+  the *oldest open goal* first: the shortest plan that closes it, exactly. Such a plan is
+  *partial* (:attr:`Plan.partial`): the online loop plans again when it has been carried out,
+  and the next plan again tries the whole goal first. Goals are closed in the order they
+  arrived, each by a shortest plan; nothing is starved.
+
+What a goal is comes from the caller: ``agenda()`` returns the open goals oldest first, each
+as the literal that says it is done (``pending(3)`` false). Without an agenda the planner
+only ever plans for the whole goal, exactly (no budget).
+
+>>> from cplus.api import Domain
+>>> from cplus.robot.estimation import OnlineModel, Roles
+>>> d = Domain.from_text('''
+... :- constants lit :: inertialFluent; flip, kick :: exogenousAction.
+... flip causes lit.  kick causes -lit.
+... :- query label :: on; maxstep :: 0..3; 0: -lit; maxstep: lit.''')
+>>> m = StandingModel(d, "on", Roles.of(d, observed=["kick"]))
+>>> s0 = m.initial_state().state
+>>> m.plan(s0).texts()
+[['flip']]
+>>> m.plan(m.estimate(s0, m.plan(s0).steps[0]).state).texts()
+[]
+"""
+from __future__ import annotations
+
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+
+from cplus.history import History
+from cplus.robot.estimation import OnlineModel, Plan, Roles, State
+from cplus.sat.horizon import QuerySession
+from cplus.sat.solver import DEFAULT_SOLVER
+from cplus.signature import GroundConst
+
+__all__ = ["DEFAULT_BUDGET", "GoalLiteral", "PlannerStats", "StandingModel", "StandingPlanner"]
+
+DEFAULT_BUDGET = 4000
+"""Solver conflicts for the shortest plan of the whole goal, per re-plan."""
+
+
+@dataclass(frozen=True)
+class GoalLiteral:
+    """One open goal of the agenda: it is done when ``gc`` has ``value`` (``pending(3)`` false)."""
+
+    gc: GroundConst
+    value: object
+
+
+@dataclass
+class PlannerStats:
+    """What the last :meth:`StandingPlanner.plan` did: solver calls, conflicts, how the plan was
+    found (``"shortest"``: the whole goal, proved shortest; ``"oldest goal"``: the budget ran
+    out, and the plan is the shortest that closes the oldest open goal), and its length."""
+
+    calls: int = 0
+    conflicts: int = 0
+    how: str = ""
+    length: int = 0
+    seconds: float = 0.0
+
+
+class _Session(QuerySession):
+    """A query session whose goal literal for horizon ``m`` is kept (not retired) and that
+    never retires earlier horizons: any of them can be asked again."""
+
+    def goal_at(self, m: int) -> int:
+        self._add_items(m)
+        assert self.act is not None
+        return self.act
+
+
+class StandingPlanner:
+    """Shortest plans from the states of one run, on one incremental solver.
+
+    Args:
+        model: the run's model (its theory, templates, roles and goal query).
+        budget: solver conflicts allowed for the whole goal per plan (None: no limit, always
+            the shortest plan).
+        horizon: steps to encode at once (default: up to 20, or the goal's maxstep range);
+            more are added when a plan needs them.
+    """
+
+    def __init__(self, model: OnlineModel, budget: int | None = DEFAULT_BUDGET, horizon: int | None = None) -> None:
+        self.model = model
+        self.budget = budget
+        self.hi = model.goal_query.hi if model.goal_query.hi is not None else 0
+        self.session = _Session(model.theory, model.goal_query, model.solver, templates=model.templates)
+        self.h = self.session.horizon
+        self.solver = self.h.solver
+        atoms = model.atoms
+        agent = model.roles.agent
+        self._action_gcs = sorted([gc for gc in model.domain.program.signature.ground
+                                   if gc in agent or (gc.decl.kind == "attribute" and any(
+                                       p.decl is gc.decl.parent and gc.args[:p.decl.arity] == p.args
+                                       for p in agent))], key=lambda g: g.id)
+        self._events = [aid for gc in sorted(model.roles.events, key=lambda g: g.id)
+                        for aid, v in atoms.head_lits(gc) if v not in ("false", "none") and aid > 0]
+        self._forbidden = 0               # transitions whose events are forbidden
+        self._goal: dict[int, int] = {}   # m -> the goal holds at step m (guarded)
+        self._reach: dict[tuple[object, int], int] = {}   # (goal key, m) -> done at some step <= m
+        self._last: dict[object, int] = {}                 # goal key -> length of its last plan
+        self.stats = PlannerStats()
+        self.extend(min(self.hi, 20) if horizon is None else min(horizon, self.hi))
+
+    # ------------------------------------------------------------------ the encoding
+    def extend(self, m: int) -> None:
+        """Encode the steps up to ``m`` (only upwards), events false at every transition."""
+        h = self.h
+        h.extend_to(m)
+        add = self.solver.add_clause
+        while self._forbidden < h.m:
+            t = self._forbidden
+            for aid in self._events:
+                add([-h.var(aid, t)])
+            self._forbidden += 1
+
+    def _goal_at(self, m: int) -> int:
+        lit = self._goal.get(m)
+        if lit is None:
+            self.extend(m)
+            lit = self._goal[m] = self.session.goal_at(m)
+        return lit
+
+    def _done_at(self, key: object, t: int) -> int:
+        """The literal: goal ``key`` (None: the whole goal, or a :class:`GoalLiteral`) holds at step t."""
+        if key is None:
+            return self._goal_at(t)
+        assert isinstance(key, GoalLiteral)
+        self.extend(t)
+        return self.model._lit(self.h, key.gc, key.value, t)
+
+    def _reached(self, key: object, m: int) -> int:
+        """An assumption literal: goal ``key`` holds at some step ``j <= m``."""
+        lit = self._reach.get((key, m))
+        if lit is None:
+            clause = [self._done_at(key, j) for j in range(m + 1)]
+            lit = self.h.new_var()
+            self.solver.add_clause([-lit] + clause)
+            self._reach[(key, m)] = lit
+        return lit
+
+    # ------------------------------------------------------------------ search
+    def _solve(self, assumptions: list[int], budget: list[int] | None) -> bool | None:
+        self.stats.calls += 1
+        if budget is None:
+            return self.solver.solve(assumptions)
+        if budget[0] <= 0:
+            return None
+        before = self.solver.conflicts
+        ok = self.solver.solve_limited(assumptions, budget[0])
+        used = self.solver.conflicts - before
+        budget[0] -= used
+        self.stats.conflicts += used
+        return ok
+
+    def _shortest(self, start: list[int], key: object, lo: int, budget: list[int] | None) -> int | None:
+        """The least ``m`` in ``lo..hi`` at which goal ``key`` is reached from ``start``, leaving
+        that horizon's model in the solver; None when there is none, or when the budget ran
+        out first. Horizons below ``lo`` are known not to reach it.
+
+        Reaching the goal at some step up to ``m`` is monotone in ``m``: the search gallops
+        from the hint (the last answer for this goal) down or up, then halves the gap. When
+        the hint is still right, that is two solver calls."""
+        if lo > self.hi:
+            return None
+        model_at: list[int | None] = [None]
+
+        def reaches(m: int) -> bool | None:
+            ok = self._solve(start + [self._reached(key, m)], budget)
+            model_at[0] = m if ok else None
+            return ok
+
+        bad, good = lo - 1, max(lo, min(self._last.get(key, lo), self.hi))
+        ok = reaches(good)
+        if ok is None:
+            return None
+        step = 1
+        if ok:                                    # gallop down from the hint...
+            while good - bad > 1:
+                m = max(bad + 1, good - step)
+                ok = reaches(m)
+                if ok is None:
+                    return None
+                if not ok:
+                    bad = m
+                    break
+                good, step = m, step * 2
+        else:                                     # ...or up
+            bad = good
+            while True:
+                if bad >= self.hi:
+                    return None
+                m = min(self.hi, bad + step)
+                ok = reaches(m)
+                if ok is None:
+                    return None
+                if ok:
+                    good = m
+                    break
+                bad, step = m, step * 2
+        while good - bad > 1:                     # halve the gap
+            mid = (bad + good) // 2
+            ok = reaches(mid)
+            if ok is None:
+                return None
+            if ok:
+                good = mid
+            else:
+                bad = mid
+        if model_at[0] != good and not reaches(good):
+            raise AssertionError("reaching the goal is not monotone in the horizon")  # pragma: no cover
+        self._last[key] = good
+        return good
+
+    def plan(self, state: State, agenda: Sequence[GoalLiteral] = ()) -> Plan | None:
+        """The shortest plan from ``state`` to the goal; with an ``agenda`` (open goals, oldest
+        first) and a budget, the shortest plan that closes the oldest goal when the whole one
+        takes longer to find. None when no plan exists within the goal's maxstep range (for
+        the oldest goal, with an agenda)."""
+        t0 = time.perf_counter()
+        self.stats = PlannerStats()
+        start = self.model._state_lits(self.h, state, 0)
+        open_goals = [g for g in agenda if state.get(g.gc) != g.value]
+        if not open_goals or self.budget is None:
+            m = self._shortest(start, None, 0, None)
+            if m is None:
+                return None
+            plan = self._read(self._first(None, m), partial=False)
+            self.stats.how = "shortest"
+        else:
+            first = open_goals[0]
+            lo = self._shortest(start, first, 0, None)     # a lower bound, and the fallback
+            if lo is None:
+                return None
+            plan = self._read(self._first(first, lo), partial=True)
+            m = self._shortest(start, None, lo, [self.budget])
+            if m is not None:
+                plan = self._read(self._first(None, m), partial=False)
+                self.stats.how = "shortest"
+            else:
+                end = plan.states[-1]
+                plan.partial = any(end.get(g.gc) != g.value for g in open_goals[1:]) or not self._holds(end)
+                self.stats.how = "oldest goal"
+        self.stats.length = plan.length
+        self.stats.seconds = plan.seconds = time.perf_counter() - t0
+        return plan
+
+    def _first(self, key: object, m: int) -> int:
+        """The first step at which goal ``key`` holds in the current model (at most ``m``)."""
+        value = self.solver.value
+        for j in range(m + 1):
+            lit = self._done_at(key, j)
+            if (value(lit) if lit > 0 else not value(-lit)):
+                return j
+        return m
+
+    def _holds(self, state: State) -> bool:
+        """Does the whole goal hold in ``state`` (a plan of length 0)?"""
+        return bool(self.solver.solve(self.model._state_lits(self.h, state, 0) + [self._goal_at(0)]))
+
+    def _read(self, j: int, partial: bool) -> Plan:
+        """The plan of the solver's current model, steps 0..j-1: the states and the agent's
+        actions with their attributes (events are false in every plan)."""
+        model, h = self.model, self.h
+        states = [model._read_state(h, t) for t in range(j + 1)]
+        tables = [{gc: self._value(gc, t) for gc in self._action_gcs} for t in range(j)]
+        rigid = {gc: v for gc, v in states[0].items() if gc.decl.kind == "rigid"}
+        history = History(j, rigid, tuple({gc: v for gc, v in st.items() if gc not in rigid} for st in states),
+                          tuple(tables))
+        return Plan([model.acts(table) for table in tables], states, history, partial=partial)
+
+    def _value(self, gc: GroundConst, t: int) -> object:
+        value, var = self.solver.value, self.h.var
+        pairs = self.model.atoms.head_lits(gc)
+        if gc.boolean:
+            return "true" if value(var(pairs[0][0], t)) else "false"
+        return next((v for aid, v in pairs if value(var(aid, t))), "none")
+
+
+class StandingModel(OnlineModel):
+    """An :class:`OnlineModel` whose plans come from a :class:`StandingPlanner`: one solver for
+    the whole run, a budget for the shortest plan, and the open goals (``agenda()``) in order
+    when the budget runs out."""
+
+    def __init__(self, domain, goal: str, roles: Roles, *, solver: str = DEFAULT_SOLVER,
+                 max_horizon: int | None = None, budget: int | None = DEFAULT_BUDGET,
+                 agenda: Callable[[], Sequence[GoalLiteral]] | None = None, horizon: int | None = None) -> None:
+        super().__init__(domain, goal, roles, solver=solver, max_horizon=max_horizon)
+        self.agenda = agenda or (lambda: ())
+        self.planner = StandingPlanner(self, budget, horizon)
+
+    def plan(self, state: State) -> Plan | None:
+        return self.planner.plan(state, self.agenda())
