@@ -54,7 +54,10 @@ def build_parser() -> OneLineArgumentParser:
                    help="simulated robot: how long each action takes (default 0.5)")
     p.add_argument("--budget", type=nonneg, metavar="CONFLICTS",
                    help="solver conflicts for the shortest plan of every goal at once, per re-plan; beyond it the "
-                        "oldest goal is served first (default 4000; 0: always the oldest goal first)")
+                        "oldest goal is served first (default 500; 0: always the oldest goal first)")
+    p.add_argument("--horizon", type=nonneg, metavar="STEPS",
+                   help="steps the planner encodes when the server starts, so that the first long plans need no "
+                        "encoding (default 20; more are added when a plan needs them)")
     p.add_argument("--max-horizon", type=nonneg, metavar="N",
                    help="longest plan when the goal's maxstep range is open (default 40)")
     p.add_argument("--no-latency", action="store_true",
@@ -196,7 +199,7 @@ def _run(args, domain, label, vocabulary, requests_path, script, binding, ports,
     observers: list = [] if args.quiet else [ServeProgress(err, "cplus serve")]
     server = Server(domain, vocabulary, goal=label, binding=binding, executor=executor,
                     action_time=args.action_time, budget=DEFAULT_BUDGET if args.budget is None else args.budget,
-                    max_horizon=args.max_horizon, solver=args.solver, observers=observers)
+                    max_horizon=args.max_horizon, horizon=args.horizon, solver=args.solver, observers=observers)
     if log_file is not None:
         extra = {"requests": requests_path, "accepts": vocabulary.usage(), "binding": args.robot}
         server.loop.observers.append(ServeLog(log_file, server.board, extra))

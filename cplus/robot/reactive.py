@@ -89,19 +89,23 @@ class Server:
         executor: the robot, or a function that makes it from the server's model (default: a
             simulated robot whose actions take ``action_time`` seconds).
         budget: solver conflicts for the shortest plan per re-plan (None: always the shortest).
+        horizon: steps the planner encodes when the server starts (more are added when a plan
+            needs them; default 20).
         observers: more observers of the loop (progress lines, the log).
     """
 
     def __init__(self, domain, vocabulary: RequestVocabulary, *, goal: str | None = None, binding=None,
                  executor: Executor | Callable[[StandingModel], Executor] | None = None, action_time: float = 0.0, budget: int | None = DEFAULT_BUDGET,
-                 max_horizon: int | None = None, solver: str | None = None, clock: Clock = MONOTONIC,
+                 max_horizon: int | None = None, horizon: int | None = None, solver: str | None = None,
+                 clock: Clock = MONOTONIC,
                  observers: Iterable[Observer] = (), idle_poll_s: float = 0.05) -> None:
         self.domain = domain
         self.vocabulary = vocabulary
         self.board = GoalBoard(vocabulary)
         label = goal or domain.labels[0]
         self.model = StandingModel(domain, label, serve_roles(domain, vocabulary, binding), max_horizon=max_horizon,
-                                   budget=budget, agenda=self.board.agenda, solver=solver or DEFAULT_SOLVER)
+                                   budget=budget, agenda=self.board.agenda, solver=solver or DEFAULT_SOLVER,
+                                   horizon=horizon)
         if executor is None:
             from cplus.robot.executors import SimulatedExecutor
             executor = SimulatedExecutor(self.model, default_s=action_time, clock=clock)

@@ -54,7 +54,7 @@ from cplus.signature import GroundConst
 
 __all__ = ["DEFAULT_BUDGET", "GoalLiteral", "PlannerStats", "StandingModel", "StandingPlanner"]
 
-DEFAULT_BUDGET = 4000
+DEFAULT_BUDGET = 500
 """Solver conflicts for the shortest plan of the whole goal, per re-plan."""
 
 
@@ -70,13 +70,17 @@ class GoalLiteral:
 class PlannerStats:
     """What the last :meth:`StandingPlanner.plan` did: solver calls, conflicts, how the plan was
     found (``"shortest"``: the whole goal, proved shortest; ``"oldest goal"``: the budget ran
-    out, and the plan is the shortest that closes the oldest open goal), and its length."""
+    out, and the plan is the shortest that closes the oldest open goal), its length, the time
+    spent solving and encoding new steps, and the steps encoded afterwards."""
 
     calls: int = 0
     conflicts: int = 0
     how: str = ""
     length: int = 0
     seconds: float = 0.0
+    solve_s: float = 0.0
+    encode_s: float = 0.0
+    encoded: int = 0
 
 
 class _Session(QuerySession):
@@ -119,6 +123,7 @@ class StandingPlanner:
         self._goal: dict[int, int] = {}   # m -> the goal holds at step m (guarded)
         self._reach: dict[tuple[object, int], int] = {}   # (goal key, m) -> done at some step <= m
         self._last: dict[object, int] = {}                 # goal key -> length of its last plan
+        self._hard = 1 << 30      # open goals for which the whole goal could not be found in the budget
         self.stats = PlannerStats()
         self.extend(min(self.hi, 20) if horizon is None else min(horizon, self.hi))
 
@@ -126,6 +131,9 @@ class StandingPlanner:
     def extend(self, m: int) -> None:
         """Encode the steps up to ``m`` (only upwards), events false at every transition."""
         h = self.h
+        if m <= h.m:
+            return
+        t0 = time.perf_counter()
         h.extend_to(m)
         add = self.solver.add_clause
         while self._forbidden < h.m:
@@ -133,6 +141,7 @@ class StandingPlanner:
             for aid in self._events:
                 add([-h.var(aid, t)])
             self._forbidden += 1
+        self.stats.encode_s += time.perf_counter() - t0
 
     def _goal_at(self, m: int) -> int:
         lit = self._goal.get(m)
@@ -162,26 +171,31 @@ class StandingPlanner:
     # ------------------------------------------------------------------ search
     def _solve(self, assumptions: list[int], budget: list[int] | None) -> bool | None:
         self.stats.calls += 1
+        t0 = time.perf_counter()
         if budget is None:
-            return self.solver.solve(assumptions)
-        if budget[0] <= 0:
+            ok = self.solver.solve(assumptions)
+        elif budget[0] <= 0:
             return None
-        before = self.solver.conflicts
-        ok = self.solver.solve_limited(assumptions, budget[0])
-        used = self.solver.conflicts - before
-        budget[0] -= used
-        self.stats.conflicts += used
+        else:
+            before = self.solver.conflicts
+            ok = self.solver.solve_limited(assumptions, budget[0])
+            used = self.solver.conflicts - before
+            budget[0] -= used
+            self.stats.conflicts += used
+        self.stats.solve_s += time.perf_counter() - t0
         return ok
 
-    def _shortest(self, start: list[int], key: object, lo: int, budget: list[int] | None) -> int | None:
-        """The least ``m`` in ``lo..hi`` at which goal ``key`` is reached from ``start``, leaving
-        that horizon's model in the solver; None when there is none, or when the budget ran
-        out first. Horizons below ``lo`` are known not to reach it.
+    def _shortest(self, start: list[int], key: object, lo: int, budget: list[int] | None,
+                  top: int | None = None) -> int | None:
+        """The least ``m`` in ``lo..top`` (default: the goal's maxstep) at which goal ``key`` is
+        reached from ``start``, leaving that horizon's model in the solver; None when there is
+        none, or when the budget ran out first. Horizons below ``lo`` are known not to reach it.
 
         Reaching the goal at some step up to ``m`` is monotone in ``m``: the search gallops
-        from the hint (the last answer for this goal) down or up, then halves the gap. When
-        the hint is still right, that is two solver calls."""
-        if lo > self.hi:
+        from the hint (the last answer for this goal, or for the last goal) down or up, then
+        halves the gap. When the hint is still right, that is two solver calls."""
+        hi = self.hi if top is None else min(top, self.hi)
+        if lo > hi:
             return None
         model_at: list[int | None] = [None]
 
@@ -190,7 +204,7 @@ class StandingPlanner:
             model_at[0] = m if ok else None
             return ok
 
-        bad, good = lo - 1, max(lo, min(self._last.get(key, lo), self.hi))
+        bad, good = lo - 1, max(lo, min(self._last.get(key, self._last.get("any", lo)), hi))
         ok = reaches(good)
         if ok is None:
             return None
@@ -208,9 +222,9 @@ class StandingPlanner:
         else:                                     # ...or up
             bad = good
             while True:
-                if bad >= self.hi:
+                if bad >= hi:
                     return None
-                m = min(self.hi, bad + step)
+                m = min(hi, bad + step)
                 ok = reaches(m)
                 if ok is None:
                     return None
@@ -230,6 +244,8 @@ class StandingPlanner:
         if model_at[0] != good and not reaches(good):
             raise AssertionError("reaching the goal is not monotone in the horizon")  # pragma: no cover
         self._last[key] = good
+        if key is not None:
+            self._last["any"] = good
         return good
 
     def plan(self, state: State, agenda: Sequence[GoalLiteral] = ()) -> Plan | None:
@@ -253,8 +269,15 @@ class StandingPlanner:
             if lo is None:
                 return None
             plan = self._read(self._first(first, lo), partial=True)
-            m = self._shortest(start, None, lo, [self.budget])
+            # the whole goal within the budget, on the steps encoded so far; not tried again
+            # for as many open goals as the last time it could not be found
+            m = None
+            if len(open_goals) < self._hard:
+                m = self._shortest(start, None, lo, [self.budget], top=self.h.m)
+                if m is None:
+                    self._hard = len(open_goals)
             if m is not None:
+                self._hard = max(self._hard, len(open_goals) + 1)
                 plan = self._read(self._first(None, m), partial=False)
                 self.stats.how = "shortest"
             else:
@@ -262,6 +285,7 @@ class StandingPlanner:
                 plan.partial = any(end.get(g.gc) != g.value for g in open_goals[1:]) or not self._holds(end)
                 self.stats.how = "oldest goal"
         self.stats.length = plan.length
+        self.stats.encoded = self.h.m
         self.stats.seconds = plan.seconds = time.perf_counter() - t0
         return plan
 

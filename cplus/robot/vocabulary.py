@@ -318,8 +318,8 @@ class _Reader:
             raise self.fail(path, f"{self.domain.path} has no {want} {name}/{len(args)} "
                             f"({want}s: {', '.join(known) or 'none'})")
         if want == "fluent" and not (decl.is_fluent and self.sig.objects_of(decl.domain) == ("true", "false")):
-            raise self.fail(path, f"{name} must be a Boolean fluent (true while the goal is open), not a "
-                            f"{decl.kind}")
+            raise self.fail(path, f"{name} must be a Boolean fluent (true while the goal is open), not "
+                            f"{_article(decl.kind)} {decl.kind} of {', '.join(map(str, self.sig.objects_of(decl.domain)))}")
         if want == "event" and decl.kind not in ("exogenousAction", "action"):
             raise self.fail(path, f"{name} is {_article(decl.kind)} {decl.kind}, not an event (an exogenous action)")
         if want == "event" and self.sig.objects_of(decl.domain) != ("true", "false"):
