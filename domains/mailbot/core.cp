@@ -3,10 +3,11 @@
 % neighbouring offices, picks up mail packages and delivers them, carrying up to `capacity`
 % at a time.  Requests and cancellations are events.
 %
-% Include it after defining the macros `capacity` (packages on board at most), `slots`
-% (requests in flight at most), the objects of the sort `office` and the macro
-% `next(#1,#2)`, true when office #2 is the neighbour of office #1 on the way up the corridor
-% (see mailbot.cp).
+% Include it after declaring the sort `office` and its objects, and the macros `capacity`
+% (packages on board at most), `slots` (requests in flight at most) and `next(#1,#2)`, true
+% when office #2 is the neighbour of office #1 up the corridor (see mailbot.cp).  Which
+% actions are the robot's and which are events is not said here: `cplus serve` takes the
+% events of requests and cancellations from requests.toml, the rest are the robot's.
 
 :- sorts
   package; phase.

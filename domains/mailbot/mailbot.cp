@@ -1,6 +1,8 @@
 % ROSoClingo's mail-delivery case study: four offices in a row, the robot in front of office1,
-% up to three packages on board.  The rules are in core.cp; requests and cancellations come
-% from `cplus serve` (see README.md beside this file).
+% up to three packages on board, up to three requests in flight.  The rules are in core.cp;
+% requests and cancellations come from `cplus serve` (README.md beside this file):
+%
+%     cplus serve domains/mailbot/mailbot.cp --script domains/mailbot/table1.jsonl
 
 :- sorts
   office.
@@ -11,8 +13,13 @@
 :- macros
   capacity -> 3;
   slots -> 3;
-  next(#1,#2) -> ((#1 == office1 & #2 == office2) ++ (#1 == office2 & #2 == office3)
-                  ++ (#1 == office3 & #2 == office4)).
+  % office #2 is next to office #1, up the corridor
+  next(#1,#2) ->
+   (
+       (#1 == office1 & #2 == office2)
+    ++ (#1 == office2 & #2 == office3)
+    ++ (#1 == office3 & #2 == office4)
+   ).
 
 :- include 'core.cp'.
 
