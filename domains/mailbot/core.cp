@@ -1,13 +1,13 @@
 % The mail robot of ROSoClingo's case study (Andres et al., "ROSoClingo: a ROS package for
-% ASP-based robot control"), in C+: offices in a corridor, a robot that moves between
-% neighbouring offices, picks up mail packages and delivers them, carrying up to `capacity`
-% at a time.  Requests and cancellations are events.
+% ASP-based robot control"), in C+: offices in a corridor, a robot that moves between the
+% offices, picks up mail packages and delivers them, carrying up to `capacity` at a time.
+% Requests and cancellations are events.
 %
 % Include it after declaring the sort `office` and its objects, and the macros `capacity`
-% (packages on board at most), `slots` (requests in flight at most) and `next(#1,#2)`, true
-% when office #2 is the neighbour of office #1 up the corridor (see mailbot.cp).  Which
-% actions are the robot's and which are events is not said here: `cplus serve` takes the
-% events of requests and cancellations from requests.toml, the rest are the robot's.
+% (packages on board at most) and `slots` (requests in flight at most); then say how the
+% robot moves between offices (moves.cp: from office to office; line.cp: along a line).
+% Which actions are the robot's and which are events is not said here: `cplus serve` takes
+% the events of requests and cancellations from requests.toml, the rest are the robot's.
 
 :- sorts
   package; phase.
@@ -28,8 +28,7 @@
   dest(package)                :: inertialFluent(office*);   % where it is to be delivered
   load                         :: inertialFluent(0..capacity);
   pending(package)             :: sdFluent;                  % the request is not done yet
-  % the robot's actions
-  move(office)                 :: exogenousAction;           % to a neighbouring office
+  % the robot's actions (how it moves is up to the file that includes this one)
   pickup(package)              :: exogenousAction;
   deliver(package)             :: exogenousAction;
   % events: a request to deliver package P from office O (request(P,O) and address(P,O1)
@@ -40,10 +39,6 @@
 
 caused pending(P) if -phase(P)=idle.
 default -pending(P).
-
-% Moving along the corridor, one office at a time.
-move(O) causes at=O.
-nonexecutable move(O) if at=O1 where -(next(O1,O) ++ next(O,O1)).
 
 % Picking up at the origin, delivering at the destination, at most `capacity` on board.
 pickup(P) causes phase(P)=carried.
@@ -58,9 +53,6 @@ nonexecutable deliver(P) if -phase(P)=carried.
 nonexecutable deliver(P) if dest(P)=O & -at=O.
 
 % One action at a time.
-nonexecutable move(O) & move(O1) where O @< O1.
-nonexecutable move(O) & pickup(P).
-nonexecutable move(O) & deliver(P).
 nonexecutable pickup(P) & pickup(P1) where P < P1.
 nonexecutable deliver(P) & deliver(P1) where P < P1.
 nonexecutable pickup(P) & deliver(P1).

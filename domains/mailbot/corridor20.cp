@@ -35,7 +35,7 @@
     ++ (#1 == office19 & #2 == office20)
    ).
 
-:- include 'core.cp'.
+:- include 'core.cp'; 'moves.cp'.
 
 % The standing goal: nothing pending.  The robot starts at office1 with nothing to do.  A plan
 % may be long: ten requests at opposite ends of the corridor.

@@ -21,7 +21,7 @@
     ++ (#1 == office3 & #2 == office4)
    ).
 
-:- include 'core.cp'.
+:- include 'core.cp'; 'moves.cp'.
 
 % The standing goal: nothing pending.  The robot starts at office1 with nothing to do.
 :- query
