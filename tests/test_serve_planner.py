@@ -143,3 +143,22 @@ def test_a_run_grounds_once_and_encodes_each_step_once(mailbot, monkeypatch):
     # and the simulated world's (none: it never needs one without surprises)
     assert calls["ground"] == 1 and calls["templates"] == 1
     assert calls["horizons"] == 3
+
+
+@settings(deadline=None, max_examples=25)
+@given(budget=st.integers(min_value=0, max_value=60_000),
+       requests=st.lists(st.tuples(office, office), min_size=2, max_size=3))
+def test_whatever_the_budget_the_plan_is_the_shortest_or_closes_the_oldest_goal(mailbot, budget, requests):
+    d, v, fresh, _ = mailbot
+    state = state_after(fresh, requests, [])
+    agenda = [GoalLiteral(v.open_fluent(i), "false", i) for i in range(1, len(requests) + 1)]
+    model = StandingModel(d, "serve", serve_roles(d, v), budget=budget)
+    for _ in range(2):                            # the second time, with what the first one learned
+        plan = model.planner.plan(state, agenda)
+        end = plan.states[-1]
+        assert end.value("pending(1)") == "false"
+        if plan.partial:
+            assert model.planner.stats.how == "oldest goal"
+            assert any(end.value(f"pending({i})") == "true" for i in range(2, len(requests) + 1))
+        else:
+            assert plan.length == fresh.plan(state).length

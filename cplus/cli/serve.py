@@ -52,9 +52,10 @@ def build_parser() -> OneLineArgumentParser:
     p.add_argument("--log", metavar="FILE", help="write the run as JSON lines (cplus.online/1, with goals)")
     p.add_argument("--action-time", type=_seconds, default=0.5, metavar="SECONDS",
                    help="simulated robot: how long each action takes (default 0.5)")
-    p.add_argument("--budget", type=nonneg, metavar="CONFLICTS",
-                   help="solver conflicts for the shortest plan of every goal at once, per re-plan; beyond it the "
-                        "oldest goal is served first (default 500; 0: always the oldest goal first)")
+    p.add_argument("--budget", type=nonneg, metavar="PROPAGATIONS",
+                   help="the solver's unit propagations for the shortest plan of every goal at once, per re-plan; "
+                        "beyond it the oldest goal is served first (default 250000, some 20 ms; 0: always the oldest "
+                        "goal first)")
     p.add_argument("--horizon", type=nonneg, metavar="STEPS",
                    help="steps the planner encodes when the server starts, so that the first long plans need no "
                         "encoding (default 20; more are added when a plan needs them)")

@@ -229,7 +229,7 @@ class GoalBoard(EventSource, Observer):
         """The goals in flight, oldest first, each as the literal that says it is done."""
         with self._lock:
             live = sorted((g for g in self._holder.values()), key=lambda g: g.id)
-            return [GoalLiteral(self.vocabulary.open_fluent(g.slot), "false") for g in live]
+            return [GoalLiteral(self.vocabulary.open_fluent(g.slot), "false", g.id) for g in live]
 
     # ------------------------------------------------------------------ EventSource
     def poll(self, cycle: int) -> list[str]:

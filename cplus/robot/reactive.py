@@ -88,7 +88,7 @@ class Server:
         binding: a ``robot.toml`` (:class:`~cplus.robot.binding.RobotBinding`), for the roles.
         executor: the robot, or a function that makes it from the server's model (default: a
             simulated robot whose actions take ``action_time`` seconds).
-        budget: solver conflicts for the shortest plan per re-plan (None: always the shortest).
+        budget: unit propagations for the shortest plan per re-plan (None: always the shortest).
         horizon: steps the planner encodes when the server starts (more are added when a plan
             needs them; default 20).
         observers: more observers of the loop (progress lines, the log).

@@ -9,19 +9,23 @@ shortest plan for many requests at once is a hard search. This module answers bo
   to the longest horizon needed so far (extended on demand), with every event false at every
   step. A state is a set of assumptions at step 0, and "the goal holds at some step ``j <= m``"
   is one activation literal per ``m``. A re-plan is solving with those assumptions, and what
-  the solver learned about the domain in earlier cycles stays. Reaching the goal "at some step
-  up to ``m``" is monotone in ``m``, so the shortest horizon is found by a galloping search
-  from a hint (the previous plan's length) instead of trying every horizon from 0. The steps
-  after a plan's end belong to the horizon too: this assumes that from every state the robot
-  can reach, some step is possible (in a domain where doing nothing is always possible, as
-  with inertial fluents and no law that forces an action, that holds).
+  the solver learned about the domain in earlier cycles stays. Reaching the goal by step ``m``
+  is monotone in ``m``, so the shortest horizon is found by galloping from a hint (the last
+  plan's length for that goal, less the steps executed since: two solver calls when it is
+  still right) and halving, instead of trying every horizon from 0. The steps after a plan's
+  end belong to the encoding too: this assumes that from every state the robot can reach,
+  some step is possible (in a domain where doing nothing is always possible, as with
+  inertial fluents and no law that forces an action, that holds).
 * **A budget, then the goals in order.** The shortest plan for the whole goal is searched
-  with a budget of solver conflicts (deterministic, unlike a time limit). Within it, the
-  plan is the shortest. When the budget runs out (many requests in flight), the plan serves
-  the *oldest open goal* first: the shortest plan that closes it, exactly. Such a plan is
-  *partial* (:attr:`Plan.partial`): the online loop plans again when it has been carried out,
-  and the next plan again tries the whole goal first. Goals are closed in the order they
-  arrived, each by a shortest plan; nothing is starved.
+  within a budget of unit propagations (a measure of the solver's work that follows time,
+  but gives the same answer on a loaded machine), on the steps encoded so far. Within it,
+  the plan is the shortest. When the budget runs out (many requests in flight), the plan is
+  the shortest one that closes the *oldest open goal*, which is found first anyway (its
+  length bounds the whole goal's from below). Such a plan is *partial*
+  (:attr:`Plan.partial`): the online loop plans again when it has been carried out, and that
+  plan again tries the whole goal first, unless the budget ran out the last time with as
+  many goals open. Goals are closed in the order they arrived, each by a shortest plan;
+  none is starved.
 
 What a goal is comes from the caller: ``agenda()`` returns the open goals oldest first, each
 as the literal that says it is done (``pending(3)`` false). Without an agenda the planner
@@ -54,27 +58,31 @@ from cplus.signature import GroundConst
 
 __all__ = ["DEFAULT_BUDGET", "GoalLiteral", "PlannerStats", "StandingModel", "StandingPlanner"]
 
-DEFAULT_BUDGET = 500
-"""Solver conflicts for the shortest plan of the whole goal, per re-plan."""
+DEFAULT_BUDGET = 250_000
+"""Unit propagations for the shortest plan of the whole goal, per re-plan (some 20 ms of
+solving on the machines this was measured on)."""
 
 
 @dataclass(frozen=True)
 class GoalLiteral:
-    """One open goal of the agenda: it is done when ``gc`` has ``value`` (``pending(3)`` false)."""
+    """One open goal of the agenda: it is done when ``gc`` has ``value`` (``pending(3)`` false).
+    ``tag`` tells goals apart that use the same literal one after the other (a goal id)."""
 
     gc: GroundConst
     value: object
+    tag: object = None
 
 
 @dataclass
 class PlannerStats:
-    """What the last :meth:`StandingPlanner.plan` did: solver calls, conflicts, how the plan was
-    found (``"shortest"``: the whole goal, proved shortest; ``"oldest goal"``: the budget ran
-    out, and the plan is the shortest that closes the oldest open goal), its length, the time
-    spent solving and encoding new steps, and the steps encoded afterwards."""
+    """What the last :meth:`StandingPlanner.plan` did: solver calls, propagations spent on the
+    whole goal, how the plan was found (``"shortest"``: the whole goal, proved shortest;
+    ``"oldest goal"``: the budget ran out, and the plan is the shortest that closes the oldest
+    open goal), its length, the time spent solving and encoding new steps, and the steps
+    encoded afterwards."""
 
     calls: int = 0
-    conflicts: int = 0
+    propagations: int = 0
     how: str = ""
     length: int = 0
     seconds: float = 0.0
@@ -98,7 +106,7 @@ class StandingPlanner:
 
     Args:
         model: the run's model (its theory, templates, roles and goal query).
-        budget: solver conflicts allowed for the whole goal per plan (None: no limit, always
+        budget: unit propagations allowed for the whole goal per plan (None: no limit, always
             the shortest plan).
         horizon: steps to encode at once (default: up to 20, or the goal's maxstep range);
             more are added when a plan needs them.
@@ -122,7 +130,8 @@ class StandingPlanner:
         self._forbidden = 0               # transitions whose events are forbidden
         self._goal: dict[int, int] = {}   # m -> the goal holds at step m (guarded)
         self._reach: dict[tuple[object, int], int] = {}   # (goal key, m) -> done at some step <= m
-        self._last: dict[object, int] = {}                 # goal key -> length of its last plan
+        self._last: dict[object, tuple[int, int]] = {}     # goal key -> (length of its last plan, at step)
+        self.steps = 0            # steps executed in the run (the loop's estimates count them)
         self._hard = 1 << 30      # open goals for which the whole goal could not be found in the budget
         self.stats = PlannerStats()
         self.extend(min(self.hi, 20) if horizon is None else min(horizon, self.hi))
@@ -177,11 +186,11 @@ class StandingPlanner:
         elif budget[0] <= 0:
             return None
         else:
-            before = self.solver.conflicts
+            before = self.solver.propagations
             ok = self.solver.solve_limited(assumptions, budget[0])
-            used = self.solver.conflicts - before
+            used = self.solver.propagations - before
             budget[0] -= used
-            self.stats.conflicts += used
+            self.stats.propagations += used
         self.stats.solve_s += time.perf_counter() - t0
         return ok
 
@@ -192,8 +201,9 @@ class StandingPlanner:
         none, or when the budget ran out first. Horizons below ``lo`` are known not to reach it.
 
         Reaching the goal at some step up to ``m`` is monotone in ``m``: the search gallops
-        from the hint (the last answer for this goal, or for the last goal) down or up, then
-        halves the gap. When the hint is still right, that is two solver calls."""
+        from a hint down or up, then halves the gap. The hint is the length of the last plan
+        for this goal less the steps executed since (when it is still right, that is two solver
+        calls); for a goal not planned for yet, the search halves the steps encoded."""
         hi = self.hi if top is None else min(top, self.hi)
         if lo > hi:
             return None
@@ -204,33 +214,44 @@ class StandingPlanner:
             model_at[0] = m if ok else None
             return ok
 
-        bad, good = lo - 1, max(lo, min(self._last.get(key, self._last.get("any", lo)), hi))
-        ok = reaches(good)
-        if ok is None:
-            return None
-        step = 1
-        if ok:                                    # gallop down from the hint...
-            while good - bad > 1:
-                m = max(bad + 1, good - step)
-                ok = reaches(m)
-                if ok is None:
-                    return None
-                if not ok:
-                    bad = m
-                    break
-                good, step = m, step * 2
-        else:                                     # ...or up
-            bad = good
-            while True:
-                if bad >= hi:
-                    return None
-                m = min(hi, bad + step)
-                ok = reaches(m)
-                if ok is None:
-                    return None
-                if ok:
-                    good = m
-                    break
+        last = self._last.get(key)
+        if last is not None and last[0] - (self.steps - last[1]) < lo:
+            last = None                           # that plan is over: no hint
+        bad, step = lo - 1, 1
+        if last is None:                          # a goal not planned for yet: the steps encoded, then up
+            good = max(lo, min(max(lo, self.h.m), hi))
+            ok = reaches(good)
+            if ok is None:
+                return None
+            if not ok:
+                bad, good = good, None
+        else:                                     # gallop from the last answer, down or up
+            good = max(lo, min(last[0] - (self.steps - last[1]), hi))
+            ok = reaches(good)
+            if ok is None:
+                return None
+            if ok:
+                while good - bad > 1:
+                    m = max(bad + 1, good - step)
+                    ok = reaches(m)
+                    if ok is None:
+                        return None
+                    if not ok:
+                        bad = m
+                        break
+                    good, step = m, step * 2
+            else:
+                bad, good = good, None
+        while good is None:
+            if bad >= hi:
+                return None
+            m = min(hi, bad + step)
+            ok = reaches(m)
+            if ok is None:
+                return None
+            if ok:
+                good = m
+            else:
                 bad, step = m, step * 2
         while good - bad > 1:                     # halve the gap
             mid = (bad + good) // 2
@@ -241,11 +262,9 @@ class StandingPlanner:
                 good = mid
             else:
                 bad = mid
-        if model_at[0] != good and not reaches(good):
+        if model_at[0] != good and not self._solve(start + [self._reached(key, good)], None):
             raise AssertionError("reaching the goal is not monotone in the horizon")  # pragma: no cover
-        self._last[key] = good
-        if key is not None:
-            self._last["any"] = good
+        self._last[key] = (good, self.steps)
         return good
 
     def plan(self, state: State, agenda: Sequence[GoalLiteral] = ()) -> Plan | None:
@@ -335,3 +354,9 @@ class StandingModel(OnlineModel):
 
     def plan(self, state: State) -> Plan | None:
         return self.planner.plan(state, self.agenda())
+
+    def estimate(self, state, acts, events=(), sensed=None):
+        """:meth:`OnlineModel.estimate`; each one is a step of the run, so the planner's hints
+        (the lengths of its last plans) can count down."""
+        self.planner.steps += 1
+        return super().estimate(state, acts, events, sensed)

@@ -71,18 +71,19 @@ class SatSolver:
         self._model = self._s.get_model() if ok else None
         return bool(ok)
 
-    def solve_limited(self, assumptions: list[int], conflicts: int) -> bool | None:
-        """:meth:`solve`, giving up after ``conflicts`` conflicts (None: no answer yet). A
-        conflict budget, unlike a time limit, answers the same way on a loaded machine."""
-        self._s.conf_budget(max(1, conflicts))
+    def solve_limited(self, assumptions: list[int], propagations: int) -> bool | None:
+        """:meth:`solve`, giving up after about ``propagations`` unit propagations (None: no
+        answer yet). Propagations measure the solver's work the way time does, but a budget of
+        them gives the same answer on a loaded machine."""
+        self._s.prop_budget(max(1, propagations))
         ok = self._s.solve_limited(assumptions=list(assumptions))
         self._model = self._s.get_model() if ok else None
         return None if ok is None else bool(ok)
 
     @property
-    def conflicts(self) -> int:
-        """Conflicts so far, over every call (what :meth:`solve_limited` budgets)."""
-        return int(self._s.accum_stats().get("conflicts", 0))
+    def propagations(self) -> int:
+        """Unit propagations so far, over every call (what :meth:`solve_limited` budgets)."""
+        return int(self._s.accum_stats().get("propagations", 0))
 
     def value(self, var: int) -> bool:
         """Truth value of a variable in the last model (unassigned counts as false)."""
