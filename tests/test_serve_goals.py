@@ -15,7 +15,7 @@ from cplus.api import Domain
 from cplus.robot.channels import ScriptError, parse_script
 from cplus.robot.goals import GoalStatus, GoalWatcher
 from cplus.robot.online import OnlineStatus
-from cplus.robot.reactive import Server, ServeLog
+from cplus.robot.reactive import ServeLog, Server
 from cplus.robot.vocabulary import Rejected, RequestsError, load_requests, parse_requests
 from nxt_link.clock import VirtualClock
 
