@@ -218,6 +218,7 @@ class StandingPlanner:
         if last is not None and last[0] - (self.steps - last[1]) < lo:
             last = None                           # that plan is over: no hint
         bad, step = lo - 1, 1
+        good: int | None
         if last is None:                          # a goal not planned for yet: the steps encoded, then up
             good = max(lo, min(max(lo, self.h.m), hi))
             ok = reaches(good)
