@@ -82,7 +82,7 @@ def test_an_ambiguous_state_is_exit_6(delivery, capsys):
     text = robot.read_text()
     robot.write_text(text[:text.index("# The follower counts")])
     code, _, err = run([str(delivery), "--simulate"], capsys)
-    assert code == 6 and "ambiguous: the state at cycle 1 is not known: atLandmark in {2, 3}" in err
+    assert code == 7 and "ambiguous: the state at cycle 1 is not known: atLandmark in {2, 3}" in err
 
 
 CONTRA = """
@@ -102,7 +102,7 @@ def test_a_contradiction_is_exit_5_and_names_the_observation(tmp_path, capsys):
     log = tmp_path / "run.jsonl"
     code, _, err = run([str(tmp_path / "d.cp"), "--simulate", "--events", str(tmp_path / "ev.txt"),
                         "--log", str(log)], capsys)
-    assert code == 5
+    assert code == 6
     assert "contradicted: the model cannot explain what was observed at cycle 1: event slam" in err
     end = records(log)[-1]
     assert end["status"] == "contradicted" and end["unexplained"] == ["event slam"]
@@ -166,7 +166,7 @@ def test_no_binding_file_is_one_line(tmp_path, capsys):
 def test_a_brick_that_cannot_be_opened_is_exit_7(delivery, tmp_path, capsys):
     log = tmp_path / "run.jsonl"
     code, _, err = run([str(delivery), "--brick", f"robot={tmp_path / 'rfcomm9'}", "--log", str(log)], capsys)
-    assert code == 7 and "robot_lost: brick robot:" in err
+    assert code == 8 and "robot_lost: brick robot:" in err
     assert [r["record"] for r in records(log)] == ["start", "end"]
 
 
