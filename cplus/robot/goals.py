@@ -238,8 +238,9 @@ class GoalBoard(EventSource, Observer):
         events: list[str] = []
         with self._lock:
             for goal in self._cancels:
-                events.extend(self.vocabulary.cancel_events(goal.slot))
-                goal.cancel_cycle = cycle
+                if not goal.final:                # done meanwhile: its slot may be another's now
+                    events.extend(self.vocabulary.cancel_events(goal.slot))
+                    goal.cancel_cycle = cycle
             self._cancels = []
             while self._queue:
                 slot = self._free_slot()
