@@ -132,6 +132,7 @@ class StandingPlanner:
         self._reach: dict[tuple[object, int], int] = {}   # (goal key, m) -> done at some step <= m
         self._last: dict[object, tuple[int, int]] = {}     # goal key -> (length of its last plan, at step)
         self.steps = 0            # steps executed in the run (the loop's estimates count them)
+        self._lengths: list[int] = []    # the last plans' lengths for single goals
         self._hard = 1 << 30      # open goals for which the whole goal could not be found in the budget
         self.stats = PlannerStats()
         self.extend(min(self.hi, 20) if horizon is None else min(horizon, self.hi))
@@ -201,9 +202,10 @@ class StandingPlanner:
         none, or when the budget ran out first. Horizons below ``lo`` are known not to reach it.
 
         Reaching the goal at some step up to ``m`` is monotone in ``m``: the search gallops
-        from a hint down or up, then halves the gap. The hint is the length of the last plan
+        from a guess down or up, then halves the gap. The guess is the length of the last plan
         for this goal less the steps executed since (when it is still right, that is two solver
-        calls); for a goal not planned for yet, the search halves the steps encoded."""
+        calls); for a goal not planned for yet, the median length of the last plans for single
+        goals (a probe far above the answer costs more than several below it)."""
         hi = self.hi if top is None else min(top, self.hi)
         if lo > hi:
             return None
@@ -218,31 +220,30 @@ class StandingPlanner:
         if last is not None and last[0] - (self.steps - last[1]) < lo:
             last = None                           # that plan is over: no hint
         bad, step = lo - 1, 1
-        good: int | None
-        if last is None:                          # a goal not planned for yet: the steps encoded, then up
-            good = max(lo, min(max(lo, self.h.m), hi))
-            ok = reaches(good)
-            if ok is None:
-                return None
-            if not ok:
-                bad, good = good, None
-        else:                                     # gallop from the last answer, down or up
-            good = max(lo, min(last[0] - (self.steps - last[1]), hi))
-            ok = reaches(good)
-            if ok is None:
-                return None
-            if ok:
-                while good - bad > 1:
-                    m = max(bad + 1, good - step)
-                    ok = reaches(m)
-                    if ok is None:
-                        return None
-                    if not ok:
-                        bad = m
-                        break
-                    good, step = m, step * 2
-            else:
-                bad, good = good, None
+        if last is not None:
+            guess = last[0] - (self.steps - last[1])
+        elif self._lengths:                       # a goal not planned for yet: as long as the last few
+            guess = sorted(self._lengths)[len(self._lengths) // 2]
+        else:
+            guess = self.h.m
+        first = max(lo, min(guess, hi))
+        ok = reaches(first)                       # gallop from the guess, down or up
+        if ok is None:
+            return None
+        good: int | None = None
+        if ok:
+            good = first
+            while good - bad > 1:
+                m = max(bad + 1, good - step)
+                ok = reaches(m)
+                if ok is None:
+                    return None
+                if not ok:
+                    bad = m
+                    break
+                good, step = m, step * 2
+        else:
+            bad = first
         while good is None:
             if bad >= hi:
                 return None
@@ -266,6 +267,8 @@ class StandingPlanner:
         if model_at[0] != good and not self._solve(start + [self._reached(key, good)], None):
             raise AssertionError("reaching the goal is not monotone in the horizon")  # pragma: no cover
         self._last[key] = (good, self.steps)
+        if key is not None:
+            self._lengths = (self._lengths + [good])[-8:]
         return good
 
     def plan(self, state: State, agenda: Sequence[GoalLiteral] = ()) -> Plan | None:
