@@ -22,8 +22,16 @@ MAILBOT = ROOT / "domains" / "mailbot"
 DIST = "/usr/lib/python3/dist-packages"
 MSG_PATH = str(ROOT / "cplus" / "robot" / "ros")
 
-pytestmark = pytest.mark.skipif(shutil.which("roscore") is None or not Path(DIST, "rospy").is_dir(),
-                                reason="ROS 1 is not installed (.ci/run installs it)")
+ROS_INSTALLED = shutil.which("roscore") is not None and Path(DIST, "rospy").is_dir()
+
+
+def test_ros_is_installed_where_it_is_required():
+    """CI sets CPLUS_REQUIRE_ROS=1 after installing ROS: a lost install step fails, not skips."""
+    if os.environ.get("CPLUS_REQUIRE_ROS") == "1":
+        assert ROS_INSTALLED, "CPLUS_REQUIRE_ROS=1 but ROS 1 (roscore, rospy) is not installed"
+
+
+needs_ros = pytest.mark.skipif(not ROS_INSTALLED, reason="ROS 1 is not installed (.ci/run installs it)")
 
 
 def free_port() -> int:
@@ -101,6 +109,7 @@ def client_python() -> list[str]:
     return ["/usr/bin/python3"] if Path("/usr/bin/python3").exists() else [sys.executable]
 
 
+@needs_ros
 def test_an_actionlib_client_sends_hears_cancels_and_gets_results(roscore, tmp_path):
     log = tmp_path / "run.jsonl"
     server = subprocess.Popen([sys.executable, "-m", "cplus", "serve", str(MAILBOT / "mailbot.cp"), "--ros",
