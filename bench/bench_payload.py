@@ -65,10 +65,12 @@ def refine_once(scene: Path, form: str) -> dict:
 
 
 _PHASES = r"""
-import gc, sys, time, json
+import gc, os, sys, time, json
 gc.disable()        # as the command does (cplus.cli.main)
 cpu = time.process_time
 t0 = cpu()
+from cplus.cli import _one_blas_thread
+_one_blas_thread(os.environ)      # as the command does (cplus.cli.run)
 import numpy, shapely
 t1 = cpu()
 from cplus.cli import plan
