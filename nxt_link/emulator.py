@@ -38,6 +38,7 @@ from __future__ import annotations
 import logging
 import random
 from collections import deque
+from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
 
 from nxt_link.firmware import Firmware, FirmwareParams
@@ -46,8 +47,11 @@ from nxt_link.framing import FrameDecoder, frame
 from nxt_link.motor_model import MotorParams
 from nxt_link.stream_protocol import PROGRAM_NAME
 from nxt_link.telegram import Opcode
+from nxt_link.vm.nbc import cached_compile, follower_source
+from nxt_link.vm.program import FollowerView, Symbols, VMProgram
 
-__all__ = ["LinkParams", "FaultParams", "EmulatorConfig", "EmulatorStats", "BrickEmulator"]
+__all__ = ["LinkParams", "FaultParams", "EmulatorConfig", "EmulatorStats", "BrickEmulator",
+           "compiled_follower"]
 
 log = logging.getLogger(__name__)
 
@@ -118,6 +122,13 @@ class EmulatorConfig:
         name: the brick's name (GETDEVICEINFO, log messages).
         program_running: the brick program runs from power-on (as if started
             from the brick's menu); False: the PC must STARTPROGRAM it.
+        flash_files: files in the brick's flash at power-on (name -> bytes),
+            e.g. the compiled ``cplus_follow.rxe`` (:func:`compiled_follower`).
+            Without a compiled ``cplus_follow.rxe`` the firmware runs the
+            Python model of the program.
+        symbols: NBC symbol tables of those programs (name -> text), to read
+            their variables (:attr:`BrickEmulator.program`).
+        start_program: the program that runs from power-on.
         stale_frame_ms: a partial incoming frame with no new byte for this
             long (simulated ms) is discarded.
     """
@@ -129,6 +140,16 @@ class EmulatorConfig:
     faults: FaultParams = field(default_factory=FaultParams)
     program_running: bool = True
     stale_frame_ms: float = 250.0
+    flash_files: Mapping[str, bytes] = field(default_factory=dict)
+    symbols: Mapping[str, str] = field(default_factory=dict)
+    start_program: str = PROGRAM_NAME
+
+
+def compiled_follower() -> tuple[dict[str, bytes], dict[str, str]]:
+    """``cplus_follow.rxe`` compiled by nbc (cached) as ``flash_files`` and ``symbols``;
+    raises :class:`nxt_link.vm.NbcMissingError` without nbc."""
+    compiled = cached_compile(follower_source())
+    return {PROGRAM_NAME: compiled.rxe}, {PROGRAM_NAME: compiled.symbols}
 
 
 @dataclass(slots=True)
@@ -152,9 +173,10 @@ class BrickEmulator:
         if fw_params.name != self.config.name:
             fw_params = replace(fw_params, name=self.config.name[:14])
         self.firmware = Firmware(fw_params, self.config.motors,
-                                 programs={PROGRAM_NAME: FollowerProgram})
+                                 programs={PROGRAM_NAME: FollowerProgram},
+                                 flash_files=self.config.flash_files)
         if self.config.program_running:
-            self.firmware.start_program_now(PROGRAM_NAME)
+            self.firmware.start_program_now(self.config.start_program)
         self.stats = EmulatorStats()
         self._rng = random.Random(self.config.faults.seed)
         self._decoder = FrameDecoder(stale_after_s=self.config.stale_frame_ms / 1000.0)
@@ -311,8 +333,22 @@ class BrickEmulator:
     # -- inspection --------------------------------------------------------------------
 
     @property
-    def program(self) -> FollowerProgram | None:
-        """The running brick program model, if the follower program runs."""
+    def program(self) -> FollowerProgram | FollowerView | None:
+        """The follower program's state, if it runs: its Python model, or the
+        compiled program's variables read through its symbol table."""
         p = self.firmware.program
-        return p if isinstance(p, FollowerProgram) else None
+        if isinstance(p, FollowerProgram):
+            return p
+        name = self.firmware.program_name
+        if isinstance(p, VMProgram) and name is not None and name in self.config.symbols:
+            symbols = Symbols(self.config.symbols[name])
+            if "refs" in symbols and "meas" in symbols:
+                return FollowerView(p.vm, symbols)
+        return None
+
+    @property
+    def vm_program(self) -> VMProgram | None:
+        """The running compiled program, if one runs on the bytecode interpreter."""
+        p = self.firmware.program
+        return p if isinstance(p, VMProgram) else None
 

@@ -8,24 +8,43 @@ their real rules (5 deep, a write to a full queue drops the oldest, cleared at
 program start), starts and stops the one program it has installed, and runs
 that program and the three output ports every millisecond.
 
+Programs live in the flash file system (:class:`nxt_link.vm.flash.Flash`),
+filled by the system commands (OPENWRITE, WRITE, CLOSE, ... as nxt-python's
+file API sends them) or at power-on. STARTPROGRAM of an ``.rxe`` in flash runs
+the compiled program on the bytecode interpreter (:mod:`nxt_link.vm`); a name
+that is not in flash but has a Python model (``programs``) runs the model.
+Both reach the brick through the same IO maps (:mod:`nxt_link.brick_io`). A
+program the firmware refuses (malformed file) or aborts (run-time error) is
+logged and listed in :attr:`Firmware.program_errors`, and nothing runs.
+
 It knows nothing about links, latency or faults (that is
 :mod:`nxt_link.emulator`) and has no clock of its own: its owner calls
-:meth:`Firmware.tick` once per simulated millisecond, in the firmware's own
-order (communication, then the VM slice, then the output module).
+:meth:`Firmware.tick` once per simulated millisecond: input module, program
+start/stop, the program's time slice, then the output module (which applies
+what the program wrote in the same millisecond); the owner then handles the
+communication.
 """
 from __future__ import annotations
 
 import logging
+import struct
 from collections import deque
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import Protocol
 
 from nxt_link import telegram as tg
+from nxt_link.brick_io import FirmwareIO
 from nxt_link.errors import TelegramError
+from nxt_link.input_module import InputPort
 from nxt_link.motor_model import MotorParams
 from nxt_link.output_module import RESET_NONE, OutputPort
 from nxt_link.telegram import Opcode, OutputMode, RegulationMode, RunState
+from nxt_link.vm import flash as fl
+from nxt_link.vm.errors import RxeError, VMError
+from nxt_link.vm.machine import DEFAULT_INSTRUCTIONS_PER_MS
+from nxt_link.vm.program import VMProgram
+from nxt_link.vm.rxe import load_rxe
 
 __all__ = ["FirmwareParams", "Firmware", "Program", "ProgramHost", "InputPort"]
 
@@ -66,6 +85,10 @@ class FirmwareParams:
         bt_address: 6-byte Bluetooth address (LEGO OUI 00:16:53).
         firmware_version: (major, minor) of the firmware, 1.31.
         protocol_version: (major, minor) of the protocol, 1.124.
+        vm_instructions_per_ms: bytecode instructions a program runs per
+            millisecond slice (the brick's CPU speed; an estimate). ``None``:
+            every slice runs until all tasks wait (an infinitely fast brick, as
+            the Python models assume).
     """
 
     name: str = "NXT"
@@ -76,6 +99,7 @@ class FirmwareParams:
     bt_address: bytes = bytes.fromhex("001653010203")
     firmware_version: tuple[int, int] = (1, 31)
     protocol_version: tuple[int, int] = (1, 124)
+    vm_instructions_per_ms: int | None = DEFAULT_INSTRUCTIONS_PER_MS
 
 
 class ProgramHost(Protocol):
@@ -103,14 +127,6 @@ class Program(Protocol):
 
 
 @dataclass(slots=True)
-class InputPort:
-    sensor_type: int = 0
-    sensor_mode: int = 0
-    invalid: bool = False
-    scaled: int = 0
-
-
-@dataclass(slots=True)
 class _Tone:
     at_ms: int
     frequency_hz: int
@@ -124,13 +140,16 @@ class Firmware:
         params: brick-level settings.
         motor_params: one :class:`MotorParams` for all three ports, or a tuple
             of three (ports A, B, C).
-        programs: installed program models by file name; each value builds a
-            fresh program instance.
+        programs: Python program models by file name, run when STARTPROGRAM
+            names a file that is not in flash; each value builds a fresh instance.
+        flash_files: files in flash at power-on (name -> contents), e.g.
+            compiled ``.rxe`` programs.
     """
 
     def __init__(self, params: FirmwareParams | None = None,
                  motor_params: MotorParams | tuple[MotorParams, ...] | None = None,
-                 programs: dict[str, Callable[[], Program]] | None = None) -> None:
+                 programs: dict[str, Callable[[], Program]] | None = None,
+                 flash_files: Mapping[str, bytes] | None = None) -> None:
         self.params = params or FirmwareParams()
         if isinstance(motor_params, tuple):
             per_port = motor_params
@@ -141,6 +160,11 @@ class Firmware:
         self.outputs = [OutputPort(i, per_port[i]) for i in range(NO_OF_OUTPUTS)]
         self.inputs = [InputPort() for _ in range(NO_OF_INPUTS)]
         self.programs = dict(programs or {})
+        self.flash = fl.Flash()
+        for name, data in (flash_files or {}).items():
+            self.flash.install(name, data)
+        #: program names without contents in flash that STARTPROGRAM accepts (models,
+        #: declared files); files in flash are accepted too
         self.files = set(self.params.files) | set(self.programs)
         self.mailboxes: list[deque[bytes]] = [deque(maxlen=MESSAGES_PER_QUEUE)
                                               for _ in range(tg.MAILBOX_COUNT)]
@@ -150,7 +174,13 @@ class Firmware:
         self._pending_start: tuple[str, int] | None = None
         self._pending_stop = False
         self.tones: list[_Tone] = []
+        self.program_errors: list[str] = []
+        self.io = FirmwareIO(self)
         self.host = _Host(self)
+        self._program_handle: int | None = None
+
+    def record_tone(self, frequency_hz: int, duration_ms: int, file: str | None = None) -> None:
+        self.tones.append(_Tone(self.now_ms, frequency_hz, duration_ms))
 
     # -- program lifecycle ----------------------------------------------------
 
@@ -165,31 +195,60 @@ class Firmware:
     def _activate(self, name: str) -> None:
         if self.program is not None:
             self._deactivate()
-        for out in self.outputs:
-            out.reset_device()
+        self._reset_devices()
         for box in self.mailboxes:
             box.clear()
-        factory = self.programs.get(name)
-        if factory is None:
-            # a file without a model: it "runs" but does nothing
-            self.program = _IdleProgram()
+        data = self.flash.read_all(name)
+        program: Program
+        if data is not None:
+            try:
+                exe = load_rxe(data, name)
+            except RxeError as exc:
+                self._program_failed(f"cannot run {exc}")
+                return
+            self._program_handle = self.flash.hold(name)
+            program = VMProgram(exe, self.io, start_tick=self.now_ms,
+                                instructions_per_ms=self.params.vm_instructions_per_ms)
+        elif name in self.programs:
+            program = self.programs[name]()
+            log.info("%s: no compiled %s in flash: running its Python model",
+                     self.params.name, name)
         else:
-            self.program = factory()
+            # a declared file without contents or model: it "runs" but does nothing
+            program = _IdleProgram()
+        self.program = program
         self.program_name = name
         log.info("program %s started at %d ms", name, self.now_ms)
+
+    def _reset_devices(self) -> None:
+        """``cCmdResetDevices``: motors coast with cleared fields and counters,
+        sensors back to none/raw, pending IO-map writes dropped."""
+        for out in self.outputs:
+            out.reset_device()
+        for inp in self.inputs:
+            inp.reset()
+        self.io.reset()
 
     def _deactivate(self) -> None:
         log.info("program %s stopped at %d ms", self.program_name, self.now_ms)
         self.program = None
         self.program_name = None
-        for out in self.outputs:
-            out.reset_device()
+        if self._program_handle is not None:
+            self.flash.close(self._program_handle)
+            self._program_handle = None
+        self._reset_devices()
+
+    def _program_failed(self, message: str) -> None:
+        log.error("%s: %s", self.params.name, message)
+        self.program_errors.append(message)
 
     # -- the millisecond --------------------------------------------------------
 
     def tick(self) -> None:
-        """Advance one millisecond: program start/stop, VM slice, output module."""
+        """Advance one millisecond: inputs, program start/stop, program slice, outputs."""
         self.now_ms += 1
+        for inp in self.inputs:
+            inp.step()
         if self._pending_stop:
             self._pending_stop = False
             if self.program is not None:
@@ -199,9 +258,16 @@ class Firmware:
             self._pending_start = None
             self._activate(name)
         if self.program is not None:
-            self.program.step(self.host)
-        for inp in self.inputs:
-            inp.invalid = False
+            try:
+                self.program.step(self.host)
+            except VMError as exc:
+                self._program_failed(f"program {self.program_name} aborted: {exc}")
+                self._deactivate()
+            else:
+                if isinstance(self.program, VMProgram) and self.program.finished:
+                    log.info("program %s ended", self.program_name)
+                    self._deactivate()
+        self.io.apply_output_updates()
         for out in self.outputs:
             out.step()
 
@@ -247,7 +313,7 @@ class Firmware:
     def _direct(self, cmd: tg.Command) -> bytes:
         op = int(cmd.opcode)
         if isinstance(cmd, tg.StartProgram):
-            if cmd.name not in self.files:
+            if cmd.name not in self.files and self.flash.find(cmd.name) is None:
                 return tg.error_reply(op, ERR_RC_ILLEGAL_VAL)
             self._pending_start = (cmd.name, self.now_ms + self.params.start_delay_ms)
             return tg.encode_reply(tg.StatusReply(op, NO_ERR))
@@ -287,7 +353,7 @@ class Firmware:
             i = self.inputs[cmd.port]
             return tg.encode_reply(tg.InputValuesReply(
                 NO_ERR, cmd.port, not i.invalid, False, i.sensor_type, i.sensor_mode,
-                0, 0, i.scaled, 0))
+                i.raw, i.normalized, i.scaled, i.normalized))
         if isinstance(cmd, tg.MessageRead):
             return self._message_read(cmd)
         if isinstance(cmd, tg.ResetMotorPosition):
@@ -324,17 +390,89 @@ class Firmware:
         return bytes((tg.CommandType.REPLY, op, status)) if want_reply else None
 
     def _system(self, telegram: bytes, want_reply: bool) -> bytes | None:
-        if not want_reply:
-            return None
+        """System commands: versions, device info, and the flash file system.
+
+        A no-reply system command is still carried out (a file write with no
+        acknowledgement writes); a telegram too short for its opcode is dropped."""
         op = telegram[1]
+        body = telegram[2:]
         if op == Opcode.GET_FIRMWARE_VERSION:
             (fmaj, fmin), (pmaj, pmin) = self.params.firmware_version, self.params.protocol_version
-            return tg.encode_reply(tg.FirmwareVersionReply(NO_ERR, pmin, pmaj, fmin, fmaj))
-        if op == Opcode.GET_DEVICE_INFO:
-            return tg.encode_reply(tg.DeviceInfoReply(
+            reply = tg.encode_reply(tg.FirmwareVersionReply(NO_ERR, pmin, pmaj, fmin, fmaj))
+        elif op == Opcode.GET_DEVICE_INFO:
+            reply = tg.encode_reply(tg.DeviceInfoReply(
                 NO_ERR, self.params.name, self.params.bt_address, (0, 0, 0, 0), 65536))
-        # other system commands (file I/O, ...) are not modelled
-        return bytes((tg.CommandType.REPLY, op, ERR_RC_UNKNOWN_CMD))
+        else:
+            handler = _FILE_COMMANDS.get(op)
+            if handler is None:
+                reply = bytes((tg.CommandType.REPLY, op, ERR_RC_UNKNOWN_CMD))
+            else:
+                payload = handler(self, body)
+                if payload is None:
+                    log.warning("dropping malformed system command %s", telegram.hex())
+                    return None
+                reply = bytes((tg.CommandType.REPLY, op)) + payload
+        return reply if want_reply else None
+
+    def _file_open_write(self, body: bytes, data_file: bool = False) -> bytes | None:
+        if len(body) < 24:
+            return None
+        size = struct.unpack_from("<I", body, 20)[0]
+        status, handle = self.flash.open_write(_filename(body), size, data_file=data_file)
+        return bytes((status, handle))
+
+    def _file_write(self, body: bytes) -> bytes | None:
+        if len(body) < 1:
+            return None
+        status, handle, n = self.flash.write(body[0], body[1:])
+        return bytes((status, handle)) + struct.pack("<H", n)
+
+    def _file_close(self, body: bytes) -> bytes | None:
+        if len(body) < 1:
+            return None
+        status, handle = self.flash.close(body[0])
+        return bytes((status, handle))
+
+    def _file_open_read(self, body: bytes) -> bytes | None:
+        if len(body) < 1:
+            return None
+        status, handle, size = self.flash.open_read(_filename(body))
+        return bytes((status, handle)) + struct.pack("<I", size if status == 0 else 0)
+
+    def _file_read(self, body: bytes) -> bytes | None:
+        if len(body) < 3:
+            return None
+        count = struct.unpack_from("<H", body, 1)[0]
+        if count > _MAX_READ:
+            log.warning("READ of %d bytes needs the firmware's extended mode, not modelled", count)
+            return None
+        status, handle, data = self.flash.read(body[0], count)
+        return bytes((status, handle)) + struct.pack("<H", count) + data.ljust(count, b"\0")
+
+    def _file_delete(self, body: bytes) -> bytes | None:
+        if len(body) < 1:
+            return None
+        name = _filename(body)
+        status = self.flash.delete(name)
+        return bytes((status,)) + name.encode("latin-1")[:fl.FILENAME_LENGTH].ljust(20, b"\0")
+
+    def _file_find(self, body: bytes, first: bool) -> bytes | None:
+        if len(body) < 1:
+            return None
+        if first:
+            status, handle, name, size = self.flash.find_first(_filename(body))
+        else:
+            status, handle, name, size = self.flash.find_next(body[0])
+        if status != 0:
+            return bytes((status, handle)) + bytes(24)
+        return (bytes((status, handle)) + name.encode("latin-1").ljust(20, b"\0")
+                + struct.pack("<I", size))
+
+    def _file_open_append(self, body: bytes) -> bytes | None:
+        if len(body) < 1:
+            return None
+        status, handle, room = self.flash.open_append(_filename(body))
+        return bytes((status, handle)) + struct.pack("<I", room)
 
     # -- mailboxes ------------------------------------------------------------------
 
@@ -395,6 +533,31 @@ class Firmware:
             self.write_mailbox(queue, bytes(data))
 
 
+def _filename(body: bytes) -> str:
+    """A file name field: up to the NUL (names longer than 19 characters are refused
+    by the loader)."""
+    raw = body[:20] if b"\0" in body[:20] else body[:21]
+    return raw.split(b"\0", 1)[0].decode("latin-1")
+
+
+#: READ sizes a reply can carry in one Bluetooth packet
+_MAX_READ = 120
+
+_FILE_COMMANDS: dict[int, Callable[[Firmware, bytes], bytes | None]] = {
+    0x80: Firmware._file_open_read,
+    0x81: Firmware._file_open_write,
+    0x82: Firmware._file_read,
+    0x83: Firmware._file_write,
+    0x84: Firmware._file_close,
+    0x85: Firmware._file_delete,
+    0x86: lambda fw, body: fw._file_find(body, True),
+    0x87: lambda fw, body: fw._file_find(body, False),
+    0x89: Firmware._file_open_write,
+    0x8B: lambda fw, body: fw._file_open_write(body, data_file=True),
+    0x8C: Firmware._file_open_append,
+}
+
+
 class _IdleProgram:
     def step(self, host: ProgramHost) -> None:
         return None
@@ -422,14 +585,17 @@ class _Host:
 
     def on_fwd_ex(self, port: int, power: int, reset: int) -> None:
         """NXC ``OnFwdEx``: MOTORON|BRAKE, regulation idle, running, no limit."""
-        self._fw.outputs[port].set_output_state(
-            power, OutputMode.MOTORON | OutputMode.BRAKE, RegulationMode.IDLE, 0,
-            RunState.RUNNING, 0, reset)
+        self._fw.io.set_output(port, power, OutputMode.MOTORON | OutputMode.BRAKE,
+                               RegulationMode.IDLE, 0, RunState.RUNNING, 0, _ONFWD_FLAGS | reset)
 
     def coast_ex(self, port: int, reset: int = RESET_NONE) -> None:
         """NXC ``CoastEx``: mode BRAKE without MOTORON, run state idle."""
-        self._fw.outputs[port].set_output_state(
-            0, OutputMode.BRAKE, RegulationMode.IDLE, 0, RunState.IDLE, 0, reset)
+        self._fw.io.set_output(port, 0, OutputMode.BRAKE, RegulationMode.IDLE, 0, RunState.IDLE,
+                               0, _ONFWD_FLAGS | reset)
+
+
+#: UpdateFlags NXC's OnFwdEx and CoastEx write: mode, speed, tacho limit, PID values
+_ONFWD_FLAGS = 0x17
 
 
 def _s8(v: int) -> int:

@@ -38,6 +38,13 @@ RESET_ROTATION_COUNT = 0x40
 RESET_BLOCKANDTACHO = RESET_COUNT | RESET_BLOCK_COUNT
 RESET_ALL = RESET_BLOCKANDTACHO | RESET_ROTATION_COUNT
 
+# plain ints on the 1 ms path (enum flag arithmetic costs microseconds per call)
+_MOTORON = int(OutputMode.MOTORON)
+_REGULATED = int(OutputMode.REGULATED)
+_IDLE, _RAMPUP, _RUNNING, _RAMPDOWN = (int(RunState.IDLE), int(RunState.RAMPUP),
+                                       int(RunState.RUNNING), int(RunState.RAMPDOWN))
+_SPEED, _SYNC = int(RegulationMode.SPEED), int(RegulationMode.SYNC)
+
 REGULATION_PERIOD_MS = 100
 _REG_P, _REG_I, _REG_D = 3, 1, 1
 # % of duty per count of error: the firmware's exact scaling was not traced; 1/8
@@ -57,6 +64,12 @@ class OutputPort:
         self.index = index
         self.motor = MotorPhysics(motor_params)
         self.reset_device()
+
+    @property
+    def applied_duty_pct(self) -> float:
+        """The signed PWM duty (%) applied in the last millisecond (the IO map's
+        ``ActualSpeed``)."""
+        return self._duty_pct
 
     # -- commands ------------------------------------------------------------
 
@@ -95,7 +108,7 @@ class OutputPort:
         """What SETOUTPUTSTATE and the NXC ``setout`` calls do (never resets counters
         unless ``reset_flags`` asks, which only NXC calls do)."""
         self.reset_counters(reset_flags)
-        if regulation_mode != self.regulation_mode or not mode & OutputMode.REGULATED:
+        if regulation_mode != self.regulation_mode or not mode & _REGULATED:
             self._reg_integral = 0.0
             self._reg_prev_err = 0.0
             self._reg_counts = 0
@@ -109,7 +122,7 @@ class OutputPort:
         self.tacho_limit = tacho_limit
         if tacho_limit == 0:
             self._target = None
-        elif power != 0 and run_state in (RunState.RUNNING, RunState.RAMPUP, RunState.RAMPDOWN):
+        elif power != 0 and run_state in (_RUNNING, _RAMPUP, _RAMPDOWN):
             base = self.tacho_count if self._target is None else self._target
             self._target = base + (tacho_limit if power > 0 else -tacho_limit)
         self._ramp_from = self.tacho_count
@@ -129,36 +142,36 @@ class OutputPort:
         return self._reg_duty
 
     def _commanded_duty(self) -> float:
-        regulated = (self.mode & OutputMode.REGULATED
-                     and self.regulation_mode in (RegulationMode.SPEED, RegulationMode.SYNC))
+        regulated = (self.mode & _REGULATED
+                     and self.regulation_mode in (_SPEED, _SYNC))
         duty = self._regulated_duty() if regulated else float(self.power)
-        if self.run_state in (RunState.RAMPUP, RunState.RAMPDOWN) and self.tacho_limit > 0:
+        if self.run_state in (_RAMPUP, _RAMPDOWN) and self.tacho_limit > 0:
             progress = min(1.0, abs(self.tacho_count - self._ramp_from) / self.tacho_limit)
             sign = 1.0 if self.power >= 0 else -1.0
-            if self.run_state == RunState.RAMPUP:
+            if self.run_state == _RAMPUP:
                 floor = min(_MIN_MOVEMENT_PCT, abs(duty))
                 duty = sign * max(floor, abs(duty) * progress)
                 if progress >= 1.0:
-                    self.run_state = RunState.RUNNING
+                    self.run_state = _RUNNING
                     self._target = None
             else:
                 duty = duty * (1.0 - progress)
                 if progress >= 1.0:
-                    self.run_state = RunState.IDLE
+                    self.run_state = _IDLE
                     self._duty_pct = 0.0
                     self._target = None
         return duty
 
     def step(self) -> None:
         """Advance the port by 1 ms: drive the motor, count, apply the tacho limit."""
-        if self.run_state == RunState.IDLE:
+        if self.run_state == _IDLE:
             # released: the applied duty decays by 1 %/ms, then the motor coasts
             if self._duty_pct > 0:
                 self._duty_pct = max(0.0, self._duty_pct - 1.0)
             elif self._duty_pct < 0:
                 self._duty_pct = min(0.0, self._duty_pct + 1.0)
-            driven = self._duty_pct != 0.0 and bool(self.mode & OutputMode.MOTORON)
-        elif not self.mode & OutputMode.MOTORON:
+            driven = self._duty_pct != 0.0 and bool(self.mode & _MOTORON)
+        elif not self.mode & _MOTORON:
             self._duty_pct = 0.0
             driven = False
         else:
@@ -171,10 +184,10 @@ class OutputPort:
             self.rotation_count += counts
         self._reg_counts += counts
         self._reg_ms += 1
-        if (self._target is not None and self.run_state == RunState.RUNNING
-                and self.mode & OutputMode.MOTORON):
+        if (self._target is not None and self.run_state == _RUNNING
+                and self.mode & _MOTORON):
             direction = 1 if self.power > 0 else -1
             if direction * (self.tacho_count - self._target) >= 0:
                 # limit reached: power cut, the motor coasts past the target
-                self.run_state = RunState.IDLE
+                self.run_state = _IDLE
                 self._duty_pct = 0.0

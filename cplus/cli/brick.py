@@ -4,6 +4,11 @@ Prints the path to open (a symlink that survives simulated disconnects) on
 the first line of standard output, then serves until SIGINT or SIGTERM and
 exits 0. Bad options give one line on standard error and exit code 2.
 
+The brick runs the compiled ``cplus_follow.rxe`` on its bytecode interpreter
+(compiled once by nbc and cached), or the program given with ``--program``;
+without nbc it runs the Python model of the follower program and says so. A
+program the brick aborts is reported on standard error, one line each.
+
 Example::
 
     $ cplus brick --name r1 --drop 0.1 &
@@ -14,15 +19,25 @@ from __future__ import annotations
 
 import argparse
 import logging
+import os
 import signal
 import sys
 import threading
+from dataclasses import replace
 
 from cplus.cli.common import EXIT_INPUT, EXIT_LINK, EXIT_OK, CliError, OneLineArgumentParser
-from nxt_link.emulator import BrickEmulator, EmulatorConfig, FaultParams, LinkParams
+from nxt_link.emulator import (
+    BrickEmulator,
+    EmulatorConfig,
+    FaultParams,
+    LinkParams,
+    compiled_follower,
+)
 from nxt_link.firmware import FirmwareParams
 from nxt_link.motor_model import MotorParams
 from nxt_link.pty_server import PtyBrickServer
+from nxt_link.vm import NbcError, NbcMissingError, RxeError, load_rxe
+from nxt_link.vm.flash import FILENAME_LENGTH
 
 __all__ = ["build_parser", "config_from_args", "main"]
 
@@ -67,9 +82,9 @@ def _positive_int(text: str) -> int:
 def build_parser() -> OneLineArgumentParser:
     p = OneLineArgumentParser(
         prog="cplus brick",
-        description="Emulate an NXT brick (firmware, the cplus_follow program, motors) on a "
-                    "pseudo-terminal. Prints the device path on the first line, serves until "
-                    "interrupted.")
+        description="Emulate an NXT brick (firmware, bytecode interpreter running the compiled "
+                    "cplus_follow program, motors) on a pseudo-terminal. Prints the device path "
+                    "on the first line, serves until interrupted.")
     p.add_argument("--name", required=True, help="brick name, e.g. r1")
     p.add_argument("--link", metavar="PATH",
                    help="publish the pty as this symlink (default: a fresh temporary path)")
@@ -92,9 +107,12 @@ def build_parser() -> OneLineArgumentParser:
     program = p.add_mutually_exclusive_group()
     program.add_argument("--program-running", dest="program_running", action="store_true",
                          default=True,
-                         help="cplus_follow.rxe runs from power-on (default)")
+                         help="the program runs from power-on (default)")
     program.add_argument("--no-program", dest="program_running", action="store_false",
                          help="no program runs; the client must STARTPROGRAM it")
+    p.add_argument("--program", metavar="FILE.rxe", default=None,
+                   help="run this compiled NXT program (put in the brick's flash under its file "
+                        "name) instead of cplus_follow.rxe")
     p.add_argument("--time-scale", type=_positive_float, default=1.0, metavar="X",
                    help="run simulated time X times faster than real time (default 1)")
     p.add_argument("--battery-mv", type=_positive_int, default=9000, metavar="MV",
@@ -120,12 +138,51 @@ def config_from_args(args: argparse.Namespace) -> EmulatorConfig:
     )
 
 
+def program_files(args: argparse.Namespace) -> tuple[dict[str, bytes], dict[str, str], str | None]:
+    """The programs to put in flash, their symbol tables, and the one to start.
+
+    ``--program FILE`` is checked here (a file the brick would refuse is a
+    one-line error); otherwise ``cplus_follow.rxe`` is compiled (once, cached).
+    Without nbc the files are empty and the follower's Python model runs: a
+    note says so on standard error."""
+    path = getattr(args, "program", None)
+    if path:
+        name = os.path.basename(path)
+        if len(name) > FILENAME_LENGTH:
+            raise CliError(f"cplus brick: error: {name}: the brick's file names have at most "
+                           f"{FILENAME_LENGTH} characters")
+        try:
+            with open(path, "rb") as fh:
+                data = fh.read()
+        except OSError as exc:
+            raise CliError(f"cplus brick: error: cannot read {path}: {exc.strerror}") from None
+        try:
+            load_rxe(data, name)
+        except RxeError as exc:
+            raise CliError(f"cplus brick: error: {exc}") from None
+        return {name: data}, {}, name
+    try:
+        files, symbols = compiled_follower()
+    except NbcMissingError:
+        print("cplus brick: nbc not found: running the Python model of cplus_follow.nxc "
+              "(nxt_link/follower_program.py) instead of the compiled program", file=sys.stderr)
+        return {}, {}, None
+    except NbcError as exc:
+        print(f"cplus brick: {exc}; running the Python model of cplus_follow.nxc instead",
+              file=sys.stderr)
+        return {}, {}, None
+    return files, symbols, None
+
+
 def main(args: argparse.Namespace) -> int:
     """``cplus brick``; returns the exit code."""
     try:
         if not args.name or not args.name.isprintable() or "/" in args.name:
             raise CliError(f"cplus brick: error: invalid brick name {args.name!r}")
         config = config_from_args(args)
+        files, symbols, start = program_files(args)
+        config = replace(config, flash_files=files, symbols=symbols,
+                         start_program=start or config.start_program)
     except CliError as exc:
         print(exc, file=sys.stderr)
         return EXIT_INPUT
@@ -148,10 +205,16 @@ def main(args: argparse.Namespace) -> int:
                 for sig in (signal.SIGINT, signal.SIGTERM)}
     try:
         print(path, flush=True)
+        reported = 0
+        errors = server.emulator.firmware.program_errors
         while not stop.wait(0.2):
             if server.error is not None:
                 print(f"cplus brick: error: emulator stopped: {server.error}", file=sys.stderr)
                 return EXIT_LINK
+            while reported < len(errors):
+                print(f"cplus brick: {args.name}: {errors[reported]}", file=sys.stderr,
+                      flush=True)
+                reported += 1
     finally:
         server.stop()
         for sig, handler in previous.items():

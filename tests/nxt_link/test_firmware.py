@@ -199,9 +199,14 @@ def test_input_ports_report_the_mode_that_was_set():
     assert send(f, "00 05 02 01 20") == "02 05 00"
     v = tg.decode_reply(f.handle(bytes.fromhex("00 07 02")), tg.Opcode.GET_INPUT_VALUES)
     assert (v.port, v.valid, v.sensor_type, v.sensor_mode) == (2, False, 1, 0x20)
+    for _ in range(20):  # the input module holds new-type data invalid for 20 ms
+        f.tick()
+    v = tg.decode_reply(f.handle(bytes.fromhex("00 07 02")), tg.Opcode.GET_INPUT_VALUES)
+    assert not v.valid
+    f.inputs[2].raw = 183  # a pressed touch sensor
     f.tick()
     v = tg.decode_reply(f.handle(bytes.fromhex("00 07 02")), tg.Opcode.GET_INPUT_VALUES)
-    assert v.valid
+    assert (v.valid, v.raw_value, v.normalized_value, v.scaled_value) == (True, 183, 183, 1)
 
 
 def test_battery_keepalive_tone():

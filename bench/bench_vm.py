@@ -1,0 +1,124 @@
+"""Measure the NXT bytecode interpreter.
+
+Three figures, each the median of ``--runs`` runs (wall-clock, one process):
+
+* instructions per second of a compute-bound NXC program (CRC-16 table
+  building and integer loops, the follower program's own ``crc_init`` and
+  ``crc16``), on an infinitely fast emulated CPU so that only the interpreter
+  is timed;
+* the follower program's run relative to real time: a whole execution
+  (connect, upload of 3 motors x 200 ticks, homing, run, log read) on an
+  in-memory emulated brick running the compiled ``cplus_follow.rxe`` with the
+  default time slice, motors and link model included: simulated milliseconds
+  per wall-clock millisecond (target: at least 20x);
+* the same with the Python model instead of the compiled program, for scale.
+
+Usage: ``python bench/bench_vm.py [--runs 5]``. Prints a table; nothing is
+asserted (speed is measured here, never in the test suite).
+"""
+from __future__ import annotations
+
+import argparse
+import math
+import statistics
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+from nxt_link.brick import Brick, RetryPolicy  # noqa: E402
+from nxt_link.clock import VirtualClock  # noqa: E402
+from nxt_link.emulator import (  # noqa: E402
+    BrickEmulator,
+    EmulatorConfig,
+    LinkParams,
+    compiled_follower,
+)
+from nxt_link.execution import ExecutionOptions, SetpointStream, execute_streams  # noqa: E402
+from nxt_link.firmware import Firmware, FirmwareParams  # noqa: E402
+from nxt_link.memory_transport import MemoryTransport  # noqa: E402
+from nxt_link.vm import compile_nxc  # noqa: E402
+
+COMPUTE = """
+unsigned int tab[];
+long crc_byte(long crc, long b) {
+  long idx = ((crc / 256) ^ b) & 0xFF;
+  return ((crc * 256) & 0xFFFF) ^ tab[idx];
+}
+task main() {
+  long total = 0;
+  for (int round = 0; round < 20; round++) {
+    ArrayInit(tab, 0, 256);
+    for (int i = 0; i < 256; i++) {
+      long c = i * 256;
+      for (int k = 0; k < 8; k++) {
+        if (c & 0x8000) c = ((c * 2) ^ 0x1021) & 0xFFFF; else c = (c * 2) & 0xFFFF;
+      }
+      tab[i] = c;
+    }
+    long crc = 0xFFFF;
+    for (int j = 0; j < 2000; j++) crc = crc_byte(crc, j & 0xFF);
+    total += crc;
+  }
+  string s = NumToStr(total);
+  SendMessage(0, s);
+}
+"""
+
+
+def instructions_per_second(rxe: bytes) -> tuple[float, int]:
+    fw = Firmware(FirmwareParams(vm_instructions_per_ms=None), flash_files={"b.rxe": rxe})
+    fw.start_program_now("b.rxe")
+    program = fw.program
+    t0 = time.perf_counter()
+    while fw.program is not None:
+        fw.tick()
+    dt = time.perf_counter() - t0
+    n = program.vm.instructions  # type: ignore[union-attr]
+    return n / dt, n
+
+
+def follower_run(files: dict[str, bytes], symbols: dict[str, str]) -> tuple[float, float, int]:
+    """(simulated ms per wall ms, simulated seconds, interpreted instructions)."""
+    clock = VirtualClock()
+    emu = BrickEmulator(EmulatorConfig(name="r1", link=LinkParams(stall_probability=0.0),
+                                       flash_files=files, symbols=symbols))
+    brick = Brick(MemoryTransport(emu, clock), name="r1",
+                  policy=RetryPolicy(reply_timeout_s=0.5, retries=3, quiet_s=0.05))
+    rows = tuple(tuple(int(round(a * math.sin(2 * math.pi * k / 80))) for a in (90, -60, 30))
+                 for k in range(200))
+    stream = SetpointStream("r1", ("A", "B", "C"), 50, rows)
+    t0 = time.perf_counter()
+    execute_streams([stream], {"r1": brick}, options=ExecutionOptions())
+    wall = time.perf_counter() - t0
+    vm = emu.vm_program
+    return emu.now_ms / (wall * 1000.0), emu.now_ms / 1000.0, vm.vm.instructions if vm else 0
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--runs", type=int, default=5)
+    args = ap.parse_args()
+    with tempfile.TemporaryDirectory() as tmp:
+        src = Path(tmp) / "compute.nxc"
+        src.write_text(COMPUTE)
+        rxe = compile_nxc(src).rxe
+    files, symbols = compiled_follower()
+    ips = [instructions_per_second(rxe) for _ in range(args.runs)]
+    vm_runs = [follower_run(files, symbols) for _ in range(args.runs)]
+    model_runs = [follower_run({}, {}) for _ in range(args.runs)]
+    med = statistics.median
+    print(f"bench_vm: median of {args.runs} runs")
+    print(f"  interpreter, compute-bound NXC: {med(r[0] for r in ips) / 1e6:.2f} M instructions/s "
+          f"({ips[0][1]} instructions)")
+    print(f"  cplus_follow.rxe, whole execution: {med(r[0] for r in vm_runs):.0f}x real time "
+          f"({vm_runs[0][1]:.1f} s simulated, {vm_runs[0][2]} instructions)")
+    print(f"  Python model, same execution:      {med(r[0] for r in model_runs):.0f}x real time")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
