@@ -319,7 +319,7 @@ def test_histories_are_distinct_even_with_auxiliary_variables():
 # --------------------------------------------------------------------------- random domains
 
 
-@settings(max_examples=250)
+@settings(max_examples=200)
 @given(descriptions(), st.booleans())
 def test_planner_agrees_with_the_oracle_on_random_domains(drawn, ranged):
     """Exactly the oracle's histories, at the first maxstep of the range that has one."""
