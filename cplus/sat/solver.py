@@ -67,7 +67,14 @@ class SatSolver:
         self.count += n
 
     def solve(self, assumptions: list[int] = ()) -> bool:  # type: ignore[assignment]
-        ok = self._s.solve(assumptions=list(assumptions))
+        try:
+            ok = self._s.solve(assumptions=list(assumptions))
+        except Exception as exc:
+            # A SIGINT caught inside the C solver comes back as pysat's own error; it is
+            # still Ctrl-C, and the command line answers it with exit code 130.
+            if "keyboard interrupt" in str(exc).lower():
+                raise KeyboardInterrupt from None
+            raise
         self._model = self._s.get_model() if ok else None
         return bool(ok)
 
