@@ -44,6 +44,7 @@ class Domain:
         self.program = program
         self.path = path
         self._theory: GroundTheory | None = None
+        self._templates: tuple | None = None
 
     @classmethod
     def load(cls, path: str, externals: Externals | None = None) -> Domain:
@@ -63,6 +64,15 @@ class Domain:
         if self._theory is None:
             self._theory = ground_program(self.program)
         return self._theory
+
+    @property
+    def templates(self) -> tuple:
+        """The step templates of :attr:`theory` (built once): pass them to
+        :class:`~cplus.sat.horizon.QuerySession` to start solvers without rebuilding them."""
+        if self._templates is None:
+            from cplus.sat.templates import build_templates
+            self._templates = build_templates(self.theory)
+        return self._templates
 
     @property
     def labels(self) -> list[str]:

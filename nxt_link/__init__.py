@@ -12,7 +12,11 @@ pyserial only; no numpy, no geometry, no plans):
   checksums, a common start time, resumable log read-back);
 * ``nxt_link/nxc/cplus_follow.nxc`` — the brick program (the paper's
   Algorithm 2), and :class:`BrickEmulator` — firmware, a model of that program
-  and motor physics, served on a pty by ``cplus brick``.
+  and motor physics, served on a pty by ``cplus brick``;
+* :mod:`nxt_link.behaviour_protocol` and :class:`BehaviourClient` — Legolog's
+  act / sense / exogenous-event protocol with the brick program
+  ``nxt_link/nxc/cplus_legolog.nxc`` (a delivery robot), and :class:`WorldSpec` —
+  the line track the emulated robot drives on and senses.
 
 Typical use::
 
@@ -21,6 +25,18 @@ Typical use::
     log = execute_streams([SetpointStream("r1", ("A", "B"), 50, rows)], bricks)
     open("exec.json", "w").write(log.dumps())
 """
+from nxt_link.behaviours import (
+    ActResult,
+    Behaviour,
+    BehaviourClient,
+    BehaviourError,
+    BehaviourFailed,
+    BehaviourRefused,
+    BehaviourTiming,
+    BrickEvent,
+    BrickLostError,
+    BrickPanicError,
+)
 from nxt_link.brick import Brick, RetryPolicy
 from nxt_link.clock import MonotonicClock, VirtualClock
 from nxt_link.emulator import BrickEmulator, EmulatorConfig, FaultParams, LinkParams
@@ -30,6 +46,8 @@ from nxt_link.execution import ExecutionOptions, Progress, SetpointStream, execu
 from nxt_link.memory_transport import MemoryTransport
 from nxt_link.pty_server import PtyBrickServer
 from nxt_link.session import ControllerSettings, SessionTiming
+from nxt_link.stall import Stall
+from nxt_link.world import WorldSpec, delivery_world
 
 __all__ = [
     "SetpointStream",
@@ -54,6 +72,19 @@ __all__ = [
     "LinkError",
     "LinkTimeoutError",
     "ProtocolError",
+    "BehaviourClient",
+    "BehaviourTiming",
+    "Behaviour",
+    "ActResult",
+    "BrickEvent",
+    "BehaviourError",
+    "BehaviourFailed",
+    "BehaviourRefused",
+    "BrickLostError",
+    "BrickPanicError",
+    "WorldSpec",
+    "delivery_world",
+    "Stall",
 ]
 
 

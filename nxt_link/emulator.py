@@ -32,6 +32,14 @@ random generator:
   losing whatever was in flight; the host reconnects it (a new pty behind the
   same symlink) while the brick, its program and its mailboxes keep running,
   as a real brick does when the Bluetooth link drops.
+
+Around the brick (``EmulatorConfig.world``, ``EmulatorConfig.stalls``): a
+:class:`~nxt_link.world.World` (a line track the robot drives on, which its light and
+touch sensors read) and :class:`~nxt_link.stall.Stall` s (a motor held still
+mid-trajectory). Two programs are installed, ``cplus_follow.rxe`` (the setpoint follower)
+and ``cplus_legolog.rxe`` (the Legolog behaviour program), as Python models for when
+their compiled files are not in flash; ``EmulatorConfig.start_program`` says which one
+runs from power-on.
 """
 from __future__ import annotations
 
@@ -40,18 +48,23 @@ import random
 from collections import deque
 from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
+from pathlib import Path
 
+from nxt_link import behaviour_protocol
 from nxt_link.firmware import Firmware, FirmwareParams
 from nxt_link.follower_program import FollowerProgram
 from nxt_link.framing import FrameDecoder, frame
+from nxt_link.legolog_program import LegologProgram
 from nxt_link.motor_model import MotorParams
+from nxt_link.stall import Stall, StallSchedule
 from nxt_link.stream_protocol import PROGRAM_NAME
 from nxt_link.telegram import Opcode
 from nxt_link.vm.nbc import cached_compile, follower_source
 from nxt_link.vm.program import FollowerView, Symbols, VMProgram
+from nxt_link.world import World, WorldSpec
 
 __all__ = ["LinkParams", "FaultParams", "EmulatorConfig", "EmulatorStats", "BrickEmulator",
-           "compiled_follower"]
+           "compiled_follower", "compiled_legolog"]
 
 log = logging.getLogger(__name__)
 
@@ -128,9 +141,14 @@ class EmulatorConfig:
             Python model of the program.
         symbols: NBC symbol tables of those programs (name -> text), to read
             their variables (:attr:`BrickEmulator.program`).
-        start_program: the program that runs from power-on.
+        start_program: the program that runs from power-on; default
+            ``cplus_follow.rxe``, or ``cplus_legolog.rxe`` when there is a world
+            (:attr:`startup_program`).
         stale_frame_ms: a partial incoming frame with no new byte for this
             long (simulated ms) is discarded.
+        world: the track the robot drives on and senses (None: motors turn freely,
+            sensors read nothing).
+        stalls: motors to hold still mid-trajectory.
     """
 
     name: str = "NXT"
@@ -142,7 +160,35 @@ class EmulatorConfig:
     stale_frame_ms: float = 250.0
     flash_files: Mapping[str, bytes] = field(default_factory=dict)
     symbols: Mapping[str, str] = field(default_factory=dict)
-    start_program: str = PROGRAM_NAME
+    start_program: str | None = None
+    world: WorldSpec | None = None
+    stalls: tuple[Stall, ...] = ()
+
+    def __post_init__(self) -> None:
+        ports = [s.port for s in self.stalls]
+        if len(set(ports)) != len(ports):
+            raise ValueError("two stalls on one port")
+
+    @property
+    def startup_program(self) -> str:
+        """The program that runs from power-on (see ``start_program``)."""
+        if self.start_program is not None:
+            return self.start_program
+        return behaviour_protocol.PROGRAM_NAME if self.world is not None else PROGRAM_NAME
+
+
+#: Python models of the project's brick programs, run when their compiled file is not in
+#: the brick's flash.
+PROGRAMS = {PROGRAM_NAME: FollowerProgram, behaviour_protocol.PROGRAM_NAME: LegologProgram}
+
+
+def compiled_legolog() -> tuple[dict[str, bytes], dict[str, str]]:
+    """``cplus_legolog.rxe`` compiled by nbc (cached) as ``flash_files`` and ``symbols``;
+    raises :class:`nxt_link.vm.NbcMissingError` without nbc."""
+    name = behaviour_protocol.PROGRAM_NAME
+    compiled = cached_compile(Path(behaviour_protocol.__file__).resolve().parent / "nxc"
+                              / name.replace(".rxe", ".nxc"))
+    return {name: compiled.rxe}, {name: compiled.symbols}
 
 
 def compiled_follower() -> tuple[dict[str, bytes], dict[str, str]]:
@@ -173,10 +219,17 @@ class BrickEmulator:
         if fw_params.name != self.config.name:
             fw_params = replace(fw_params, name=self.config.name[:14])
         self.firmware = Firmware(fw_params, self.config.motors,
-                                 programs={PROGRAM_NAME: FollowerProgram},
+                                 programs=dict(PROGRAMS),  # type: ignore[arg-type]
                                  flash_files=self.config.flash_files)
+        self.world: World | None = None
+        if self.config.world is not None:
+            self.world = World(self.config.world, seed=self.config.faults.seed)
+            self.firmware.attach(self.world)
+        self.stalls = [StallSchedule(s) for s in self.config.stalls]
+        for schedule in self.stalls:
+            self.firmware.attach(schedule)
         if self.config.program_running:
-            self.firmware.start_program_now(self.config.start_program)
+            self.firmware.start_program_now(self.config.startup_program)
         self.stats = EmulatorStats()
         self._rng = random.Random(self.config.faults.seed)
         self._decoder = FrameDecoder(stale_after_s=self.config.stale_frame_ms / 1000.0)
@@ -351,4 +404,10 @@ class BrickEmulator:
         """The running compiled program, if one runs on the bytecode interpreter."""
         p = self.firmware.program
         return p if isinstance(p, VMProgram) else None
+
+    @property
+    def legolog(self) -> LegologProgram | None:
+        """The running brick program model, if the Legolog behaviour program runs."""
+        p = self.firmware.program
+        return p if isinstance(p, LegologProgram) else None
 

@@ -21,7 +21,9 @@ It knows nothing about links, latency or faults (that is
 :mod:`nxt_link.emulator`) and has no clock of its own: its owner calls
 :meth:`Firmware.tick` once per simulated millisecond: input module, program
 start/stop, the program's time slice, then the output module (which applies
-what the program wrote in the same millisecond); the owner then handles the
+what the program wrote in the same millisecond), then the environments attached
+with :meth:`Firmware.attach` (a sensor world, a stalled motor: they read the
+motors and set the sensors' A/D values); the owner then handles the
 communication.
 """
 from __future__ import annotations
@@ -42,11 +44,12 @@ from nxt_link.output_module import RESET_NONE, OutputPort
 from nxt_link.telegram import Opcode, OutputMode, RegulationMode, RunState
 from nxt_link.vm import flash as fl
 from nxt_link.vm.errors import RxeError, VMError
+from nxt_link.vm.iomap import InputField
 from nxt_link.vm.machine import DEFAULT_INSTRUCTIONS_PER_MS
 from nxt_link.vm.program import VMProgram
 from nxt_link.vm.rxe import load_rxe
 
-__all__ = ["FirmwareParams", "Firmware", "Program", "ProgramHost", "InputPort"]
+__all__ = ["FirmwareParams", "Firmware", "Program", "ProgramHost", "InputPort", "Environment"]
 
 log = logging.getLogger(__name__)
 
@@ -117,12 +120,28 @@ class ProgramHost(Protocol):
 
     def coast_ex(self, port: int, reset: int) -> None: ...
 
+    def off_ex(self, port: int, reset: int) -> None: ...
+
+    def set_sensor(self, port: int, sensor_type: int, sensor_mode: int) -> None: ...
+
+    def sensor(self, port: int) -> int: ...
+
+    def play_tone(self, frequency_hz: int, duration_ms: int) -> None: ...
+
 
 class Program(Protocol):
     """A program model; a fresh instance is created at every activation."""
 
     def step(self, host: ProgramHost) -> None:
         """Called once per millisecond VM slice while the program runs."""
+        ...
+
+
+class Environment(Protocol):
+    """Something outside the brick that moves with its motors or feeds its sensors."""
+
+    def step(self, firmware: Firmware) -> None:
+        """Called once per millisecond, after the output module moved the motors."""
         ...
 
 
@@ -176,8 +195,13 @@ class Firmware:
         self.tones: list[_Tone] = []
         self.program_errors: list[str] = []
         self.io = FirmwareIO(self)
+        self.environments: list[Environment] = []
         self.host = _Host(self)
         self._program_handle: int | None = None
+
+    def attach(self, environment: Environment) -> None:
+        """Run ``environment`` every millisecond from now on (after the outputs)."""
+        self.environments.append(environment)
 
     def record_tone(self, frequency_hz: int, duration_ms: int, file: str | None = None) -> None:
         self.tones.append(_Tone(self.now_ms, frequency_hz, duration_ms))
@@ -270,6 +294,8 @@ class Firmware:
         self.io.apply_output_updates()
         for out in self.outputs:
             out.step()
+        for env in self.environments:
+            env.step(self)
 
     # -- direct commands ----------------------------------------------------------
 
@@ -592,6 +618,25 @@ class _Host:
         """NXC ``CoastEx``: mode BRAKE without MOTORON, run state idle."""
         self._fw.io.set_output(port, 0, OutputMode.BRAKE, RegulationMode.IDLE, 0, RunState.IDLE,
                                0, _ONFWD_FLAGS | reset)
+
+    def off_ex(self, port: int, reset: int = RESET_NONE) -> None:
+        """NXC ``OffEx``: MOTORON|BRAKE at power 0, running (the short-circuit brake)."""
+        self.on_fwd_ex(port, 0, reset)
+
+    def set_sensor(self, port: int, sensor_type: int, sensor_mode: int) -> None:
+        """NXC ``SetSensorType`` + ``SetSensorMode`` (the data are invalid for 20 ms after a
+        type change)."""
+        io = self._fw.io
+        io.input_set(port, InputField.TYPE, sensor_type)
+        io.input_set(port, InputField.MODE, sensor_mode)
+
+    def sensor(self, port: int) -> int:
+        """NXC ``Sensor(port)``: the scaled value."""
+        return self._fw.inputs[port].scaled
+
+    def play_tone(self, frequency_hz: int, duration_ms: int) -> None:
+        """NXC ``PlayTone``."""
+        self._fw.record_tone(frequency_hz, duration_ms)
 
 
 #: UpdateFlags NXC's OnFwdEx and CoastEx write: mode, speed, tacho limit, PID values

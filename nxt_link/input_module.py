@@ -21,12 +21,24 @@ light sensor); every millisecond :meth:`InputPort.step` derives the rest as
 Digital (I2C/RS485) and color sensors are not modelled: their values stay as
 the program or the world set them. The temperature sensor's polynomial is
 not modelled either: its normalized value is the raw one.
+
+A world sets a light sensor's A/D value for a reflectance in percent with
+:func:`light_percent_to_raw` (the inverse of the light sensor's mapping), and a
+touch sensor's with :data:`TOUCH_RAW_PRESSED` / :data:`TOUCH_RAW_RELEASED`.
+
+>>> p = InputPort()
+>>> p.sensor_type, p.sensor_mode = SensorType.LIGHT_ACTIVE, SensorMode.PCT_FULL_SCALE
+>>> p.raw = light_percent_to_raw(45)
+>>> for _ in range(21): p.step()
+>>> p.invalid, p.scaled
+(False, 45)
 """
 from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-__all__ = ["InputPort", "SensorType", "SensorMode"]
+__all__ = ["InputPort", "SensorType", "SensorMode", "light_percent_to_raw", "TOUCH_RAW_PRESSED",
+           "TOUCH_RAW_RELEASED"]
 
 AD_MAX = 1023
 _THRESHOLD_FALSE = AD_MAX * 45 // 100
@@ -85,6 +97,24 @@ _LIGHT = (800 // (_VCC // AD_MAX), ((AD_MAX * 4400 // _VCC) - 800 // (_VCC // AD
           * 100 // AD_MAX)
 _SOUND = (650 // (_VCC // AD_MAX), ((AD_MAX * 4980 // _VCC) - 650 // (_VCC // AD_MAX))
           * 100 // AD_MAX)
+#: A/D values of a touch sensor
+TOUCH_RAW_PRESSED = 183
+TOUCH_RAW_RELEASED = AD_MAX
+
+
+def light_percent_to_raw(percent: float) -> int:
+    """The A/D value for which a light sensor in PCT_FULL_SCALE mode reads ``percent``.
+
+    The inverse of the firmware's mapping, aimed at the middle of the percent's bucket
+    (the firmware truncates), so a whole percent comes back unchanged and a fractional
+    one comes back rounded to the nearest (within the A/D's resolution, 0.15 %).
+    """
+    percent = min(100.0, max(0.0, percent))
+    normalized = (percent + 0.5) * AD_MAX / 100.0
+    raw = _LIGHT[0] + (AD_MAX - normalized) * _LIGHT[1] / 100.0
+    return int(round(min(float(AD_MAX), max(0.0, raw))))
+
+
 _ANALOG = (SensorType.SWITCH, SensorType.TEMPERATURE, SensorType.REFLECTION, SensorType.ANGLE,
            SensorType.LIGHT_ACTIVE, SensorType.LIGHT_INACTIVE, SensorType.SOUND_DB,
            SensorType.SOUND_DBA, SensorType.CUSTOM)

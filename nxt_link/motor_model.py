@@ -14,7 +14,10 @@ Model (``docs/nxt-protocol.md`` §6.2, all quantities at the output shaft):
   free play of ``+-backlash_deg`` is taken up;
 * encoder: 1 count per degree of the motor angle (or of the output angle when
   ``encoder_after_backlash``), whole degrees crossed are added to the
-  counters each tick and the fraction carried, so no count is lost.
+  counters each tick and the fraction carried, so no count is lost;
+* ``blocked``: something outside holds the output (a jammed joint, a robot pushing
+  against an obstacle): the motor stands still whatever it is driven with, until the
+  flag is cleared (set by an environment, see ``Firmware.attach``).
 
 Defaults and their sources are listed in :class:`MotorParams` and
 ``docs/nxt-link.md``; the inertia and the friction torques are calibration
@@ -90,6 +93,7 @@ class MotorPhysics:
         self.motor_deg = 0.0  # angle of the motor's output shaft (before the play)
         self.output_deg = 0.0  # angle of the driven joint (after the play)
         self.speed_rad_s = 0.0
+        self.blocked = False
         self._encoder_total = 0  # integer counts delivered so far
         p = self.params
         self._k_drive = p.kt_nm_per_a / p.resistance_ohm  # N m per volt
@@ -113,6 +117,9 @@ class MotorPhysics:
         """
         p = self.params
         w = self.speed_rad_s
+        if self.blocked:
+            self._finish(0.0, 0.0, dt_s)
+            return self._count()
         if driven:
             duty = max(-1.0, min(1.0, duty))
             a = self._k_drive * duty * p.supply_v

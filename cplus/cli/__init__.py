@@ -22,6 +22,7 @@ COMMANDS = {
     "run": "the whole robot job: plan, refine, trajectory, execute, report, pictures",
     "execute": "run a trajectory file on NXT bricks (emulated when none is given)",
     "brick": "emulate an NXT brick on a pseudo-terminal",
+    "online": "run a domain online on a robot: act, sense, observe events, re-plan (Legolog's loop)",
 }
 
 

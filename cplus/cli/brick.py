@@ -2,7 +2,15 @@
 
 Prints the path to open (a symlink that survives simulated disconnects) on
 the first line of standard output, then serves until SIGINT or SIGTERM and
-exits 0. Bad options give one line on standard error and exit code 2.
+exits 0. Bad options give one line on standard error and exit code 2; a bad
+world file a located ``file:line:col: error:``.
+
+With ``--world world.toml`` the brick is Legolog's delivery robot: the compiled
+``cplus_legolog.rxe`` behaviour program runs and the robot drives on the world's
+track, which its light and touch sensors read. Each line on standard input presses
+the touch sensor (``press`` or an empty line: 0.3 s; ``press 1.5``: 1.5 s), and so
+does SIGUSR1 (0.3 s).
+``--stall PORT@SECONDS[+DURATION]`` holds a motor still mid-trajectory.
 
 The brick runs the compiled ``cplus_follow.rxe`` on its bytecode interpreter
 (compiled once by nbc and cached), or the program given with ``--program``;
@@ -14,6 +22,7 @@ Example::
     $ cplus brick --name r1 --drop 0.1 &
     /tmp/cplus-brick-r1-x8k2/tty
     $ cplus execute traj.json --brick r1=/tmp/cplus-brick-r1-x8k2/tty ...
+    $ cplus brick --name robot --world domains/delivery/world.toml
 """
 from __future__ import annotations
 
@@ -32,12 +41,15 @@ from nxt_link.emulator import (
     FaultParams,
     LinkParams,
     compiled_follower,
+    compiled_legolog,
 )
 from nxt_link.firmware import FirmwareParams
 from nxt_link.motor_model import MotorParams
 from nxt_link.pty_server import PtyBrickServer
+from nxt_link.stall import Stall
 from nxt_link.vm import NbcError, NbcMissingError, RxeError, load_rxe
 from nxt_link.vm.flash import FILENAME_LENGTH
+from nxt_link.world import World
 
 __all__ = ["build_parser", "config_from_args", "main"]
 
@@ -79,12 +91,20 @@ def _positive_int(text: str) -> int:
     return value
 
 
+def _stall(text: str) -> Stall:
+    try:
+        return Stall.parse(text)
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+
+
 def build_parser() -> OneLineArgumentParser:
     p = OneLineArgumentParser(
         prog="cplus brick",
         description="Emulate an NXT brick (firmware, bytecode interpreter running the compiled "
-                    "cplus_follow program, motors) on a pseudo-terminal. Prints the device path "
-                    "on the first line, serves until interrupted.")
+                    "cplus_follow program, motors) on a pseudo-terminal; with --world, a delivery "
+                    "robot running the cplus_legolog behaviour program on a line track. Prints "
+                    "the device path on the first line, serves until interrupted.")
     p.add_argument("--name", required=True, help="brick name, e.g. r1")
     p.add_argument("--link", metavar="PATH",
                    help="publish the pty as this symlink (default: a fresh temporary path)")
@@ -119,13 +139,29 @@ def build_parser() -> OneLineArgumentParser:
                    help="battery level reported, and motor supply voltage (default 9000)")
     p.add_argument("--backlash-deg", type=_non_negative, default=MotorParams().backlash_deg,
                    metavar="DEG", help="gear play of each motor, +-DEG (default 2)")
+    p.add_argument("--world", metavar="WORLD.toml",
+                   help="a delivery robot on this track (cplus.world/1): the cplus_legolog "
+                        "behaviour program runs; lines on stdin press the touch sensor")
+    p.add_argument("--stall", type=_stall, action="append", default=[],
+                   metavar="PORT@SECONDS[+DURATION]",
+                   help="hold the motor on PORT (A, B, C) still from SECONDS after it first "
+                        "turned, for DURATION seconds or for good (repeatable)")
     p.add_argument("--verbose", "-v", action="count", default=0, help="log to stderr")
     return p
 
 
 def config_from_args(args: argparse.Namespace) -> EmulatorConfig:
-    """The emulator configuration the options describe (shared with ``cplus execute``)."""
+    """The emulator configuration the options describe (shared with ``cplus execute``).
+
+    Raises:
+        WorldFileError: the ``--world`` file is bad (located).
+    """
     motors = MotorParams(supply_v=args.battery_mv / 1000.0, backlash_deg=args.backlash_deg)
+    world = None
+    if getattr(args, "world", None):
+        from cplus.robot.world_file import load_world
+
+        world = load_world(args.world)
     return EmulatorConfig(
         name=args.name,
         firmware=FirmwareParams(name=args.name[:14], battery_mv=args.battery_mv),
@@ -135,6 +171,8 @@ def config_from_args(args: argparse.Namespace) -> EmulatorConfig:
                            disconnect_after=args.disconnect_after, seed=args.seed),
         program_running=args.program_running,
         stale_frame_ms=250.0 * args.time_scale,
+        world=world,
+        stalls=tuple(getattr(args, "stall", ())),
     )
 
 
@@ -142,9 +180,9 @@ def program_files(args: argparse.Namespace) -> tuple[dict[str, bytes], dict[str,
     """The programs to put in flash, their symbol tables, and the one to start.
 
     ``--program FILE`` is checked here (a file the brick would refuse is a
-    one-line error); otherwise ``cplus_follow.rxe`` is compiled (once, cached).
-    Without nbc the files are empty and the follower's Python model runs: a
-    note says so on standard error."""
+    one-line error); otherwise ``cplus_follow.rxe`` (with ``--world``:
+    ``cplus_legolog.rxe``) is compiled (once, cached). Without nbc the files are
+    empty and the program's Python model runs: a note says so on standard error."""
     path = getattr(args, "program", None)
     if path:
         name = os.path.basename(path)
@@ -161,14 +199,17 @@ def program_files(args: argparse.Namespace) -> tuple[dict[str, bytes], dict[str,
         except RxeError as exc:
             raise CliError(f"cplus brick: error: {exc}") from None
         return {name: data}, {}, name
+    world = bool(getattr(args, "world", None))
+    source, model = (("cplus_legolog.nxc", "legolog_program.py") if world
+                     else ("cplus_follow.nxc", "follower_program.py"))
     try:
-        files, symbols = compiled_follower()
+        files, symbols = compiled_legolog() if world else compiled_follower()
     except NbcMissingError:
-        print("cplus brick: nbc not found: running the Python model of cplus_follow.nxc "
-              "(nxt_link/follower_program.py) instead of the compiled program", file=sys.stderr)
+        print(f"cplus brick: nbc not found: running the Python model of {source} "
+              f"(nxt_link/{model}) instead of the compiled program", file=sys.stderr)
         return {}, {}, None
     except NbcError as exc:
-        print(f"cplus brick: {exc}; running the Python model of cplus_follow.nxc instead",
+        print(f"cplus brick: {exc}; running the Python model of {source} instead",
               file=sys.stderr)
         return {}, {}, None
     return files, symbols, None
@@ -203,6 +244,13 @@ def main(args: argparse.Namespace) -> int:
     stop = threading.Event()
     previous = {sig: signal.signal(sig, lambda *_: stop.set())
                 for sig in (signal.SIGINT, signal.SIGTERM)}
+    world = server.emulator.world
+    if world is not None:
+        press = world.press
+        previous[signal.SIGUSR1] = signal.signal(signal.SIGUSR1, lambda *_: press(0.3))
+        if _stdin_readable():
+            threading.Thread(target=_presses_from_stdin, args=(world,), name="presses",
+                             daemon=True).start()
     try:
         print(path, flush=True)
         reported = 0
@@ -224,4 +272,47 @@ def main(args: argparse.Namespace) -> int:
           f"dropped {stats.dropped_in}/{stats.dropped_out}, corrupted "
           f"{stats.corrupted_in}/{stats.corrupted_out}, {stats.disconnects} disconnect(s)",
           file=sys.stderr)
+    if world is not None:
+        near = world.nearest_landmark()
+        print(f"cplus brick: {args.name}: robot at {world.position_mm:.0f} mm"
+              f"{f' (landmark {near})' if near else ''}, {world.distance_mm:.0f} mm driven, "
+              f"{world.presses} press(es), stuck {world.stuck_contacts()} time(s)",
+              file=sys.stderr)
+    for schedule in server.emulator.stalls:
+        state = "never (the motor did not turn)" if schedule.moved_at_ms is None else \
+            "not reached" if schedule.started_at_ms is None else \
+            f"at {schedule.started_at_ms / 1000:.2f} s"
+        print(f"cplus brick: {args.name}: stall {schedule.stall}: {state}", file=sys.stderr)
     return EXIT_OK
+
+
+def _stdin_readable() -> bool:
+    """Standard input can be read without stopping the process: not a terminal (a pipe,
+    a file), or a terminal this process has in the foreground (a background job reading
+    its terminal would be stopped by SIGTTIN)."""
+    try:
+        fd = sys.stdin.fileno()
+    except (AttributeError, OSError, ValueError):
+        return False
+    if not os.isatty(fd):
+        return True
+    try:
+        return os.tcgetpgrp(fd) == os.getpgrp()
+    except OSError:
+        return False
+
+
+def _presses_from_stdin(world: World) -> None:
+    """Each line on standard input presses the touch sensor (``press [SECONDS]``)."""
+    for line in sys.stdin:
+        words = line.split()
+        hold = 0.3
+        if len(words) >= 2 and words[0] == "press":
+            try:
+                hold = float(words[1])
+            except ValueError:
+                hold = 0.3
+        if hold <= 0:
+            hold = 0.3
+        world.press(hold)
+        print(f"cplus brick: touch sensor pressed for {hold:g} s", file=sys.stderr, flush=True)

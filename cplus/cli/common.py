@@ -5,10 +5,17 @@ Exit codes (the README's table):
 ==== ==================================================================================
 0    done: every query has a solution, the job ran
 1    no plan in a query's maxstep range (CCALC's "No solution" lines are printed); for
-     ``execute``/``run``: the link or a brick failed
+     ``execute``/``run``: the link or a brick failed; for ``online``: no plan from the observed
+     state
 2    bad input or usage: a located ``file:line:col: error:`` or a one-line message
-3    an open maxstep range reached ``--max-horizon`` without a plan
+3    an open maxstep range reached ``--max-horizon`` without a plan; ``online``: ``--max-cycles``
+     came before the goal
 4    a robot task has plans, but no collision-free one in the horizon range
+5    a robot task's refinement gave up (``--max-iterations``) before a plan or a proof
+6    ``online``: the world contradicted the model (an observation it cannot explain, a
+     failed action)
+7    ``online``: the observed state is ambiguous (the fluents left open are named)
+8    ``online``: a robot was lost (a brick stopped answering)
 130  interrupted
 ==== ==================================================================================
 """
@@ -18,7 +25,7 @@ import argparse
 import sys
 
 __all__ = ["EXIT_OK", "EXIT_NO_PLAN", "EXIT_LINK", "EXIT_INPUT", "EXIT_LIMIT", "EXIT_NO_SAFE_PLAN",
-           "EXIT_INTERRUPTED", "CliError", "OneLineArgumentParser", "nonneg", "positive", "externals",
+           "EXIT_GAVE_UP", "EXIT_CONTRADICTED", "EXIT_AMBIGUOUS", "EXIT_ROBOT_LOST", "EXIT_INTERRUPTED", "CliError", "OneLineArgumentParser", "nonneg", "positive", "externals",
            "Warnings", "horizon_progress", "clear_progress", "query", "file_loc", "robot_exit_code"]
 
 EXIT_OK = 0
@@ -27,6 +34,10 @@ EXIT_LINK = 1
 EXIT_INPUT = 2
 EXIT_LIMIT = 3
 EXIT_NO_SAFE_PLAN = 4
+EXIT_GAVE_UP = 5
+EXIT_CONTRADICTED = 6
+EXIT_AMBIGUOUS = 7
+EXIT_ROBOT_LOST = 8
 EXIT_INTERRUPTED = 130
 
 

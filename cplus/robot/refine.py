@@ -113,8 +113,12 @@ class RefinementResult:
 def refine(task: RobotTask, label: str = "0", max_iterations: int = 100, max_horizon: int | None = None,
            solver: str | None = None, refine: bool = True,
            on_iteration: Callable[[Iteration], None] | None = None,
-           on_horizon: Callable | None = None) -> RefinementResult:
-    """Algorithm 1: plan, check continuously, forbid, plan again in the same solver."""
+           on_horizon: Callable | None = None, session: QuerySession | None = None) -> RefinementResult:
+    """Algorithm 1: plan, check continuously, forbid, plan again in the same solver.
+
+    ``session``: a live solver to refine in, instead of a new one for the query ``label`` (the
+    online monitor plans from a state the arms were found in, with the clauses earlier
+    refinements learned)."""
     import trajectory
     from cplus.sat.solver import DEFAULT_SOLVER
     domain = task.domain
@@ -122,7 +126,10 @@ def refine(task: RobotTask, label: str = "0", max_iterations: int = 100, max_hor
     task.check_start_goal(query)
     if query.hi is None and max_horizon is None:
         max_horizon = DEFAULT_MAX_HORIZON
-    session = QuerySession(domain.theory, query, solver or DEFAULT_SOLVER, max_horizon)  # type: ignore[attr-defined]
+    if session is None:
+        session = QuerySession(domain.theory, query, solver or DEFAULT_SOLVER, max_horizon)  # type: ignore[attr-defined]
+    else:
+        query, max_horizon = session.query, session.max_horizon
     failed = find_horizon(session, on_horizon)
     result = RefinementResult(RefineStatus.NO_PLAN, None, None, [], None, None, None,
                               no_solution_with_maxstep=list(failed), session=session)

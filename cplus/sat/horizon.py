@@ -22,7 +22,7 @@ from cplus.ground.theory import GroundTheory
 from cplus.program import QuerySpec
 from cplus.sat.cnf import ClauseBuilder
 from cplus.sat.solver import DEFAULT_SOLVER, SatSolver
-from cplus.sat.templates import Template, build_templates
+from cplus.sat.templates import Layout, Template, build_templates
 
 __all__ = ["Horizon", "QuerySession", "HorizonStats"]
 
@@ -43,10 +43,13 @@ class HorizonStats:
 class Horizon:
     """The clauses of D_m for growing m in one incremental solver."""
 
-    def __init__(self, theory: GroundTheory, solver: str = DEFAULT_SOLVER, solver_factory=SatSolver) -> None:
+    def __init__(self, theory: GroundTheory, solver: str = DEFAULT_SOLVER, solver_factory=SatSolver,
+                 templates: tuple[Layout, Template, Template, Template] | None = None) -> None:
+        """``templates``: the result of :func:`build_templates` for ``theory``, when the caller
+        keeps it for several solvers (the online loop makes one per re-plan)."""
         t0 = time.perf_counter()
         self.theory = theory
-        self.layout, self.t_rigid, self.t_init, self.t_trans = build_templates(theory)
+        self.layout, self.t_rigid, self.t_init, self.t_trans = templates or build_templates(theory)
         self.template_s = time.perf_counter() - t0
         self.solver = solver_factory(solver)
         L = self.layout
@@ -132,10 +135,11 @@ class QuerySession:
     """Answer one query: horizons in ascending order, then models at the first good one."""
 
     def __init__(self, theory: GroundTheory, query: QuerySpec, solver: str = DEFAULT_SOLVER,
-                 max_horizon: int | None = None, solver_factory=SatSolver) -> None:
+                 max_horizon: int | None = None, solver_factory=SatSolver,
+                 templates: tuple[Layout, Template, Template, Template] | None = None) -> None:
         self.theory = theory
         self.query = query
-        self.horizon = Horizon(theory, solver, solver_factory)
+        self.horizon = Horizon(theory, solver, solver_factory, templates)
         self.max_horizon = max_horizon
         self.sig = theory.sig
         self.atoms = theory.atoms

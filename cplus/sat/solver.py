@@ -84,6 +84,11 @@ class SatSolver:
         assert m is not None, "no model"
         return var <= len(m) and m[var - 1] > 0
 
+    def core(self) -> list[int]:
+        """After an unsatisfiable :meth:`solve`: assumptions that together cannot hold (a
+        subset of those given; not necessarily minimal)."""
+        return list(self._s.get_core() or [])
+
     @property
     def model(self) -> list[int]:
         assert self._model is not None, "no model"

@@ -207,6 +207,13 @@ def test_input_ports_report_the_mode_that_was_set():
     f.tick()
     v = tg.decode_reply(f.handle(bytes.fromhex("00 07 02")), tg.Opcode.GET_INPUT_VALUES)
     assert (v.valid, v.raw_value, v.normalized_value, v.scaled_value) == (True, 183, 183, 1)
+    # a mode change alone: invalid until the next sample
+    assert send(f, "00 05 02 01 00") == "02 05 00"
+    v = tg.decode_reply(f.handle(bytes.fromhex("00 07 02")), tg.Opcode.GET_INPUT_VALUES)
+    assert not v.valid
+    f.tick()
+    v = tg.decode_reply(f.handle(bytes.fromhex("00 07 02")), tg.Opcode.GET_INPUT_VALUES)
+    assert (v.valid, v.scaled_value) == (True, 183)
 
 
 def test_battery_keepalive_tone():

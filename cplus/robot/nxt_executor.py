@@ -1,0 +1,286 @@
+"""The online loop's executor for NXT bricks that run the Legolog behaviour program.
+
+Each of the robot's actions is a behaviour of a brick (the binding file says which, with
+which arguments). :class:`NxtExecutor` sends it with :class:`nxt_link.behaviours.BehaviourClient`
+(ACT -> ACK -> DONE, answering MORE_TIME), maps the sensing values of the DONE to the sensed
+fluents of that brick, then polls every brick for events (EXOG) and reads the sensor ports
+that the binding names (GETINPUTVALUES, the scaled value as the brick program configured the
+port). Actions of one step on one brick run one after another; bricks run in parallel.
+
+Without ports, each brick is emulated in-process on a pseudo-terminal: a
+:class:`nxt_link.BrickEmulator` running the behaviour program in the world its binding names
+(``world = "world.toml"``), served by :class:`nxt_link.PtyBrickServer`, so the run goes
+through the same serial path as a real brick.
+
+A behaviour that reports failure (stuck, line lost) is the step's ``failure``. A brick that
+stops answering is :class:`~cplus.robot.online.RobotLost`.
+"""
+from __future__ import annotations
+
+import threading
+from collections.abc import Callable, Mapping
+from contextlib import ExitStack
+from dataclasses import dataclass, field
+
+import nxt_link
+from cplus.robot.binding import BindingError, RobotBinding
+from cplus.robot.estimation import Act, OnlineModel
+from cplus.robot.online import Executor, Outcome, RobotLost, Step
+from nxt_link.behaviours import BehaviourClient, BehaviourError, BehaviourFailed, BehaviourTiming
+from nxt_link.clock import MONOTONIC, Clock
+from nxt_link.errors import LinkError
+from nxt_link.serial_transport import SerialTransport
+
+__all__ = ["NxtExecutor", "load_world"]
+
+
+def load_world(binding: RobotBinding, brick: str):
+    """The emulated world of a brick, from the world file its binding names.
+
+    Raises:
+        BindingError: no world file is named, or it cannot be read (located at ``world =``).
+    """
+    spec = binding.bricks[brick]
+    if spec.world is None:
+        raise BindingError(f"brick '{brick}' has no world to be emulated in: give world = \"world.toml\" in "
+                           f"[bricks.{brick}], or its port with --brick {brick}=PORT", spec.location)
+    if not spec.world.is_file():
+        raise BindingError(f"no world file {spec.world}", spec.world_location)
+    from cplus.robot.world_file import load_world as load_world_file  # the schema cplus.world/1
+    return load_world_file(spec.world)
+
+
+@dataclass
+class _Brick:
+    name: str
+    client: BehaviourClient
+    brick: nxt_link.Brick
+    last_readings: dict[str, int] = field(default_factory=dict)
+
+
+class NxtExecutor(Executor):
+    """The robot's actions as behaviours of NXT bricks (real, or emulated in their worlds).
+
+    Args:
+        model: the loop's model (for the sensed fluents' values).
+        binding: the robot's binding file.
+        ports: brick name -> device (``/dev/rfcomm0``, a ``cplus brick`` pty); None: emulate
+            every brick in its world.
+        latency: emulated bricks answer with Bluetooth timing (False: at once).
+        time_scale: emulated bricks and their worlds run this much faster than real time.
+        worlds: brick name -> ``nxt_link.world.WorldSpec``, instead of the binding's world
+            files (tests, benchmarks).
+        transports: brick name -> an open transport (e.g. a ``MemoryTransport`` on a virtual
+            clock), instead of ports or emulation.
+        timing: the behaviour client's timeouts.
+        policy: the link's timeouts and retries (how long a lost link is reopened).
+        on_link_event: receives ``(brick, event, detail)`` from the behaviour clients
+            (re-sends, more time, panic): a log line for the curious.
+        clock: what a step's duration is measured on (the transports' virtual clock in tests).
+    """
+
+    def __init__(self, model: OnlineModel, binding: RobotBinding, ports: Mapping[str, str] | None = None, *,
+                 latency: bool = True, time_scale: float = 1.0, worlds: Mapping[str, object] | None = None,
+                 transports: Mapping[str, object] | None = None, timing: BehaviourTiming | None = None,
+                 policy: nxt_link.RetryPolicy | None = None,
+                 on_link_event: Callable[[str, str, str], None] | None = None, clock: Clock = MONOTONIC) -> None:
+        self.model = model
+        self.clock = clock
+        self.binding = binding
+        self.ports = dict(ports or {})
+        self.latency = latency
+        self.time_scale = time_scale
+        self.worlds = dict(worlds or {})
+        self.transports = dict(transports or {})
+        self.timing = timing
+        self.policy = policy
+        self.on_link_event = on_link_event
+        self.bricks: dict[str, _Brick] = {}
+        self.servers: dict[str, object] = {}
+        self._stack = ExitStack()
+        names = list(binding.bricks)
+        if self.transports:
+            self.description = "NXT bricks " + ", ".join(names)
+        elif self.ports:
+            self.description = "NXT bricks " + ", ".join(f"{n}={self.ports[n]}" for n in names)
+        else:
+            for name in names:                      # refuse a missing world before anything starts
+                if name not in self.worlds:
+                    self.worlds[name] = load_world(binding, name)
+            self.description = "emulated NXT bricks " + ", ".join(
+                f"{n} (world {getattr(self.worlds[n], 'name', '?')})" for n in names)
+
+    # ------------------------------------------------------------------ connection
+    def open(self) -> None:
+        try:
+            for name in self.binding.bricks:
+                transport = self._transport(name)
+                brick = nxt_link.Brick(transport, name=name, policy=self.policy)
+                self._stack.callback(brick.close)
+                client = BehaviourClient(brick, timing=self.timing, on_event=self._link_event(name))
+                client.connect()
+                self.bricks[name] = _Brick(name, client, brick)
+        except (LinkError, OSError) as exc:
+            raise RobotLost(f"brick {name}: {exc}") from None
+
+    def _link_event(self, name: str) -> Callable[[str, str], None] | None:
+        report = self.on_link_event
+        if report is None:
+            return None
+        return lambda event, detail: report(name, event, detail)
+
+    def _transport(self, name: str):
+        if name in self.transports:
+            return self.transports[name]
+        if self.ports:
+            t = SerialTransport(self.ports[name])
+            self._stack.callback(t.close)
+            return t
+        config = nxt_link.EmulatorConfig(
+            name=name, world=self.worlds[name],  # type: ignore[arg-type]
+            link=nxt_link.LinkParams() if self.latency else nxt_link.LinkParams.instant(),
+            stale_frame_ms=250.0 * self.time_scale)
+        server = nxt_link.PtyBrickServer(nxt_link.BrickEmulator(config), time_scale=self.time_scale)
+        server.start()
+        self._stack.callback(server.stop)
+        self.servers[name] = server
+        t = SerialTransport(server.path)
+        self._stack.callback(t.close)
+        return t
+
+    def abort(self) -> None:
+        for b in self.bricks.values():
+            try:
+                b.client.abort()
+            except LinkError:
+                pass
+
+    def close(self) -> None:
+        for b in self.bricks.values():
+            try:
+                b.client.close()
+            except LinkError:
+                pass
+        self.bricks.clear()
+        self._stack.close()
+
+    # ------------------------------------------------------------------ steps
+    def sense(self) -> Outcome:
+        out = Outcome()
+        self._read_ports(out, initial=True)
+        return out
+
+    def execute(self, step: Step) -> Outcome:
+        t0 = self.clock.now()
+        out = Outcome()
+        by_brick: dict[str, list[Act]] = {}
+        for act in step.acts:
+            by_brick.setdefault(self.binding.actions[act.gc].brick, []).append(act)
+        if len(by_brick) <= 1:
+            for name, acts in by_brick.items():
+                self._run(name, acts, out)
+        else:
+            errors: list[BaseException] = []
+            lock = threading.Lock()
+
+            def work(name: str, acts: list[Act]) -> None:
+                part = Outcome()
+                try:
+                    self._run(name, acts, part)
+                except BaseException as exc:  # noqa: BLE001 - re-raised in the caller's thread
+                    errors.append(exc)
+                with lock:
+                    _merge(out, part)
+            threads = [threading.Thread(target=work, args=item, daemon=True) for item in by_brick.items()]
+            for t in threads:
+                t.start()
+            for t in threads:
+                t.join()
+            if errors:
+                raise errors[0]
+        self._poll_events(out)
+        self._read_ports(out)
+        out.seconds = self.clock.now() - t0
+        return out
+
+    def poll(self) -> Outcome:
+        out = Outcome()
+        self._poll_events(out)
+        self._read_ports(out)
+        return out
+
+    def _run(self, name: str, acts: list[Act], out: Outcome) -> None:
+        b = self.bricks[name]
+        for act in acts:
+            bound = self.binding.actions[act.gc]
+            try:
+                result = b.client.act(bound.behaviour, bound.call_args(act))
+            except BehaviourFailed as exc:
+                self._sensing(name, exc.result.sensing, out)
+                out.failure = f"{act.text} on brick {name}: {exc.result.status_name} ({exc})"
+                return
+            except BehaviourError as exc:       # refused: not started
+                out.failure = f"{act.text} on brick {name}: {exc}"
+                return
+            except LinkError as exc:
+                raise RobotLost(f"brick {name}: {exc}") from None
+            self._sensing(name, result.sensing, out)
+
+    def _sensing(self, name: str, sensing: Mapping[str, int], out: Outcome) -> None:
+        for key, reading in sensing.items():
+            out.raw[f"{name}.{key}"] = reading
+        for gc, s in self.binding.sensed.items():
+            if s.brick == name and s.value is not None and s.value in sensing:
+                value = s.map(sensing[s.value])
+                if value is not None:
+                    out.sensed[gc] = value
+
+    def _poll_events(self, out: Outcome) -> None:
+        for name, b in self.bricks.items():
+            try:
+                events = b.client.poll_events()
+            except LinkError as exc:
+                raise RobotLost(f"brick {name}: {exc}") from None
+            for e in events:
+                gc = self.binding.brick_event(name, e.name, e.args)
+                if gc is None:
+                    shown = e.name + (f"({','.join(map(str, e.args))})" if e.args else "")
+                    out.notes.append(f"ignored event {shown} from brick {name}: no binding")
+                elif gc not in out.events:
+                    out.events.append(gc)
+
+    def _read_ports(self, out: Outcome, initial: bool = False) -> None:
+        sensed = self.binding.sensed
+        for name, b in self.bricks.items():
+            ports = sorted({s.port for s in sensed.values() if s.brick == name and s.port}
+                           | {e.port for e in self.binding.events.values()
+                              if e.source == "sensor" and e.brick == name and e.port})
+            for port in ports:
+                try:
+                    reply = b.brick.get_input_values(int(port[1]) - 1)
+                except LinkError as exc:
+                    raise RobotLost(f"brick {name}: {exc}") from None
+                reading = int(reply.scaled_value)
+                out.raw[f"{name}.{port}"] = reading
+                for gc, s in sensed.items():
+                    if s.brick == name and s.port == port:
+                        value = s.map(reading)
+                        if value is not None:
+                            out.sensed[gc] = value
+                before = b.last_readings.get(port)
+                for gc, e in self.binding.events.items():
+                    if e.source == "sensor" and e.brick == name and e.port == port and not initial \
+                            and e.crossed(before, reading) and gc not in out.events:
+                        out.events.append(gc)
+                b.last_readings[port] = reading
+
+
+def _merge(into: Outcome, part: Outcome) -> None:
+    into.sensed.update(part.sensed)
+    into.raw.update(part.raw)
+    into.notes.extend(part.notes)
+    if part.failure and not into.failure:
+        into.failure = part.failure
+    for gc in part.events:
+        if gc not in into.events:
+            into.events.append(gc)
