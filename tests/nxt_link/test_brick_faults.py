@@ -1,0 +1,117 @@
+"""`cplus brick`'s fault options do what they say, seen from a client over the real pty.
+
+Each test starts ``cplus brick`` as a process (``--no-latency``, a fixed ``--seed``) and
+talks to it with our client (:class:`~nxt_link.Brick` over :class:`~nxt_link.SerialTransport`)
+the way ``cplus execute`` does: the faults must show up as the client's retries,
+damaged-reply resyncs and reconnects, and every answer that comes back must be right.
+Timing enters only as lower bounds (a frame delayed by D arrives no sooner than D), which a
+loaded machine cannot break.
+"""
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from nxt_link import Brick, LinkTimeoutError, RetryPolicy, SerialTransport, SetpointStream, execute_streams
+
+pytestmark = pytest.mark.slow          # real processes on real ptys, in real time
+
+ROOT = Path(__file__).resolve().parents[2]
+BATTERY_MV = 7777
+
+
+@pytest.fixture
+def brick_process():
+    procs: list[subprocess.Popen] = []
+
+    def start(*options: str) -> str:
+        proc = subprocess.Popen([sys.executable, "-m", "cplus", "brick", "--name", "r1", "--no-latency",
+                                 "--seed", "7", "--battery-mv", str(BATTERY_MV), *options],
+                                stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=ROOT,
+                                env={**os.environ, "PYTHONUNBUFFERED": "1"})
+        procs.append(proc)
+        path = proc.stdout.readline().strip()   # type: ignore[union-attr]
+        assert path, proc.stderr.read()         # type: ignore[union-attr]
+        return path
+
+    yield start
+    for proc in procs:
+        proc.send_signal(signal.SIGTERM)
+        try:
+            proc.wait(timeout=20)
+        except subprocess.TimeoutExpired:     # pragma: no cover - only if it hangs
+            proc.kill()
+            proc.wait()
+
+
+def client(path: str, events: list, **policy) -> Brick:
+    return Brick(SerialTransport(path), name="r1", on_event=events.append,
+                 policy=RetryPolicy(**{"reply_timeout_s": 0.1, "retries": 12, "quiet_s": 0.02,
+                                       "reconnect_timeout_s": 10.0, **policy}))
+
+
+def kinds(events) -> set[str]:
+    return {e.event for e in events}
+
+
+def test_without_faults_nothing_is_retried(brick_process):
+    events: list = []
+    with client(brick_process(), events, reply_timeout_s=5.0) as b:
+        assert [b.get_battery_level() for _ in range(20)] == [BATTERY_MV] * 20
+    assert events == []
+
+
+def test_drop_loses_frames_and_the_client_retries(brick_process):
+    events: list = []
+    with client(brick_process("--drop", "0.3"), events) as b:
+        assert [b.get_battery_level() for _ in range(20)] == [BATTERY_MV] * 20
+    assert "timeout" in kinds(events)
+
+
+def test_corrupt_damages_replies_that_the_client_sees(brick_process):
+    """Direct commands have no checksum: a flipped byte is caught when it breaks the
+    telegram (a resync), or comes back as a wrong value; either way it shows."""
+    events: list = []
+    with client(brick_process("--corrupt", "0.3"), events, reply_timeout_s=0.3) as b:
+        values = [b.get_battery_level() for _ in range(30)]
+    assert kinds(events) & {"damaged reply", "suspicious status"} or set(values) != {BATTERY_MV}
+
+
+def test_corrupt_never_gets_past_the_streaming_protocol(brick_process, wave):
+    """Setpoints and the log travel in CRC-checked mailbox messages: under corruption the
+    brick still holds exactly what was sent (its checksum said so before GO)."""
+    path = brick_process("--corrupt", "0.1", "--time-scale", "10")
+    rows = wave(40, (120, -60))
+    events: list = []
+    with client(path, events, reply_timeout_s=0.5) as b:
+        log = execute_streams([SetpointStream("r1", ("A", "B"), 50, rows)], {"r1": b})
+    got = log.brick("r1")
+    assert got.reference_deg == rows and len(got.measured_deg) == len(rows)
+    seen = [e.event for e in got.events] + [e.event for e in events]
+    assert any("damaged" in e or "suspicious" in e for e in seen), seen     # it did happen
+
+
+def test_delay_holds_every_frame_back(brick_process):
+    path = brick_process("--delay", "400")
+    events: list = []
+    with client(path, events, reply_timeout_s=0.2, retries=0) as b:
+        with pytest.raises(LinkTimeoutError):
+            b.keep_alive()                    # the answer needs 2 x 400 ms
+    with client(path, events, reply_timeout_s=10.0, retries=0) as b:
+        b.get_battery_level()                 # the late KEEPALIVE reply is skipped as stale
+        t0 = time.monotonic()
+        assert b.get_battery_level() == BATTERY_MV
+        assert time.monotonic() - t0 >= 0.8   # there and back, 400 ms each way
+
+
+def test_disconnect_after_drops_the_link_once_and_the_client_reconnects(brick_process):
+    events: list = []
+    with client(brick_process("--disconnect-after", "10"), events, reply_timeout_s=2.0) as b:
+        assert [b.get_battery_level() for _ in range(25)] == [BATTERY_MV] * 25
+    assert [e.event for e in events if e.event == "reconnected"] == ["reconnected"]
