@@ -23,7 +23,7 @@ from cplus_oracle import (
     obj,
 )
 from cplus_random import SORTS, SUBSORTS, VARIABLES, descriptions
-from hypothesis import given, settings
+from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
 from cplus import Domain
@@ -326,4 +326,6 @@ def test_planner_agrees_with_the_oracle_on_random_domains(drawn, ranged):
     desc, m = drawn
     lo = 0 if ranged else m
     text = desc.text(m, lo if ranged else None)
-    assert planner(text) == first_histories(desc, lo, m), text
+    expected = first_histories(desc, lo, m)
+    assume(len(expected[1]) <= 600)      # bounds the run time; about 1 domain in 250 is larger
+    assert planner(text) == expected, text
