@@ -123,7 +123,7 @@ class BehaviourTiming:
     """
 
     resend_s: float = 1.0
-    poll_s: float = 0.02
+    poll_s: float = 0.01
     max_silent_s: float = 10.0
     program_start_timeout_s: float = 5.0
 
@@ -224,9 +224,12 @@ class BehaviourClient:
         return BrickLostError(f"brick {self.name}: {what}")
 
     def _post(self, req: bp.Request) -> None:
-        """Write one request (reply-required, so a missing program is seen at once)."""
+        """Write one request. HELLO asks for the write's reply, so a missing program is seen
+        at once; the others do not wait for it (a round trip less; a lost write is covered
+        by the re-send timer, a stopped program by the next read)."""
         try:
-            self.brick.message_write(bp.CMD_INBOX, bp.encode_request(req))
+            self.brick.message_write(bp.CMD_INBOX, bp.encode_request(req),
+                                     reply=isinstance(req, bp.Hello))
         except NoActiveProgramError:
             raise self._lost(f"the program {self.program} is not running") from None
         except LinkTimeoutError as exc:
@@ -287,9 +290,10 @@ class BehaviourClient:
             self._post(make(rid))
             deadline = Deadline(self.clock, self.timing.resend_s)
             while not deadline.expired():
+                # the program answers within its loop: read after it had the time to
+                self.clock.sleep(self.timing.poll_s)
                 resp = self._poll(panic_ok=panic_ok)
                 if resp is None:
-                    self.clock.sleep(self.timing.poll_s)
                     continue
                 heard = self.clock.now()
                 if accept(resp, ids):
@@ -399,6 +403,7 @@ class BehaviourClient:
         more = 0
         self._post(req)
         sent = heard = self.clock.now()
+        self.clock.sleep(self.timing.poll_s)  # the program takes the ACT within its loop
         while True:
             resp = self._poll()
             now = self.clock.now()

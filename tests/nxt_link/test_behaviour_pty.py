@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+import re
 import signal
 import subprocess
 import sys
@@ -62,9 +63,11 @@ def test_client_over_a_pty_with_dropped_frames_runs_each_action_once():
         assert server.error is None
 
 
-def test_cplus_brick_with_a_world_serves_the_delivery_robot():
+def test_cplus_brick_with_a_world_serves_the_delivery_robot_through_faults():
     proc = subprocess.Popen([sys.executable, "-m", "cplus", "brick", "--name", "robot",
-                             "--world", str(WORLD), "--no-latency", "--time-scale", str(SCALE)],
+                             "--world", str(WORLD), "--no-latency", "--time-scale", str(SCALE),
+                             "--drop", "0.1", "--corrupt", "0.05", "--delay", "10",
+                             "--seed", "3"],
                             stdin=subprocess.PIPE, stdout=subprocess.PIPE,
                             stderr=subprocess.PIPE, text=True, cwd=ROOT)
     try:
@@ -85,6 +88,8 @@ def test_cplus_brick_with_a_world_serves_the_delivery_robot():
         assert proc.wait(timeout=20) == 0
         err = proc.stderr.read() if proc.stderr else ""
         assert "(landmark 2)" in err and "2 press(es)" in err
+        dropped = re.search(r"dropped (\d+)/(\d+), corrupted (\d+)/(\d+)", err)
+        assert dropped is not None and sum(map(int, dropped.groups())) > 0
         # the compiled cplus_legolog.rxe ran on the bytecode interpreter, not the model
         assert "Python model" not in err and "aborted" not in err
     finally:
