@@ -52,7 +52,7 @@ def brick_process():
 
 def client(path: str, events: list, **policy) -> Brick:
     return Brick(SerialTransport(path), name="r1", on_event=events.append,
-                 policy=RetryPolicy(**{"reply_timeout_s": 0.1, "retries": 12, "quiet_s": 0.02,
+                 policy=RetryPolicy(**{"reply_timeout_s": 0.25, "retries": 12, "quiet_s": 0.02,
                                        "reconnect_timeout_s": 10.0, **policy}))
 
 
@@ -69,8 +69,8 @@ def test_without_faults_nothing_is_retried(brick_process):
 
 def test_drop_loses_frames_and_the_client_retries(brick_process):
     events: list = []
-    with client(brick_process("--drop", "0.3"), events) as b:
-        assert [b.get_battery_level() for _ in range(20)] == [BATTERY_MV] * 20
+    with client(brick_process("--drop", "0.3"), events, reply_timeout_s=0.25) as b:
+        assert [b.get_battery_level() for _ in range(15)] == [BATTERY_MV] * 15
     assert "timeout" in kinds(events)
 
 
