@@ -70,7 +70,7 @@ def test_without_faults_nothing_is_retried(brick_process):
 def test_drop_loses_frames_and_the_client_retries(brick_process):
     events: list = []
     with client(brick_process("--drop", "0.3"), events, reply_timeout_s=0.25) as b:
-        assert [b.get_battery_level() for _ in range(15)] == [BATTERY_MV] * 15
+        assert [b.get_battery_level() for _ in range(10)] == [BATTERY_MV] * 10
     assert "timeout" in kinds(events)
 
 
