@@ -8,8 +8,8 @@
 >>> d.labels
 ['on']
 >>> r = d.solve("on")
->>> r.maxstep, [a.text for a in r.histories[0].actions[0] if r.histories[0].actions[0][a] == "true"]
-(1, ['flip'])
+>>> r.maxstep, r.histories[0].value("flip", 0), r.histories[0].state_text(1)
+(1, True, {'lit': True})
 >>> print(d.format(r).strip())
 No solution with maxstep 0.
 <BLANKLINE>
@@ -107,8 +107,10 @@ class Domain:
         """A live solver for a query, for callers that add constraints between solves."""
         return QuerySession(self.theory, self.query(label), solver, max_horizon)
 
-    def format(self, result: QueryResult, numbered: bool = False) -> str:
-        """CCALC's text for a result."""
+    def format(self, result: QueryResult, numbered: bool | None = None) -> str:
+        """CCALC's text for a result, as ``cplus plan`` prints it: each history headed
+        ``Solution k:`` unless exactly one solution was asked for (``numbered`` overrides)."""
+        numbered = result.solutions != 1 if numbered is None else numbered
         return format_result(Display(self.program), result.failed, result.histories, numbered)
 
     def to_json(self, result: QueryResult) -> dict:

@@ -79,19 +79,11 @@ class Stamp(NamedTuple):
 
 
 class Range(NamedTuple):
-    """``lo..hi`` in declarations."""
+    """``lo..hi`` (integer expressions): in objects, sorts, macro bodies and maxstep only."""
 
     loc: Location
     lo: Expr
     hi: Expr
-
-
-Expr = Num | Name | Param | MaxStep | Unary | Binary | Quant | Stamp | Range
-
-ARITH_OPS = frozenset({"+", "-", "*", "//", "mod"})
-COMPARE_OPS = frozenset({"=", "\\=", "==", "<", ">", "=<", ">=", "@<", "@>", "@=<", "@>="})
-
-# ----------------------------------------------------------------------- sorts
 
 
 class SortRef(NamedTuple):
@@ -102,7 +94,18 @@ class SortRef(NamedTuple):
     star: bool = False
 
 
-SortSpec = SortRef | Range
+Expr = Num | Name | Param | MaxStep | Unary | Binary | Quant | Stamp | Range | SortRef
+"""A sort reference is an expression only as a constructor argument or a kind's domain
+(``inertialFluent(disk*)``); the resolver rejects it elsewhere."""
+
+ARITH_OPS = frozenset({"+", "-", "*", "//", "mod"})
+COMPARE_OPS = frozenset({"=", "\\=", "==", "<", ">", "=<", ">=", "@<", "@>", "@=<", "@>="})
+
+# ----------------------------------------------------------------------- sorts
+
+
+SortSpec = SortRef | Range | Expr
+"""A sort in a declaration: a name, ``s*``, a range, or a macro call that expands to one."""
 
 # ----------------------------------------------------------------------- statements
 
@@ -195,8 +198,10 @@ class ShowHide(NamedTuple):
 
 
 class QueryLabel(NamedTuple):
+    """``label :: L``: a name, an integer, or a macro or integer expression giving one."""
+
     loc: Location
-    label: str
+    label: Expr
 
 
 class QueryMaxstep(NamedTuple):

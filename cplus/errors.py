@@ -85,7 +85,20 @@ class Location:
         text = self.source.line_text(line).replace("\t", " ")
         end_line, end_col = self.source.line_col(max(self.start, self.end - 1))
         width = max(1, end_col - col + 1) if end_line == line else max(1, len(text) - col + 1)
-        return f"  {text}\n  {' ' * (col - 1)}{'^' * min(width, max(1, len(text) - col + 1))}"
+        width = min(width, max(1, len(text) - col + 1))
+        if len(text) > _EXCERPT:   # a window around the caret, so that a message stays readable
+            first = max(0, col - 1 - _EXCERPT // 2)
+            window = text[first:first + _EXCERPT]
+            prefix = "..." if first else ""
+            suffix = "..." if first + _EXCERPT < len(text) else ""
+            text = prefix + window + suffix
+            col = col - first + len(prefix)
+            width = min(width, len(window) - (col - 1 - len(prefix)))
+        return f"  {text}\n  {' ' * (col - 1)}{'^' * max(1, width)}"
+
+
+_EXCERPT = 100
+"""Longest source line shown whole under an error; longer ones are cut around the caret."""
 
 
 class CPlusError(Exception):

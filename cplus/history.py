@@ -9,31 +9,48 @@ from dataclasses import dataclass
 
 from cplus.signature import GroundConst, render_value
 
-__all__ = ["History", "decode_history", "executed_actions"]
+__all__ = ["History", "decode_history", "executed_actions", "json_value"]
+
+
+def json_value(gc: GroundConst, v: object):
+    """A value as ``cplus.plan/1`` JSON and the API's name-keyed views give it: a Boolean
+    constant's value is ``True``/``False``, integers and names stay, constructor objects are
+    their text (``cell(2)``)."""
+    if gc.boolean:
+        return v == "true"
+    if isinstance(v, (int, str)):
+        return v
+    return render_value(v)  # type: ignore[arg-type]
 
 
 @dataclass(frozen=True)
 class History:
+    """The tables are keyed by ground constants and hold objects as the grounder knows them
+    (``"true"``/``"false"`` for Booleans); :meth:`value` and :meth:`state_text` speak by name
+    and give values as the JSON output does."""
+
     maxstep: int
     rigid: dict[GroundConst, object]
     states: tuple[dict[GroundConst, object], ...]
     actions: tuple[dict[GroundConst, object], ...]
 
     def value(self, text: str, step: int | None = None) -> object:
-        """Value of a ground constant given by its text (``"loc(d1)"``) at a step."""
+        """Value of a ground constant given by its text (``"loc(d1)"``) at a step (rigid
+        constants: no step), as in the JSON output."""
         if step is None:
             for gc, v in self.rigid.items():
                 if gc.text == text:
-                    return v
+                    return json_value(gc, v)
             raise KeyError(text)
         for table in (self.states[step], self.actions[step] if step < len(self.actions) else {}):
             for gc, v in table.items():
                 if gc.text == text:
-                    return v
+                    return json_value(gc, v)
         raise KeyError(text)
 
     def state_text(self, step: int) -> dict[str, object]:
-        return {gc.text: v for gc, v in self.states[step].items()}
+        """Every fluent's value at a step, by name, as in the JSON output."""
+        return {gc.text: json_value(gc, v) for gc, v in self.states[step].items()}
 
     def key(self) -> tuple:
         """A hashable identity of the history (two equal keys = the same history)."""

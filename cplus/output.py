@@ -12,6 +12,7 @@ from collections.abc import Iterable
 
 from cplus import ir
 from cplus.history import History, executed_actions
+from cplus.history import json_value as _json_value
 from cplus.program import Pattern, Program
 from cplus.signature import GroundConst, NamedSort, RangeSort, Signature, render_value
 
@@ -160,14 +161,6 @@ def format_result(display: Display, failed: Iterable[int], histories: list[Histo
             parts.append(f"Solution {k}:\n")
         parts.append(format_history(display, h))
     return "".join(parts)
-
-
-def _json_value(gc: GroundConst, v: object):
-    if gc.boolean:
-        return v == "true"
-    if isinstance(v, (int, str)):
-        return v
-    return render_value(v)  # type: ignore[arg-type]
 
 
 def history_json(hist: History) -> dict:

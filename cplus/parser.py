@@ -20,13 +20,30 @@ import re
 from functools import lru_cache
 from pathlib import Path
 
-from lark import Lark, Token, Transformer, v_args
+from lark import Lark, Token, Tree
 from lark.exceptions import UnexpectedCharacters, UnexpectedEOF, UnexpectedInput, UnexpectedToken
 
 from cplus import ast
 from cplus.errors import CPlusSyntaxError, Diagnostics, Location, Source
+from cplus.limits import MAX_INT, MAX_NESTING
+from cplus.signature import USER_KINDS
 
-__all__ = ["parse_program", "split_statements"]
+__all__ = ["parse_program", "split_statements", "RESERVED"]
+
+RESERVED = frozenset("""
+    abs after all always by caused causes constants constraint decrements default exogenous hide
+    if include increments inertial label macros maxstep mod noconcurrency nonexecutable objects of
+    query show sorts unless variables where
+""".split())
+"""CCALC's keywords that structure statements: they cannot name a sort, object, constant,
+variable or macro (the grammar's IDENT excludes exactly these).  Constant kinds
+(``inertialFluent``, ``rigid``, ...), ``true``, ``false``, ``none``, ``min``, ``max`` and
+``maxAdditive`` stay names: they occur where names do.  Cplus2ASP's additions (``never``,
+``impossible``, ``strong_noconcurrency``) are keywords only where a statement begins, since
+CCALC files may use them as names."""
+
+_CHAIN_MIN = 9
+"""Chains of one associative operator longer than this are regrouped into a balanced tree."""
 
 _GRAMMAR = Path(__file__).with_name("grammar") / "cplus.lark"
 
@@ -145,6 +162,7 @@ def parse_program(text: str, path: str = "<input>",
                   diagnostics: Diagnostics | None = None) -> ast.ParsedFile:
     """Parse the text of one file into statements (includes are not followed here)."""
     diagnostics = diagnostics if diagnostics is not None else Diagnostics()
+    text = text.removeprefix("\ufeff")  # a UTF-8 byte-order mark is not part of the text
     source = Source(path, text)
     statements: list[ast.Statement] = []
     parser = _lark()
@@ -158,10 +176,32 @@ def parse_program(text: str, path: str = "<input>",
             tree = parser.parse(chunk)
         except UnexpectedInput as exc:
             raise _syntax_error(exc, source, begin, end, chunk) from None
-        builder = _Builder(source, begin)
-        stmt = builder.transform(tree)
+        stmt = _Builder(source, begin).build(tree)
+        deep = _too_deep(stmt)
+        if deep is not None:
+            raise CPlusSyntaxError(f"this expression is nested more than {MAX_NESTING} levels deep "
+                                   "(parentheses, negations, implications, arguments); write it in "
+                                   "smaller parts", deep.loc)
         statements.append(stmt)
     return ast.ParsedFile(source, tuple(statements))
+
+
+_EXPR_NODES = (ast.Num, ast.Name, ast.Param, ast.MaxStep, ast.Unary, ast.Binary, ast.Quant, ast.Stamp,
+               ast.Range, ast.SortRef)
+
+
+def _too_deep(stmt) -> ast.Expr | None:
+    """The first expression node nested deeper than MAX_NESTING, if any."""
+    stack: list[tuple[object, int]] = [(stmt, 0)]
+    while stack:
+        obj, depth = stack.pop()
+        if isinstance(obj, _EXPR_NODES):
+            depth += 1
+            if depth > MAX_NESTING:
+                return obj
+        if isinstance(obj, tuple):
+            stack.extend((child, depth) for child in obj if isinstance(child, tuple))
+    return None
 
 
 _READABLE = {
@@ -207,28 +247,173 @@ def _syntax_error(exc: UnexpectedInput, source: Source, begin: int, end: int,
         if ch == ".":
             return CPlusSyntaxError("unexpected '.': a statement ends with '.' followed by a space "
                                     "or a new line", Location(source, at, at + 1))
+        pos: int = exc.pos_in_stream  # type: ignore[assignment]
+        word = _WORD.match(chunk, pos)
+        if word and (pos == 0 or not chunk[pos - 1].isalnum()):
+            return _unexpected(word.group(), at, source, ())
+        if chunk.startswith("!=", pos):
+            return _unexpected("!=", at, source, ())
         return CPlusSyntaxError(f"unexpected character {ch!r}", Location(source, at, at + 1))
     assert isinstance(exc, UnexpectedToken)
     tok = exc.token
-    at = begin + (tok.start_pos or 0)
-    expected = sorted({_describe(t) for t in exc.expected})
-    hint = f"; expected {', '.join(expected)}" if 0 < len(expected) <= 5 else ""
-    return CPlusSyntaxError(f"unexpected {str(tok)!r}{hint}",
-                            Location(source, at, at + max(1, len(str(tok)))))
+    return _unexpected(str(tok), begin + (tok.start_pos or 0), source, exc.expected)
 
 
-def _num(tok: Token) -> int:
-    return int(str(tok))
+_CPLUS2ASP_HINTS = {
+    "!=": "write '\\=' for 'not equal'",
+    "|": "'|' is not a connective in CCALC: write '++' for 'or'",
+}
 
 
-@v_args(meta=True)
-class _Builder(Transformer):
-    """Lark tree -> :mod:`cplus.ast` (one instance per statement: it knows the offset)."""
+def _unexpected(text: str, at: int, source: Source, expected) -> CPlusSyntaxError:
+    described = sorted({_describe(t) for t in expected})
+    hint = f"; expected {', '.join(described)}" if 0 < len(described) <= 5 else ""
+    if text in RESERVED:
+        hint = f" ('{text}' is a keyword and cannot be used as a name){hint}"
+    elif text in _CPLUS2ASP_HINTS:
+        hint = f" ({_CPLUS2ASP_HINTS[text]}){hint}"
+    return CPlusSyntaxError(f"unexpected {text!r}{hint}", Location(source, at, at + max(1, len(text))))
+
+
+def _int_value(text: str) -> int | None:
+    """The value of an integer literal, or None when it exceeds MAX_INT (checked on the digits
+    first: Python refuses to convert strings of more than a few thousand digits)."""
+    digits = text.lstrip("0") or "0"
+    if len(digits) > len(str(MAX_INT)):
+        return None
+    value = int(digits)
+    return value if value <= MAX_INT else None
+
+
+_CPLUS2ASP_CMP = {"<=": "=<", "=>": ">=", "<>": "\\=", "@<=": "@=<", "@=>": "@>="}
+"""Cplus2ASP's spellings of CCALC's comparisons (same meaning, so accepted)."""
+
+_CONNECTIVES = {"and_": "&", "or_": "++", "comma": ",", "andand": "&&", "oror": "||"}
+_UNARY_RUNS = ("neg", "uminus", "abs_")
+
+
+def _as_sort(e):
+    """A sort written in a declaration, as the grammar reads it (an expression), classified:
+    ``s`` and ``s*`` and ``s+none`` become :class:`ast.SortRef`, ranges stay ranges, and
+    anything else (a macro call) is left for the resolver to expand."""
+    if isinstance(e, ast.Name) and not e.args:
+        return ast.SortRef(e.loc, e.name)
+    if isinstance(e, ast.Binary) and e.op == "+" and isinstance(e.left, ast.Name) and not e.left.args \
+            and isinstance(e.right, ast.Name) and e.right.name == "none" and not e.right.args:
+        return ast.SortRef(e.loc, e.left.name, True)
+    return e
+
+
+class _Combine:
+    """A step of the walk: take the last ``count`` values and combine them."""
+
+    __slots__ = ("count", "finish")
+
+    def __init__(self, count: int, finish) -> None:
+        self.count = count
+        self.finish = finish
+
+
+def _spine(node: Tree) -> tuple[list, list]:
+    """The operands and operators of a left-nested chain of one operator (``+``/``-`` count
+    as one), without recursion."""
+    rule = str(node.data)
+    group = None if rule != "arith" else ("+", "-") if str(node.children[1]) in ("+", "-") else ("*",)
+    operands: list = []
+    ops: list = []
+    cur = node
+    while isinstance(cur, Tree) and str(cur.data) == rule and (group is None or str(cur.children[1]) in group):
+        operands.append(cur.children[-1])
+        if group is not None:
+            ops.append(cur.children[1])
+        cur = cur.children[0]
+    operands.append(cur)
+    operands.reverse()
+    ops.reverse()
+    return operands, ops
+
+
+def _balanced(rule: str, ops: list):
+    """Combine a chain's operand values into a balanced tree of Binary nodes."""
+    def finish(builder: _Builder, values: list):
+        if rule == "arith" and ops[0] != "*":
+            values = [values[0]] + [ast.Unary(Location(builder.source, builder.base + op.start_pos, v.loc.end), "-", v)
+                                    if str(op) == "-" else v for op, v in zip(ops, values[1:])]
+        op = _CONNECTIVES.get(rule) or ("*" if str(ops[0]) == "*" else "+")
+
+        def tree(lo: int, hi: int):
+            if hi - lo == 1:
+                return values[lo]
+            mid = (lo + hi + 1) // 2
+            left, right = tree(lo, mid), tree(mid, hi)
+            return ast.Binary(builder._span(left, right), op, left, right)
+        return tree(0, len(values))
+    return finish
+
+
+def _unary_run(rule: str, metas: list):
+    """Apply the prefix operator of a shortened run (one or two of them) to its operand."""
+    def finish(builder: _Builder, values: list):
+        value = values[0]
+        for meta in reversed(metas):
+            value = getattr(builder, rule)(meta, [value])
+        return value
+    return finish
+
+
+class _Builder:
+    """Lark tree -> :mod:`cplus.ast` (one instance per statement: it knows the offset).
+
+    The tree is walked with an explicit stack, never by recursion, so that a law with
+    thousands of conjuncts or a long chain of minus signs cannot exhaust Python's stack.
+    While walking, chains of one associative operator longer than ``_CHAIN_MIN`` are regrouped
+    into a balanced tree (``a - b`` becoming ``a + -b`` inside sums: equal for integers and
+    equally undefined otherwise), and runs of prefix operators are shortened to what they mean
+    (``- - - p`` is ``-p``; an even run keeps two, so ``--p`` stays recognisable).  Every later
+    pass over the syntax tree then recurses at most ``MAX_NESTING`` levels deep.
+    """
 
     def __init__(self, source: Source, base: int) -> None:
-        super().__init__()
         self.source = source
         self.base = base
+
+    # -------------------------------------------------------------- the walk
+    def build(self, tree: Tree):
+        values: list = []
+        todo: list = [tree]
+        while todo:
+            item = todo.pop()
+            if isinstance(item, _Combine):
+                n = item.count
+                args = values[len(values) - n:] if n else []
+                del values[len(values) - n:]
+                values.append(item.finish(self, args))
+            elif isinstance(item, Tree):
+                todo.extend(self._plan(item))
+            else:
+                values.append(item)
+        (result,) = values
+        return result
+
+    def _plan(self, node: Tree) -> list:
+        """What to do for ``node``: a combine step, then its operands (reversed: a stack)."""
+        rule = str(node.data)
+        children = node.children
+        if rule in _UNARY_RUNS:
+            run = [node]
+            while isinstance(run[-1].children[-1], Tree) and str(run[-1].children[-1].data) == rule:
+                run.append(run[-1].children[-1])
+            if len(run) > 1:
+                keep = [run[0]] if (len(run) % 2 or rule == "abs_") else [run[0], run[-1]]
+                operand = run[-1].children[-1]
+                return [_Combine(1, _unary_run(rule, [n.meta for n in keep])), operand]
+        if rule in _CONNECTIVES or (rule == "arith" and str(children[1]) in ("+", "-", "*")):
+            operands, ops = _spine(node)
+            if len(operands) > _CHAIN_MIN:
+                return [_Combine(len(operands), _balanced(rule, ops)), *reversed(operands)]
+        method = getattr(self, rule)
+        return [_Combine(len(children), lambda b, args, m=method, meta=node.meta: m(meta, args)),
+                *reversed(children)]
 
     def _loc(self, meta) -> Location:
         if getattr(meta, "empty", True):
@@ -237,6 +422,9 @@ class _Builder(Transformer):
 
     def _tloc(self, tok: Token) -> Location:
         return Location(self.source, self.base + tok.start_pos, self.base + tok.end_pos)  # type: ignore[operator]
+
+    def _span(self, first, last) -> Location:
+        return Location(self.source, first.loc.start, last.loc.end)
 
     # -------------------------------------------------------------- statements
     def statement(self, meta, ch):
@@ -249,23 +437,25 @@ class _Builder(Transformer):
         raise CPlusSyntaxError(f"unknown directive ':- {ch[0]}'", self._tloc(ch[0]))
 
     def sorts(self, meta, ch):
+        """``a >> b >> (c; d >> e)``: each sort with its parent, depth first, without recursion."""
         decls: list[ast.SortDecl] = []
-        for item in ch:
-            decls.extend(self._sort_item(item, None))
+        todo: list = [("item", item, None) for item in reversed(ch)]
+        while todo:
+            what, thing, parent = todo.pop()
+            if what == "decl":
+                decls.append(ast.SortDecl(self._tloc(thing), str(thing), parent))
+                continue
+            name_tok, groups = thing
+            steps: list = [("decl", name_tok, parent)]
+            current = str(name_tok)
+            for group in groups:
+                if group[0] == "leaf":
+                    steps.append(("decl", group[1], current))
+                    current = str(group[1])
+                else:
+                    steps.extend(("item", sub, current) for sub in group[1])
+            todo.extend(reversed(steps))
         return ast.Sorts(self._loc(meta), tuple(decls))
-
-    def _sort_item(self, item, parent):
-        name_tok, groups = item
-        yield ast.SortDecl(self._tloc(name_tok), str(name_tok), parent)
-        current = str(name_tok)
-        for group in groups:
-            if group[0] == "leaf":
-                tok = group[1]
-                yield ast.SortDecl(self._tloc(tok), str(tok), current)
-                current = str(tok)
-            else:
-                for sub in group[1]:
-                    yield from self._sort_item(sub, current)
 
     def sort_item(self, meta, ch):
         return (ch[0], ch[1:])
@@ -291,46 +481,40 @@ class _Builder(Transformer):
         return ast.ConstantItem(self._loc(meta), tuple(names), spec)
 
     def const_name(self, meta, ch):
-        return ast.ConstName(self._loc(meta), str(ch[0]), tuple(ch[1:]))
-
-    def kind_with_domain(self, meta, ch):
-        return ast.ConstSpec(self._loc(meta), str(ch[0]), ch[1])
+        return ast.ConstName(self._loc(meta), str(ch[0]), tuple(_as_sort(a) for a in ch[1:]))
 
     def plain_spec(self, meta, ch):
+        """``c :: K``, ``c :: K(D)``, ``c :: D``: K a constant kind (D defaults to boolean), D a
+        sort, a range, ``s*`` or ``s+none`` (then c is rigid), or a macro call giving one."""
         spec = ch[0]
-        if isinstance(spec, ast.SortRef) and not spec.star:
-            # `c :: inertialFluent` (a kind without domain) or `c :: location` (rigid)
-            return ast.ConstSpec(self._loc(meta), spec.name, None)
-        return ast.ConstSpec(self._loc(meta), None, spec)
+        loc = self._loc(meta)
+        if isinstance(spec, ast.Name) and not spec.args:
+            return ast.ConstSpec(loc, spec.name, None)   # a kind, a sort or a macro: the resolver knows
+        if isinstance(spec, ast.Name) and spec.name in USER_KINDS:
+            if len(spec.args) != 1:
+                raise CPlusSyntaxError(f"'{spec.name}' takes one domain: write '{spec.name}(D)'", spec.loc)
+            return ast.ConstSpec(loc, spec.name, _as_sort(spec.args[0]))
+        return ast.ConstSpec(loc, None, _as_sort(spec))
 
     def attribute_spec(self, meta, ch):
-        domain = ch[0] if not isinstance(ch[0], Token) else None
+        domain = _as_sort(ch[0]) if not isinstance(ch[0], Token) else None
         rest = ch[1:] if domain is not None else ch
         parent_tok, *parent_args = rest
-        parent = ast.ConstName(self._tloc(parent_tok), str(parent_tok), tuple(parent_args))
+        parent = ast.ConstName(self._tloc(parent_tok), str(parent_tok), tuple(_as_sort(a) for a in parent_args))
         return ast.ConstSpec(self._loc(meta), "attribute", domain, parent)
-
-    def sort_name(self, meta, ch):
-        return ast.SortRef(self._tloc(ch[0]), str(ch[0]))
 
     def star_sort(self, meta, ch):
         return ast.SortRef(self._tloc(ch[0]), str(ch[0])[:-1], True)
 
-    def plus_none_sort(self, meta, ch):
-        return ast.SortRef(self._loc(meta), str(ch[0]), True)
-
     def range(self, meta, ch):
         return ast.Range(self._loc(meta), ch[0], ch[1])
-
-    def range_from_name(self, meta, ch):
-        return ast.Range(self._loc(meta), ast.Name(self._tloc(ch[0]), str(ch[0])), ch[1])
 
     def variables(self, meta, ch):
         return ast.Variables(self._loc(meta), tuple(ch))
 
     def variable_item(self, meta, ch):
         *names, sort = ch
-        return ast.VariableItem(self._loc(meta), tuple((str(t), self._tloc(t)) for t in names), sort)
+        return ast.VariableItem(self._loc(meta), tuple((str(t), self._tloc(t)) for t in names), _as_sort(sort))
 
     def macros(self, meta, ch):
         return ast.Macros(self._loc(meta), tuple(ch))
@@ -381,7 +565,7 @@ class _Builder(Transformer):
         return ast.Query(self._loc(meta), tuple(ch))
 
     def q_label(self, meta, ch):
-        return ast.QueryLabel(self._loc(meta), str(ch[0]))
+        return ast.QueryLabel(self._loc(meta), ch[0])
 
     def q_maxstep(self, meta, ch):
         lo, hi = ch[0]
@@ -391,10 +575,10 @@ class _Builder(Transformer):
         return (ch[0], ch[0])
 
     def ms_range(self, meta, ch):
-        return (ch[0], ch[1])
-
-    def ms_open(self, meta, ch):
-        return (ch[0], None)
+        hi = ch[1]
+        if isinstance(hi, ast.Name) and hi.name == "infinity" and not hi.args:
+            hi = None
+        return (ch[0], hi)
 
     def q_formula(self, meta, ch):
         return ast.QueryItem(self._loc(meta), ch[0])
@@ -501,10 +685,24 @@ class _Builder(Transformer):
         return self._bin(meta, "&", ch)
 
     def neg(self, meta, ch):
-        return ast.Unary(self._loc(meta), "not", ch[0])
+        arg = ch[0]
+        if isinstance(arg, ast.Range):   # `-n..n` in a macro body: the minus belongs to the bound
+            start = self.base + meta.start_pos
+            lo = ast.Unary(Location(self.source, start, arg.lo.loc.end), "-", arg.lo)
+            return ast.Range(self._loc(meta), lo, arg.hi)
+        return ast.Unary(self._loc(meta), "not", arg)
+
+    def tilde(self, meta, ch):
+        """Cplus2ASP's ``~c`` is the atom ``c=false`` of a Boolean constant: CCALC's ``-c``."""
+        arg = ch[0]
+        if not isinstance(arg, ast.Name):
+            raise CPlusSyntaxError("'~' (a Cplus2ASP spelling) applies to a Boolean constant: "
+                                   "'~c' is CCALC's '-c'; to negate a formula write '-(F)'", self._loc(meta))
+        return ast.Unary(self._loc(meta), "not", arg)
 
     def compare(self, meta, ch):
-        return ast.Binary(self._loc(meta), str(ch[1]), ch[0], ch[2])
+        op = str(ch[1])
+        return ast.Binary(self._loc(meta), _CPLUS2ASP_CMP.get(op, op), ch[0], ch[2])
 
     def arith(self, meta, ch):
         return ast.Binary(self._loc(meta), str(ch[1]), ch[0], ch[2])
@@ -516,7 +714,13 @@ class _Builder(Transformer):
         return ast.Unary(self._loc(meta), "-", ch[0])
 
     def number(self, meta, ch):
-        return ast.Num(self._tloc(ch[0]), _num(ch[0]))
+        value = _int_value(str(ch[0]))
+        if value is None:
+            text = str(ch[0])
+            shown = text if len(text) <= 24 else f"{text[:12]}...{text[-6:]} ({len(text)} digits)"
+            raise CPlusSyntaxError(f"the integer {shown} is too large: integers are limited to "
+                                   f"{MAX_INT} (2^63-1)", self._tloc(ch[0]))
+        return ast.Num(self._tloc(ch[0]), value)
 
     def name(self, meta, ch):
         return ast.Name(self._tloc(ch[0]), str(ch[0]))

@@ -42,6 +42,7 @@ class QueryResult:
     stats: list[HorizonStats] = field(default_factory=list)
     template_s: float = 0.0
     complete: bool = True          # all requested solutions found (or all that exist)
+    solutions: int = 1             # how many were asked for (0 = all): 'Solution k:' headers unless 1
 
 
 def states_query() -> QuerySpec:
@@ -70,7 +71,7 @@ def run_query(theory: GroundTheory, query: QuerySpec, solutions: int = 1, solver
             break
     session.stats[-1].models = len(histories)
     return QueryResult(query.label, PlanStatus.FOUND, session.found, histories, failed, session.stats,
-                       session.horizon.template_s)
+                       session.horizon.template_s, solutions=solutions)
 
 
 def find_horizon(session: QuerySession,

@@ -15,6 +15,16 @@ from dataclasses import dataclass
 
 from cplus import ast, ir
 from cplus.errors import DefinitenessError, Diagnostics, IncludeError, Location, QueryError, ResolveError, SortError
+from cplus.limits import (
+    MAX_EXPANDED,
+    MAX_EXPANSION,
+    MAX_GROUND_CONSTANTS,
+    MAX_INT,
+    MAX_NESTING,
+    MAX_OBJECTS,
+    MAX_RANGE,
+    count,
+)
 from cplus.program import BasicLaw, IncrementLaw, Pattern, Program, QuerySpec
 from cplus.signature import (
     ACTION_KINDS,
@@ -108,6 +118,9 @@ class _Resolver:
         self.program = Program(self.sig, diagnostics=diagnostics)
         self.diag = diagnostics
         self.macros: dict[tuple[str, int], ast.MacroDef] = {}
+        self.measured: dict[tuple, tuple[int, int]] = {}   # (macro, argument sizes) -> (size, depth)
+        self.macro_seen = False    # the last measured expression calls a macro
+        self.expanded = 0          # nodes produced by expanding macros so far
         self.variables: dict[str, ir.Var] = {}
         self.objects: dict[str, Location | None] = {"true": None, "false": None, "none": None}
         self.included: set[str] = set()
@@ -190,8 +203,7 @@ class _Resolver:
 
     def _object_values(self, e: ast.Expr) -> list:
         if isinstance(e, ast.Range):
-            lo, hi = self._static_int(e.lo), self._static_int(e.hi)
-            return list(range(lo, hi + 1))
+            return self._range_objects(e)
         if isinstance(e, ast.Name) and not e.args:
             if e.name[0].isupper():
                 raise ResolveError(f"object names start with a lower-case letter: '{e.name}'", e.loc)
@@ -203,6 +215,10 @@ class _Resolver:
             if self.sig.lookup(e.name, len(e.args)) is not None:
                 raise ResolveError(f"'{e.name}/{len(e.args)}' is already declared as a constant", e.loc)
             choices = [self._constructor_arg(a) for a in e.args]
+            total = 1
+            for ch in choices:
+                total *= len(ch)
+            self._room_for_objects(total, e.loc, f"'{e.name}(...)' declares")
             self.sig.constructors[(e.name, len(e.args))] = e.loc
             out: list = [()]
             for ch in choices:
@@ -210,10 +226,29 @@ class _Resolver:
             return [(e.name,) + t for t in out]
         return [self._static_int(e)]
 
+    def _range_objects(self, e: ast.Range) -> list:
+        """The integers of a range in ``:- objects`` (an empty range declares none: warned)."""
+        lo, hi = self._static_int(e.lo), self._static_int(e.hi)
+        if hi < lo:
+            self.diag.warn(f"the range {lo}..{hi} is empty: it declares no objects", e.loc)
+            return []
+        self._room_for_objects(hi - lo + 1, e.loc, f"the range {lo}..{hi} declares")
+        return list(range(lo, hi + 1))
+
+    def _room_for_objects(self, n: int, loc: Location, what: str) -> None:
+        """Refuse, before building them, more objects than MAX_OBJECTS in all."""
+        have = len(self.sig.object_order)
+        if have + n > MAX_OBJECTS:
+            raise SortError(f"{what} {count(n)} objects; a domain may declare at most {count(MAX_OBJECTS)} "
+                            f"objects in all" + (f" ({count(have)} are declared already)" if have > 3 else ""), loc)
+
     def _constructor_arg(self, a: ast.Expr) -> list:
         a = self._expand(a)
         if isinstance(a, ast.Range):
-            return list(range(self._static_int(a.lo), self._static_int(a.hi) + 1))
+            return self._range_objects(a)
+        if isinstance(a, ast.SortRef):
+            self._sort_info(a.name, a.loc)
+            return list(self.sig.objects_of(NamedSort(a.name, a.star)))
         if isinstance(a, ast.Name) and not a.args and a.name in self.sig.sorts:
             return list(self.sig.objects_of(NamedSort(a.name)))
         if isinstance(a, ast.Name) and not a.args and a.name in self.objects:
@@ -227,17 +262,36 @@ class _Resolver:
 
     # ------------------------------------------------------------------ sort expressions
     def _sort_expr(self, spec: ast.SortSpec, for_variable: bool = False) -> SortExpr:
+        if not isinstance(spec, (ast.SortRef, ast.Range)):
+            # a macro call (or any expression) where a sort is expected: expand, then classify
+            e = self._expand(spec)
+            if isinstance(e, ast.Name) and not e.args:
+                e = ast.SortRef(e.loc, e.name)
+            elif isinstance(e, ast.Binary) and e.op == "+" and isinstance(e.left, ast.Name) and not e.left.args \
+                    and isinstance(e.right, ast.Name) and e.right.name == "none":
+                e = ast.SortRef(e.loc, e.left.name, True)
+            if not isinstance(e, (ast.SortRef, ast.Range)):
+                if isinstance(spec, ast.Name) and spec.args and (spec.name, len(spec.args)) not in self.macros:
+                    raise SortError(f"unknown constant kind or macro '{spec.name}/{len(spec.args)}' (the kinds: "
+                                    f"{', '.join(sorted(USER_KINDS))})", spec.loc)
+                raise SortError("expected a sort: a sort name, 's*', 's+none' or a range 'lo..hi'", spec.loc)
+            spec = e
         if isinstance(spec, ast.Range):
             lo_e, hi_e = self._expand(spec.lo), self._expand(spec.hi)
             lo, hi = self._static_int(lo_e), self._static_int(hi_e)
             if hi < lo:
-                raise SortError(f"empty range {lo}..{hi}", spec.loc)
+                raise SortError(f"empty range {lo}..{hi}: a sort must have at least one object", spec.loc)
+            if hi - lo + 1 > MAX_RANGE:
+                raise SortError(f"the range {lo}..{hi} has {count(hi - lo + 1)} integers; a range used as a "
+                                f"sort may have at most {count(MAX_RANGE)}", spec.loc)
             return RangeSort(lo, hi)
         name = spec.name
         if (name, 0) in self.macros:
             body = self._expand(ast.Name(spec.loc, name))
             if isinstance(body, ast.Range):
                 return self._sort_expr(body, for_variable)
+            if isinstance(body, ast.Name) and not body.args and body.name != name:
+                return self._sort_expr(ast.SortRef(spec.loc, body.name, spec.star), for_variable)
         if name == "afValue":
             if self.sig.max_additive is None:
                 raise SortError("'afValue' needs ':- maxAdditive :: N.' before it", spec.loc)
@@ -328,11 +382,17 @@ class _Resolver:
             for name, loc in item.names:
                 if not name[0].isupper():
                     raise ResolveError(f"variable names start with an upper-case letter: '{name}'", loc)
+                old = self.variables.get(name)
+                if old is not None and old.sort != sort:
+                    where = f" at {old.loc}" if old.loc is not None else ""
+                    raise ResolveError(f"variable {name} is declared again with another sort: '{sort}' here, "
+                                       f"'{old.sort}'{where}", loc)
                 self.variables[name] = ir.Var(name, sort, loc)
 
     def _st_Macros(self, stmt: ast.Macros) -> None:
         for m in stmt.items:
             self.macros[(m.name, m.arity)] = m
+        self.measured.clear()
 
     def _st_MaxAdditive(self, stmt: ast.MaxAdditive) -> None:
         value = self._static_int(self._expand(stmt.value))
@@ -340,6 +400,7 @@ class _Resolver:
             raise SortError("maxAdditive must not be negative", stmt.loc)
         self.sig.max_additive = value
         self.macros[("maxAdditive", 0)] = ast.MacroDef(stmt.loc, "maxAdditive", 0, ast.Num(stmt.loc, value))
+        self.measured.clear()
 
     def _st_NoConcurrency(self, stmt: ast.NoConcurrency) -> None:
         self.program.noconcurrency.append((stmt.strong, stmt.loc))
@@ -387,13 +448,18 @@ class _Resolver:
             if isinstance(it, ast.QueryLabel):
                 if seen_label:
                     raise QueryError("a query has at most one label", it.loc)
-                seen_label, label = True, it.label
+                seen_label, label = True, self._label(it.label)
             elif isinstance(it, ast.QueryMaxstep):
                 if seen_max:
                     raise QueryError("a query has at most one maxstep", it.loc)
                 seen_max = True
-                lo = self._static_int(self._expand(it.lo))
-                hi = None if it.hi is None else self._static_int(self._expand(it.hi))
+                lo_e = self._expand(it.lo)
+                hi_e = it.hi
+                if isinstance(lo_e, ast.Range) and it.hi is it.lo:   # `maxstep :: r`, r a macro for lo..hi
+                    hi_e = lo_e.hi
+                    lo_e = lo_e.lo
+                lo = self._static_int(lo_e)
+                hi = None if hi_e is None else self._static_int(hi_e)
                 if lo < 0 or (hi is not None and hi < lo):
                     bounds = f"{lo}..{'infinity' if hi is None else hi}"
                     raise QueryError(f"malformed maxstep {bounds}: need 0 =< min =< max", it.loc)
@@ -405,30 +471,97 @@ class _Resolver:
             self.program.queries = [q for q in self.program.queries if q.label != label]
         self.program.queries.append(QuerySpec(label, lo, hi, tuple(items), stmt.loc))
 
+    def _label(self, e: ast.Expr) -> str:
+        """A query label: a name, or an integer (also given by a macro or an expression)."""
+        expanded = self._expand(e)
+        if isinstance(expanded, ast.Name) and not expanded.args and not expanded.name[0].isupper():
+            return expanded.name
+        return str(self._static_int(expanded))
+
     # ------------------------------------------------------------------ macros
     def _expand(self, e: ast.Expr, stack: tuple = ()) -> ast.Expr:
+        """``e`` with every macro replaced by its body (arguments substituted).  At the top call
+        the size and depth of the result are estimated first, so that a macro that doubles at
+        each level is refused with its size instead of being built."""
+        if not stack and self.macros:
+            self.macro_seen = False
+            try:
+                size, depth = self._measure(e, (), 0, ())
+            except _TooDeep:
+                depth = MAX_NESTING + 1
+            if depth > MAX_NESTING:
+                raise ResolveError(f"expanding the macros here nests expressions (or macro calls) more than "
+                                   f"{MAX_NESTING} levels deep", e.loc)
+            if size > MAX_EXPANSION:
+                raise ResolveError(f"expanding the macros here gives an expression of {count(size)} nodes; "
+                                   f"the limit is {count(MAX_EXPANSION)}", e.loc)
+            if self.macro_seen:
+                self.expanded += size
+                if self.expanded > MAX_EXPANDED:
+                    raise ResolveError(f"macro expansion has produced more than {count(MAX_EXPANDED)} nodes "
+                                       "in this domain, the limit (this is where it went over)", e.loc)
+        return self._expand_x(e, stack)
+
+    def _measure(self, e: ast.Expr, params: tuple, level: int, active: tuple) -> tuple[int, int]:
+        """(nodes, depth) of ``e`` after macro expansion, computed without expanding: each macro
+        is measured once per distinct measure of its arguments.  ``level`` is the depth in the
+        expansion and ``active`` the macros being measured (a recursive one measures as a single
+        node: its expansion reports it); past MAX_NESTING of either the walk stops with
+        :class:`_TooDeep`, so this recursion is bounded."""
+        if level > MAX_NESTING or len(active) > MAX_NESTING:
+            raise _TooDeep
+        if isinstance(e, ast.Param):
+            return params[e.index - 1] if e.index <= len(params) else (1, 1)
+        if isinstance(e, ast.Name):
+            args = tuple(self._measure(a, params, level + 1, active) for a in e.args)
+            name = (e.name, len(e.args))
+            m = self.macros.get(name)
+            if m is not None:
+                self.macro_seen = True
+            if m is None or name in active:
+                return 1 + sum(a[0] for a in args), 1 + max((a[1] for a in args), default=0)
+            key = (name, args)
+            known = self.measured.get(key)
+            if known is None:
+                known = self.measured[key] = self._measure(m.body, args, level, active + (name,))
+            return known
+        parts: tuple = ()
+        if isinstance(e, ast.Unary):
+            parts = (e.arg,)
+        elif isinstance(e, ast.Binary):
+            parts = (e.left, e.right)
+        elif isinstance(e, (ast.Quant,)):
+            parts = (e.body,)
+        elif isinstance(e, ast.Stamp):
+            parts = (e.time, e.body)
+        elif isinstance(e, ast.Range):
+            parts = (e.lo, e.hi)
+        sizes = [self._measure(p, params, level + 1, active) for p in parts]
+        return 1 + sum(x[0] for x in sizes), 1 + max((x[1] for x in sizes), default=0)
+
+    def _expand_x(self, e: ast.Expr, stack: tuple) -> ast.Expr:
         if isinstance(e, ast.Name):
             key = (e.name, len(e.args))
-            args = tuple(self._expand(a, stack) for a in e.args)
+            args = tuple(self._expand_x(a, stack) for a in e.args)
             m = self.macros.get(key)
             if m is None:
                 return ast.Name(e.loc, e.name, args) if args != e.args else e
             if key in stack:
                 raise ResolveError(f"recursive macro '{e.name}/{len(e.args)}'", e.loc)
-            body = self._expand(m.body, stack + (key,))
+            body = self._expand_x(m.body, stack + (key,))
             return _substitute(body, args) if args else body
         if isinstance(e, ast.Unary):
-            a = self._expand(e.arg, stack)
+            a = self._expand_x(e.arg, stack)
             return e if a is e.arg else ast.Unary(e.loc, e.op, a)
         if isinstance(e, ast.Binary):
-            left, right = self._expand(e.left, stack), self._expand(e.right, stack)
+            left, right = self._expand_x(e.left, stack), self._expand_x(e.right, stack)
             return e if (left is e.left and right is e.right) else ast.Binary(e.loc, e.op, left, right)
         if isinstance(e, ast.Quant):
-            return ast.Quant(e.loc, e.vars, self._expand(e.body, stack))
+            return ast.Quant(e.loc, e.vars, self._expand_x(e.body, stack))
         if isinstance(e, ast.Stamp):
-            return ast.Stamp(e.loc, self._expand(e.time, stack), self._expand(e.body, stack))
+            return ast.Stamp(e.loc, self._expand_x(e.time, stack), self._expand_x(e.body, stack))
         if isinstance(e, ast.Range):
-            return ast.Range(e.loc, self._expand(e.lo, stack), self._expand(e.hi, stack))
+            return ast.Range(e.loc, self._expand_x(e.lo, stack), self._expand_x(e.hi, stack))
         return e
 
     def _static_int(self, e: ast.Expr) -> int:
@@ -478,6 +611,7 @@ class _Resolver:
             raise ResolveError(f"macro parameter #{e.index} outside a macro body", e.loc)
         if isinstance(e, ast.Quant):
             raise ResolveError("expected a term, found a quantified formula", e.loc)
+        _no_sort_here(e)
         raise ResolveError("expected a term", e.loc)
 
     def _arith(self, op: str, args: tuple, loc: Location) -> ir.Term:
@@ -493,6 +627,9 @@ class _Resolver:
                 value = apply_arith(op, [a.value for a in args])
             except ZeroDivisionError:
                 raise SortError("division by zero", loc) from None
+            if not -MAX_INT - 1 <= value <= MAX_INT:
+                raise SortError(f"the value of this expression, {count(value)}, is outside the integers "
+                                f"(-2^63..2^63-1)", loc)
             return ir.Lit(value)
         return ir.Arith(op, args, loc)
 
@@ -592,6 +729,7 @@ class _Resolver:
             raise ResolveError("expected a formula, found 'maxstep'", e.loc)
         if isinstance(e, ast.Param):
             raise ResolveError(f"macro parameter #{e.index} outside a macro body", e.loc)
+        _no_sort_here(e)
         raise ResolveError("expected a formula", e.loc)
 
     def _comparison(self, e: ast.Binary, scope: _Scope) -> ir.Formula:
@@ -712,6 +850,8 @@ class _Resolver:
 
     def _add(self, law: ast.Law, head: ir.Formula | None, body: ir.Formula, after: ir.Formula | None,
              where: ir.Formula | None, origin: str, force: str | None = None) -> None:
+        if head is not None:
+            head = ir.conj(_truth_of(lit) for lit in ir.conjuncts(head)) if head != ir.TRUE else head
         if head is not None and head == ir.TRUE:
             return
         if head == ir.FALSE:
@@ -759,6 +899,10 @@ class _Resolver:
 
     def _check_head(self, law: ast.Law, head: ir.Formula, cls: str) -> None:
         for lit in ir.conjuncts(head):
+            if isinstance(lit, ir.Not) and isinstance(lit.arg, ir.Not):
+                raise DefinitenessError(
+                    "a doubly negated head '--F' is Cplus2ASP's choice ('F may hold'); CCALC has no such head: "
+                    "write 'default F' (with the same 'if'/'after' parts)", law.loc)
             atom = lit.arg if isinstance(lit, ir.Not) else lit
             if isinstance(atom, ir.Truth):
                 continue
@@ -816,7 +960,7 @@ class _Resolver:
             return a.sort
         if isinstance(a, ir.Lit):
             for name, info in self.sig.sorts.items():
-                if a.value in info.objects:
+                if a.value in info.members:
                     return NamedSort(name)
             if isinstance(a.value, int):
                 return RangeSort(a.value, a.value)
@@ -878,13 +1022,49 @@ class _Resolver:
         self.program.increments.append(IncrementLaw(action, target, amount, cond, where, law.decrement, law.loc))
 
     # ------------------------------------------------------------------ finish
+    def _check_ground_size(self) -> None:
+        """Refuse, before enumerating them, more ground constants than MAX_GROUND_CONSTANTS."""
+        total = 0
+        for d in self.sig.constants.values():
+            sizes = [len(self.sig.objects_of(s)) for s in d.argsorts]
+            n = 1
+            for k in sizes:
+                n *= k
+            total += n
+            if total > MAX_GROUND_CONSTANTS:
+                product = " x ".join(f"{k:,}" for k in sizes)
+                raise SortError(f"'{d.name}/{d.arity}' has {count(n)} ground instances ({product})"
+                                + ("" if n == total else f", {count(total)} with the constants before it")
+                                + f"; a domain may have at most {count(MAX_GROUND_CONSTANTS)}", d.loc)
+
     def _finish(self) -> None:
         has_additive = any(d.kind in ("additiveFluent", "additiveAction") for d in self.sig.constants.values())
         if has_additive and self.sig.max_additive is None:
             d = next(d for d in self.sig.constants.values() if d.kind in ("additiveFluent", "additiveAction"))
             raise SortError("additive constants need ':- maxAdditive :: N.'", d.loc)
+        self._check_ground_size()
         self.sig.finalize()
         _Validator(self.sig).run(self.program)
+
+
+def _truth_of(lit: ir.Formula) -> ir.Formula:
+    """A head literal with ``-true``/``-false`` read as ``false``/``true``."""
+    if isinstance(lit, ir.Not) and isinstance(lit.arg, ir.Truth):
+        return ir.Truth(not lit.arg.value)
+    return lit
+
+
+class _TooDeep(Exception):
+    """Measuring a macro expansion went past MAX_NESTING levels."""
+
+
+def _no_sort_here(e) -> None:
+    """A range or a star sort where a term or formula is expected: say where they belong."""
+    if isinstance(e, ast.Range):
+        raise ResolveError("a range 'lo..hi' may only occur in declarations (objects, the sorts of "
+                           "constants and variables, macros used there) and in 'maxstep ::'", e.loc)
+    if isinstance(e, ast.SortRef):
+        raise ResolveError(f"the sort '{e.name}*' may only occur in declarations", e.loc)
 
 
 def _substitute(e: ast.Expr, args: tuple) -> ast.Expr:
@@ -975,6 +1155,7 @@ class _Validator:
 
     def __init__(self, sig: Signature) -> None:
         self.sig = sig
+        self.disjoint: dict[tuple, bool] = {}
 
     def run(self, program: Program) -> None:
         for law in program.laws:
@@ -997,8 +1178,7 @@ class _Validator:
                                     f"(argument of '{node.decl.name}')", node.loc)
                 if isinstance(a, ir.Var) and not isinstance(a.sort, (StepSort, KindSort)) and \
                         not isinstance(sort, StepSort):
-                    if not set(self.sig.objects_of(a.sort)) & set(self.sig.objects_of(sort)) \
-                            and self.sig.objects_of(a.sort):
+                    if self._disjoint(a.sort, sort):
                         raise SortError(f"variable {a.name} of sort '{a.sort}' can never be an argument of "
                                         f"sort '{sort}' of '{node.decl.name}'", a.loc)
         elif isinstance(node, ir.Atom) and isinstance(node.cst, ir.Cst) and isinstance(node.value, ir.Lit):
@@ -1009,3 +1189,11 @@ class _Validator:
                                 f"'{node.cst.decl.name}'", node.loc)
         for child in ir.children(node):
             self.walk(child)
+
+    def _disjoint(self, var_sort: SortExpr, arg_sort: SortExpr) -> bool:
+        key = (var_sort, arg_sort)
+        known = self.disjoint.get(key)
+        if known is None:
+            mine = self.sig.objects_of(var_sort)
+            known = self.disjoint[key] = bool(mine) and not set(mine) & set(self.sig.objects_of(arg_sort))
+        return known

@@ -115,6 +115,7 @@ class SortInfo:
     parents: list[str] = field(default_factory=list)
     children: list[str] = field(default_factory=list)
     objects: list[Value] = field(default_factory=list)
+    members: set = field(default_factory=set)   # the same objects, for constant-time membership
 
 
 # --------------------------------------------------------------------------- constants
@@ -207,10 +208,12 @@ class Signature:
     def add_object(self, value: Value, sort: str) -> None:
         if value not in self.object_order:
             self.object_order[value] = len(self.object_order)
-        objs = self.sorts[sort].objects
-        if value not in objs:
-            objs.append(value)
-        self._sort_cache.clear()
+        info = self.sorts[sort]
+        if value not in info.members:
+            info.members.add(value)
+            info.objects.append(value)
+            if self._sort_cache:
+                self._sort_cache.clear()
 
     def is_subsort(self, child: str, parent: str) -> bool:
         if child == parent:

@@ -10,7 +10,7 @@ import pytest
 
 import trajectory
 from cplus.cli import main
-from cplus.robot import RobotTask, refine
+from cplus.robot import RefineStatus, RobotTask, refine
 
 ROOT = Path(__file__).resolve().parent.parent
 DOMAIN = ROOT / "domains" / "payload" / "payload.cp"
@@ -30,7 +30,17 @@ def refined(task):
 def test_the_first_plan_passes_the_grid_but_not_the_continuous_check(refined):
     assert refined.first_violation is not None
     assert refined.first_violation.kind.value in ("payload-collision", "payload-length")
-    assert len(refined.iterations) > 3          # refinement needs several iterations
+    assert len(refined.iterations) >= 2
+
+
+def test_refinement_needs_no_more_iterations_than_the_paper(task, refined):
+    """The paper's Algorithm 1 needed 9 iterations; the exact-action form of it needs many more."""
+    assert len(refined.iterations) <= 9
+    assert refined.history.maxstep == 9
+    assert refined.no_solution_with_maxstep == list(range(9))
+    paper = refine(task, "0", nogoods="actions")
+    assert paper.status is RefineStatus.FOUND and paper.history.maxstep == 9
+    assert len(paper.iterations) > len(refined.iterations)
 
 
 def test_the_refined_plan_is_collision_free(task, refined):
@@ -47,10 +57,22 @@ def test_the_refined_plan_is_collision_free(task, refined):
 def test_every_iteration_forbids_something_new(refined):
     seen = set()
     for it in refined.iterations[:-1]:
-        key = (it.violation.step, tuple(it.actions), tuple(it.where))
-        assert it.actions and key not in seen
-        seen.add(key)
+        assert it.violations and it.learned
+        for nogood in it.learned:
+            assert nogood.form == "positions" and nogood.key not in seen
+            constants = {c for _, c, _ in nogood.conditions}
+            assert constants <= {"xpos(r1)", "ypos(r1)", "xpos(r2)", "ypos(r2)", "xpay(pl1)", "ypay(pl1)",
+                                  "xpay(pl2)", "ypay(pl2)"}      # positions only, no actions
+            seen.add(nogood.key)
     assert refined.iterations[-1].violation is None
+
+
+def test_the_store_agrees_with_the_solver(refined):
+    """The refined plan was proposed by the solver, so no clause forbids it; every unsafe plan
+    the loop saw is forbidden now."""
+    store = refined.store
+    assert store.excludes(list(refined.history.states)) is None
+    assert store.excludes(list(refined.first_history.states)) is not None
 
 
 def test_the_plan_respects_the_cost_bound_and_the_payload_length(task, refined):
@@ -84,34 +106,57 @@ def test_cli_runs_refinement_and_exports(tmp_path, capsys):
     assert code == 0
     doc = json.loads(out)
     res = doc["results"][0]
-    assert res["status"] == "found"
-    assert res["refinement"][-1]["violation"] is None
-    assert res["refinement"][0]["violation"]["kind"] in ("payload-collision", "payload-length")
+    assert res["status"] == "found" and res["reason"] is None
+    assert res["no_solution_with_maxstep"] == list(range(9)) and res["maxstep"] == 9
+    assert [s["maxstep"] for s in res["stats"]] == list(range(10))
+    assert res["stats"][-1]["variables"] > 0 and res["stats"][-1]["satisfiable"] is True
+    assert res["refinement"][-1]["violations"] == [] and res["refinement"][-1]["learned"] == []
+    first = res["refinement"][0]
+    assert first["violations"][0]["kind"] in ("payload-collision", "payload-length")
+    assert first["learned"] and first["learned"][0]["form"] == "positions"
+    assert res["nogoods"]["learned"] == sum(len(it["learned"]) for it in res["refinement"])
+    assert res["nogoods"]["precheck"]["points"] > 0
     assert "% refinement 1:" in err
     assert (tmp_path / "p.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     assert json.loads((tmp_path / "t.json").read_text())["format"] == "cplus.trajectory/1"
     assert (tmp_path / "t.csv").read_text().startswith("robot,tick,")
 
 
-def test_no_refine_shows_the_raw_first_plan(capsys):
+def test_no_refine_shows_the_raw_first_plan_and_says_it_is_unsafe(capsys):
     code = main(["plan", str(DOMAIN), "--no-refine"])
     out, err = capsys.readouterr()
-    assert code == 0
+    assert code == 9
     assert "ACTIONS:" in out and "% refinement 1:" in err and "between steps" in err
+    assert "forbidding" not in err and "not collision-free" in err
 
 
-def test_refusing_to_export_an_unsafe_plan(tmp_path, capsys):
-    code = main(["plan", str(DOMAIN), "--no-refine", "--trajectory", str(tmp_path / "t.json")])
-    _, err = capsys.readouterr()
-    assert code == 2 and "not collision-free" in err
-    assert not (tmp_path / "t.json").exists()
-
-
-def test_iteration_limit(capsys):
-    code = main(["plan", str(DOMAIN), "--max-iterations", "2"])
+def test_refusing_to_export_an_unsafe_plan_still_prints_the_result(tmp_path, capsys):
+    code = main(["plan", str(DOMAIN), "--no-refine", "--json", "--trajectory", str(tmp_path / "t.json"),
+                 "--plot", str(tmp_path / "p.svg")])
     out, err = capsys.readouterr()
-    assert code == 4
-    assert "no collision-free plan after 2 refinement iterations" in err
+    assert code == 9
+    res = json.loads(out)["results"][0]
+    assert res["status"] == "unsafe" and res["histories"] and res["refinement"][0]["violations"]
+    assert "not collision-free" in err and "not written" in err
+    assert not (tmp_path / "t.json").exists()
+    assert (tmp_path / "p.svg").read_text().lstrip().startswith("<?xml")   # the picture shows why
+
+
+def test_giving_up_is_not_a_proof(capsys):
+    code = main(["plan", str(DOMAIN), "--max-iterations", "1", "--json"])
+    out, err = capsys.readouterr()
+    assert code == 5
+    res = json.loads(out)["results"][0]
+    assert res["status"] == "gave_up" and res["histories"] == [] and res["horizon"] == 8
+    assert len(res["refinement"]) == 1 and res["no_solution_with_maxstep"] == list(range(8))
+    assert "gave up after 1 refinement iteration (--max-iterations) at maxstep 8" in res["reason"]
+    assert "gave up after 1 refinement iteration" in err
+
+
+def test_gave_up_in_the_python_api(task):
+    result = refine(task, "0", max_iterations=1)
+    assert result.status is RefineStatus.GAVE_UP and not result.found
+    assert result.to_json("0")["status"] == "gave_up"
 
 
 def _copy_task(tmp_path, scene_edit=None, domain_edit=None) -> Path:
@@ -156,14 +201,32 @@ def test_a_broken_scene_is_located(tmp_path, capsys):
     assert code == 2 and "scene.toml:" in err and "error:" in err and "self-intersect" in err
 
 
-def test_horizon_bound(capsys):
-    """The first plans have length 8; with no room to grow, refinement runs out of plans."""
+def test_horizon_bound_proves_no_safe_plan(capsys):
+    """The first plans have length 8; with no room to grow, refinement proves there is none."""
     code = main(["plan", str(DOMAIN), "--max-horizon", "8"])
     out, err = capsys.readouterr()
     assert code == 4
-    assert "no collision-free plan: no plan with maxstep 0..8 (--max-horizon)" in err
+    assert "no collision-free plan with maxstep 0..8 (--max-horizon)" in err
     # no unsafe plan presented as the result: no solution at any horizon tried
     assert [x for x in out.splitlines() if x] == [f"No solution with maxstep {m}." for m in range(9)]
+
+
+def test_no_plan_at_all_up_to_the_horizon_is_the_horizon_limit(capsys):
+    code = main(["plan", str(DOMAIN), "--max-horizon", "5", "--json"])
+    out, _ = capsys.readouterr()
+    assert code == 3
+    res = json.loads(out)["results"][0]
+    assert res["status"] == "horizon_limit" and res["no_solution_with_maxstep"] == list(range(6))
+    assert res["reason"] == "no plan with maxstep 0..5 (--max-horizon)"
+
+
+def test_no_plan_in_a_closed_range(tmp_path, capsys):
+    path = _copy_task(tmp_path, domain_edit=lambda s: s.replace("maxstep :: 0..infinity;", "maxstep :: 2..4;"))
+    code = main(["plan", str(path)])
+    out, err = capsys.readouterr()
+    assert code == 1
+    assert "no plan with maxstep 2..4" in err
+    assert [x for x in out.splitlines() if x] == [f"No solution with maxstep {m}." for m in (2, 3, 4)]
 
 
 def test_cplus_run_the_whole_job_on_emulated_bricks(tmp_path, capsys):

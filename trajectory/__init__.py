@@ -15,8 +15,8 @@ as `cplus.trajectory/1` files. See ``docs/trajectory.md``.
 
 from typing import TYPE_CHECKING, Any
 
-from .build import build_trajectory, interpolate_path
-from .checker import Violation, ViolationKind, all_violations, check_motion, first_violation
+from .build import build_trajectory, check_timing, interpolate_path
+from .checker import Cause, Violation, ViolationKind, all_violations, cause_of, check_motion, first_violation
 from .errors import (
     JointLimitError,
     Location,
@@ -28,8 +28,10 @@ from .errors import (
     UnreachableError,
 )
 from .export import load_trajectory, save_csv, save_json, to_csv_text, to_json_text
+from .generalize import widen
 from .kinematics import Arm, BranchChoice, JointState, forward, ik_solutions, inverse
 from .model import TRAJECTORY_FORMAT, MotorChannel, RobotTrajectory, Trajectory
+from .precheck import BadMotion, bad_single_body_motions, failing_length_pairs
 from .scene import SCENE_FORMAT, Scene, check_reachable, load_scene, parse_scene
 from .states import StepState
 
@@ -48,7 +50,9 @@ def __getattr__(name: str) -> Any:
 
 __all__ = [
     "Arm",
+    "BadMotion",
     "BranchChoice",
+    "Cause",
     "JointLimitError",
     "JointState",
     "Location",
@@ -68,8 +72,13 @@ __all__ = [
     "Violation",
     "ViolationKind",
     "all_violations",
+    "bad_single_body_motions",
     "build_trajectory",
+    "cause_of",
+    "failing_length_pairs",
+    "widen",
     "check_motion",
+    "check_timing",
     "check_reachable",
     "first_violation",
     "forward",

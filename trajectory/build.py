@@ -34,7 +34,7 @@ from .model import MotorChannel, RobotTrajectory, Trajectory, frozen_array
 from .scene import Robot, Scene
 from .states import StepState, validate_states
 
-__all__ = ["build_trajectory", "interpolate_path", "path_branches"]
+__all__ = ["build_trajectory", "check_timing", "interpolate_path", "path_branches"]
 
 _log = logging.getLogger(__name__)
 
@@ -164,6 +164,24 @@ def _robot_trajectory(robot: Robot, samples: FloatArray, step: npt.NDArray[np.in
     )
 
 
+def check_timing(points_per_step: int, step_time_s: float) -> int:
+    """The tick in whole milliseconds, or a `TrajectoryError` saying why these cannot be used.
+
+    >>> check_timing(10, 1.0), check_timing(4, 0.5)
+    (100, 125)
+    """
+    if isinstance(points_per_step, bool) or not isinstance(points_per_step, int) or points_per_step < 1:
+        raise TrajectoryError(f"points_per_step must be a positive integer, not {points_per_step!r}")
+    if not (isinstance(step_time_s, (int, float)) and math.isfinite(step_time_s) and step_time_s > 0):
+        raise TrajectoryError(f"step_time_s must be a positive number of seconds, not {step_time_s!r}")
+    tick = step_time_s * 1000.0 / points_per_step
+    tick_ms = round(tick)
+    if tick_ms < 1 or not math.isclose(tick, tick_ms, rel_tol=0.0, abs_tol=1e-6):
+        raise TrajectoryError(f"step_time_s * 1000 / points_per_step = {fmt(tick)} ms; it must be a "
+                              "whole number of milliseconds, at least 1")
+    return tick_ms
+
+
 def build_trajectory(
     scene: Scene,
     states: Sequence[StepState],
@@ -204,15 +222,7 @@ def build_trajectory(
     >>> traj.tick_ms, traj.ticks, traj.robot("r1").x.tolist()
     (250, 5, [4.0, 4.25, 4.5, 4.75, 5.0])
     """
-    if isinstance(points_per_step, bool) or not isinstance(points_per_step, int) or points_per_step < 1:
-        raise TrajectoryError(f"points_per_step must be a positive integer, not {points_per_step!r}")
-    if not (isinstance(step_time_s, (int, float)) and math.isfinite(step_time_s) and step_time_s > 0):
-        raise TrajectoryError(f"step_time_s must be a positive number of seconds, not {step_time_s!r}")
-    tick = step_time_s * 1000.0 / points_per_step
-    tick_ms = round(tick)
-    if tick_ms < 1 or not math.isclose(tick, tick_ms, rel_tol=0.0, abs_tol=1e-6):
-        raise TrajectoryError(f"step_time_s * 1000 / points_per_step = {fmt(tick)} ms; it must be a "
-                              "whole number of milliseconds, at least 1")
+    tick_ms = check_timing(points_per_step, step_time_s)
     validate_states(scene.robot_names, scene.end_names, states)
     if check:
         violation = first_violation(scene, states)

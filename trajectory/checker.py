@@ -18,7 +18,8 @@ the payload is carried between the two ends. This module checks that whole motio
 
 `first_violation` gives what the refinement loop needs (the step ``i`` whose motion to
 ``i + 1`` fails, the kind, the time and point of first contact, a message); `all_violations`
-lists every problem of every step, one per kind and subject.
+lists every problem of every step, one per kind and subject; `cause_of` says which positions
+a violation depends on, so that a planner can forbid exactly those (a *position nogood*).
 
 >>> from trajectory.scene import parse_scene, EXAMPLE_SCENE
 >>> scene = parse_scene(EXAMPLE_SCENE, "example.toml")
@@ -30,12 +31,15 @@ lists every problem of every step, one per kind and subject.
 (0, 'effector-collision', 0.333, (2.0, 1.0))
 >>> [w.kind.value for w in all_violations(scene, plan)]
 ['effector-collision', 'payload-collision']
+>>> cause_of(scene, plan, v)
+Cause(bodies=('r1',), first=0, last=1, holds=False)
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Iterator, Sequence
+from dataclasses import dataclass
 
 from ._format import fmt, fmt_point
 from .geometry import (
@@ -52,7 +56,7 @@ from .scene import Robot, Scene
 from .states import StepState, validate_states
 from .violations import Violation, ViolationKind
 
-__all__ = ["ViolationKind", "Violation", "first_violation", "all_violations", "check_motion"]
+__all__ = ["ViolationKind", "Violation", "Cause", "first_violation", "all_violations", "check_motion", "cause_of"]
 
 
 def _same(p: Point2, q: Point2) -> bool:
@@ -237,3 +241,67 @@ def first_violation(scene: Scene, states: Sequence[StepState]) -> Violation | No
         if found:
             return found[0]
     return None
+
+
+# ---------------------------------------------------------------------------- causes
+
+
+@dataclass(frozen=True, slots=True)
+class Cause:
+    """What a violation depends on, and nothing else.
+
+    The positions of ``bodies`` (robot and payload-end names) at the steps ``first`` to
+    ``last`` and, when ``holds`` is set, which robot holds which end there. Every plan whose
+    states ``t .. t + (last - first)`` give those bodies the same positions (and holders) has
+    a violation within those steps, whatever else happens in it and whatever ``t`` is: the
+    check of a motion reads nothing but these. That makes "never these positions at
+    consecutive steps" a sound constraint for a planner (see docs/trajectory.md).
+    """
+
+    bodies: tuple[str, ...]
+    first: int
+    last: int
+    holds: bool = False
+
+    @property
+    def span(self) -> int:
+        """How many motions it covers (0: a single state)."""
+        return self.last - self.first
+
+
+def cause_of(scene: Scene, states: Sequence[StepState], violation: Violation) -> Cause:
+    """The smallest set of positions (of `Cause`'s kind) that ``violation`` of ``states`` needs.
+
+    * effector collision, payload collision, payload length: the bodies of the motion (the
+      robot, or both payload ends) at ``step`` and ``step + 1``, or at one of them alone when
+      that state is already bad by itself (checked by the same checker, as a motion from the
+      state to itself);
+    * out of reach, joint limits: the robot at a point it cannot hold at all, else its path
+      from the latest step ``j`` from which the arm, free to take any branch there, cannot
+      follow the path to ``step + 1`` (the branch a robot keeps makes the verdict depend on
+      where it came from; starting with every branch is the most lenient history);
+    * detached: every robot and payload end and who holds what, at both steps.
+    """
+    i, kind = violation.step, violation.kind
+    if kind is ViolationKind.DETACHED:
+        return Cause(scene.robot_names + scene.end_names, i, i + 1, holds=True)
+    j = min(i + 1, len(states) - 1)
+    if kind in (ViolationKind.OUT_OF_REACH, ViolationKind.JOINT_LIMIT):
+        robot = scene.robot(violation.subject)
+        path = [s.robots[robot.name] for s in states]
+        for k in (i, j):
+            if not choices_at(robot.arm, *path[k]):
+                return Cause((robot.name,), k, k)
+        for start in range(i, -1, -1):
+            alive = choices_at(robot.arm, *path[start])
+            for k in range(start, i + 1):
+                alive, _ = surviving_choices(robot.arm, alive, path[k], path[k + 1])
+                if not alive:
+                    return Cause((robot.name,), start, i + 1)
+        raise AssertionError(f"no cause found for {violation}")  # the check itself failed: cannot be
+    bodies = (violation.subject,) if kind is ViolationKind.EFFECTOR_COLLISION else scene.end_names
+    for k in (i, j):
+        still = check_motion(scene, k, states[k], states[k])
+        if any(v.kind is kind and v.subject == violation.subject for v in still):
+            return Cause(bodies, k, k)
+    return Cause(bodies, i, j)

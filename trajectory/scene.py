@@ -33,6 +33,7 @@ from shapely.validation import explain_validity
 
 from ._format import fmt as _fmt
 from .errors import JointLimitError, Location, SceneError, UnreachableError
+from .geometry import segment_geometry
 from .kinematics import Arm, choices_at, point_problem
 from .toml_locations import KeyPath, locate_keys, nearest_location
 from .workspace import Workspace
@@ -195,6 +196,12 @@ class Scene:
         coincide) meets the interior or the boundary of any obstacle.
         """
         return self.workspace.collision(x1, y1, x2, y2)
+
+    def obstacles_met(self, x1: float, y1: float, x2: float, y2: float) -> list[str]:
+        """Names of the obstacles the closed segment (x1, y1)-(x2, y2) meets (a point when
+        both ends coincide), in the scene's order."""
+        hit = set(self.workspace.hits(segment_geometry((x1, y1), (x2, y2))))
+        return [o.name for k, o in enumerate(self.obstacles) if k in hit]
 
     def externals(self) -> dict[str, Any]:
         """The externals this scene provides to the grounder, by name."""

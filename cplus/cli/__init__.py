@@ -28,10 +28,21 @@ COMMANDS = {
 
 def _usage() -> str:
     width = max(map(len, COMMANDS))
-    lines = ["usage: cplus COMMAND [options]   (cplus COMMAND --help for its options)", "",
+    lines = ["usage: cplus COMMAND [options]   (cplus COMMAND --help for its options)",
+             "       cplus --version", "",
              "C+ planning in the style of CCALC, with trajectories for LEGO NXT arms.", "", "commands:"]
     lines += [f"  {name:<{width}}  {text}" for name, text in COMMANDS.items()]
     return "\n".join(lines) + "\n"
+
+
+def version() -> str:
+    """The installed package's version (the source tree's when it is not installed)."""
+    from importlib.metadata import PackageNotFoundError
+    from importlib.metadata import version as installed
+    try:
+        return installed("cplus")
+    except PackageNotFoundError:   # pragma: no cover - running from a bare source tree
+        return "unknown"
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -40,6 +51,9 @@ def main(argv: list[str] | None = None) -> int:
     if not argv or argv[0] in ("-h", "--help"):
         (sys.stdout if argv else sys.stderr).write(_usage())
         return EXIT_OK if argv else EXIT_INPUT
+    if argv[0] in ("-V", "--version"):
+        print(f"cplus {version()}")
+        return EXIT_OK
     name, rest = argv[0], argv[1:]
     if name not in COMMANDS:
         print(f"cplus: error: unknown command {name!r} (choose from {', '.join(COMMANDS)})", file=sys.stderr)
@@ -64,6 +78,12 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         print("cplus: interrupted", file=sys.stderr)
         return EXIT_INTERRUPTED
+    except RecursionError:   # the front end bounds nesting; this is the last line of defence
+        print(f"cplus {name}: error: the input is nested too deeply to be processed", file=sys.stderr)
+        return EXIT_INPUT
+    except MemoryError:
+        print(f"cplus {name}: error: out of memory: the problem is too large for this machine", file=sys.stderr)
+        return EXIT_INPUT
     except BrokenPipeError:
         try:
             sys.stdout = open(os.devnull, "w")

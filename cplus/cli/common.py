@@ -10,22 +10,25 @@ Exit codes (the README's table):
 2    bad input or usage: a located ``file:line:col: error:`` or a one-line message
 3    an open maxstep range reached ``--max-horizon`` without a plan; ``online``: ``--max-cycles``
      came before the goal
-4    a robot task has plans, but no collision-free one in the horizon range
+4    a robot task has plans, and none is collision-free in the horizon range (proved)
 5    a robot task's refinement gave up (``--max-iterations``) before a plan or a proof
 6    ``online``: the world contradicted the model (an observation it cannot explain, a
      failed action)
 7    ``online``: the observed state is ambiguous (the fluents left open are named)
 8    ``online``: a robot was lost (a brick stopped answering)
+9    ``--no-refine``: the plan shown is not collision-free
 130  interrupted
 ==== ==================================================================================
 """
 from __future__ import annotations
 
 import argparse
+import math
 import sys
 
 __all__ = ["EXIT_OK", "EXIT_NO_PLAN", "EXIT_LINK", "EXIT_INPUT", "EXIT_LIMIT", "EXIT_NO_SAFE_PLAN",
-           "EXIT_GAVE_UP", "EXIT_CONTRADICTED", "EXIT_AMBIGUOUS", "EXIT_ROBOT_LOST", "EXIT_INTERRUPTED", "CliError", "OneLineArgumentParser", "nonneg", "positive", "externals",
+           "EXIT_GAVE_UP", "EXIT_CONTRADICTED", "EXIT_AMBIGUOUS", "EXIT_ROBOT_LOST", "EXIT_UNSAFE",
+           "EXIT_INTERRUPTED", "CliError", "OneLineArgumentParser", "nonneg", "positive", "positive_int", "externals",
            "Warnings", "horizon_progress", "clear_progress", "query", "file_loc", "robot_exit_code"]
 
 EXIT_OK = 0
@@ -38,6 +41,7 @@ EXIT_GAVE_UP = 5
 EXIT_CONTRADICTED = 6
 EXIT_AMBIGUOUS = 7
 EXIT_ROBOT_LOST = 8
+EXIT_UNSAFE = 9
 EXIT_INTERRUPTED = 130
 
 
@@ -69,6 +73,18 @@ def positive(text: str) -> float:
         raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
     if not v > 0:
         raise argparse.ArgumentTypeError("must be > 0")
+    if not math.isfinite(v):
+        raise argparse.ArgumentTypeError("must be finite")
+    return v
+
+
+def positive_int(text: str) -> int:
+    try:
+        v = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a positive integer, got '{text}'") from None
+    if v < 1:
+        raise argparse.ArgumentTypeError(f"expected a positive integer, got '{text}'")
     return v
 
 
@@ -125,13 +141,18 @@ def query(domain, label: str, path: str):
 
 
 def file_loc(path: str):
+    """The start of a file, for errors about the file as a whole (standard input is not read
+    again: it has been read once already)."""
     from cplus.errors import Location, Source
-    from cplus.load import read_text
+    from cplus.load import STDIN, display_name, read_text
+    if path == STDIN:
+        return Location(Source(display_name(path), ""), 0, 0)
     return Location(Source(path, read_text(path)), 0, 0)
 
 
 def robot_exit_code(status) -> int:
     """The exit code of a :class:`cplus.robot.RefineStatus`."""
     from cplus.robot import RefineStatus
-    return {RefineStatus.FOUND: EXIT_OK, RefineStatus.UNSAFE: EXIT_OK, RefineStatus.NO_PLAN: EXIT_NO_PLAN,
-            RefineStatus.HORIZON_LIMIT: EXIT_LIMIT, RefineStatus.NO_SAFE_PLAN: EXIT_NO_SAFE_PLAN}[status]
+    return {RefineStatus.FOUND: EXIT_OK, RefineStatus.UNSAFE: EXIT_UNSAFE, RefineStatus.NO_PLAN: EXIT_NO_PLAN,
+            RefineStatus.HORIZON_LIMIT: EXIT_LIMIT, RefineStatus.NO_SAFE_PLAN: EXIT_NO_SAFE_PLAN,
+            RefineStatus.GAVE_UP: EXIT_GAVE_UP}[status]

@@ -22,6 +22,8 @@ from cplus.cli.common import (
     file_loc,
     horizon_progress,
     nonneg,
+    positive,
+    positive_int,
     query,
     robot_exit_code,
 )
@@ -31,9 +33,10 @@ __all__ = ["build_parser", "main", "add_common", "add_robot_options"]
 
 def build_parser() -> OneLineArgumentParser:
     p = OneLineArgumentParser(prog="cplus plan", description="Answer the queries of a C+ file.")
-    p.add_argument("file")
-    p.add_argument("--query", "-q", metavar="LABEL", help="run only this query ('states': all states)")
-    p.add_argument("-n", type=nonneg, default=1, metavar="N", help="number of solutions (0 = all)")
+    p.add_argument("file", help="the C+ file ('-' reads standard input)")
+    p.add_argument("--query", "-q", metavar="LABEL", help="run only this query ('states': every state)")
+    p.add_argument("-n", type=nonneg, default=None, metavar="N",
+                   help="number of solutions (0 = all; default 1, all for '--query states')")
     p.add_argument("--json", action="store_true", help="print the result as cplus.plan/1 JSON")
     p.add_argument("--stats", action="store_true", help="print sizes and times per horizon on stderr")
     add_common(p)
@@ -52,21 +55,43 @@ def add_common(p: argparse.ArgumentParser) -> None:
 def add_robot_options(p: argparse.ArgumentParser) -> None:
     g = p.add_argument_group("robot tasks (a scene.toml beside the domain, or --scene)")
     g.add_argument("--scene", metavar="FILE", help="scene file (default: scene.toml beside the domain)")
-    g.add_argument("--no-refine", action="store_true", help="show the first plan, do not refine it")
-    g.add_argument("--max-iterations", type=nonneg, default=100, metavar="N",
-                   help="refinement iterations before giving up (default 100)")
+    g.add_argument("--no-refine", action="store_true",
+                   help="check the first plan and show it, do not refine it (exit 9 if it is not collision-free)")
+    g.add_argument("--max-iterations", type=nonneg, default=0, metavar="N",
+                   help="give up (exit 5) after N refinement iterations (default 0: no limit)")
+    g.add_argument("--nogoods", choices=("positions", "actions"), default="positions",
+                   help="what a violation teaches: the positions it depends on, at every step (default), or "
+                        "the paper's form, the actions executed where the bodies are")
+    g.add_argument("--eager", choices=("auto", "yes", "no"), default="auto",
+                   help="before the first solve, hand the solver the points an arm cannot hold and the payload "
+                        "turns (auto), also every failing move between two grid points (yes), or nothing (no)")
     g.add_argument("--trajectory", metavar="OUT.json", help="write the joint trajectory (cplus.trajectory/1)")
     g.add_argument("--csv", metavar="OUT.csv", help="write the joint trajectory as CSV")
     g.add_argument("--plot", metavar="OUT.png", help="plot the plan (PNG or SVG)")
-    g.add_argument("--points-per-step", type=nonneg, default=10, metavar="K")
-    g.add_argument("--step-time", type=float, default=1.0, metavar="SECONDS")
+    g.add_argument("--points-per-step", type=positive_int, default=10, metavar="K",
+                   help="trajectory samples per plan step (default 10)")
+    g.add_argument("--step-time", type=positive, default=1.0, metavar="SECONDS",
+                   help="duration of one plan step (default 1.0; the tick, SECONDS*1000/K, must be whole ms)")
+
+
+ROBOT_OPTIONS = ("no_refine", "max_iterations", "nogoods", "eager", "trajectory", "csv", "plot",
+                 "points_per_step", "step_time")
+"""The options that only a robot task uses (a plain domain warns when one is given)."""
 
 
 def main(args: argparse.Namespace) -> int:
+    from cplus.load import STDIN
     from cplus.robot.task import scene_beside
-    scene_path = args.scene or scene_beside(args.file)
+    scene_path = args.scene or (None if args.file == STDIN else scene_beside(args.file))
     if scene_path is not None:
+        args.n = 1 if args.n is None else args.n
         return _plan_robot_task(args, scene_path)
+    defaults = build_parser()
+    for dest in ROBOT_OPTIONS:
+        if getattr(args, dest) != defaults.get_default(dest):
+            flag = "--" + dest.replace("_", "-")
+            print(f"cplus plan: warning: {flag} applies to robot tasks only (no scene.toml beside {args.file}, "
+                  "no --scene); ignored", file=sys.stderr)
     return _plan_domain(args)
 
 
@@ -97,7 +122,9 @@ def _plan_domain(args: argparse.Namespace) -> int:
     for q in queries:
         if len(queries) > 1 and not args.json:
             print(f"% query {q.label}")
-        result = domain.solve(q.label, args.n, args.solver or DEFAULT_SOLVER, args.max_horizon,
+        every_state = q.label == "states" and q.loc is None   # the built-in query, not a file's
+        wanted = args.n if args.n is not None else 0 if every_state else 1
+        result = domain.solve(q.label, wanted, args.solver or DEFAULT_SOLVER, args.max_horizon,
                               horizon_progress(args.stats))
         clear_progress(args.stats)
         warn(domain.diagnostics)
@@ -108,7 +135,7 @@ def _plan_domain(args: argparse.Namespace) -> int:
         if args.json:
             docs.append(domain.to_json(result))
         else:
-            sys.stdout.write(domain.format(result, numbered=args.n != 1))
+            sys.stdout.write(domain.format(result))
         if result.status is PlanStatus.NO_PLAN:
             code = max(code, EXIT_NO_PLAN)
         elif result.status is PlanStatus.HORIZON_LIMIT:
@@ -124,42 +151,95 @@ def _plan_domain(args: argparse.Namespace) -> int:
 
 
 def _plan_robot_task(args: argparse.Namespace, scene_path: str) -> int:
-    """Plan, refine, print, export."""
+    """Check the options, load, plan and refine each query, print, export."""
     from cplus.output import PLAN_FORMAT, Display, format_result
-    from cplus.robot import RefineStatus, RobotTask, export_plan, refine
+    from cplus.robot import RefineStatus, RobotTask, TaskError, check_outputs, export_plan, refine
     if args.n != 1:
         print("cplus plan: -n applies to plain domains; a robot task yields one refined plan", file=sys.stderr)
         return EXIT_INPUT
+    check_outputs(plot=args.plot, trajectory_json=args.trajectory, csv=args.csv,
+                  points_per_step=args.points_per_step, step_time=args.step_time)
     warn = Warnings()
+    t0 = time.perf_counter()
     task = RobotTask.load(args.file, scene_path, args.extern)
     domain = task.domain
     warn(domain.diagnostics)  # type: ignore[attr-defined]
     labels = [args.query] if args.query else domain.labels  # type: ignore[attr-defined]
-    code = EXIT_OK
-    docs = []
     for label in labels:
         query(domain, label, args.file)
+    exports = [f for f, v in (("--plot", args.plot), ("--trajectory", args.trajectory), ("--csv", args.csv)) if v]
+    if exports and len(labels) > 1:
+        raise TaskError(f"{exports[0]} writes one plan, and {args.file} has queries {', '.join(labels)}: "
+                        "choose one with --query")
+    if args.stats:
+        print(f"% {args.file}: loaded with the scene {scene_path} in {time.perf_counter() - t0:.3f} s; "
+              "grounding ...", file=sys.stderr, flush=True)
+    elif sys.stderr.isatty():
+        print("\r% grounding ...", end="", file=sys.stderr, flush=True)
+    t1 = time.perf_counter()
+    theory = domain.theory  # type: ignore[attr-defined]
+    clear_progress(args.stats)
+    if args.stats:
+        print(f"% grounded {theory.rule_count} rules over {len(theory.atoms)} atoms in "
+              f"{time.perf_counter() - t1:.3f} s", file=sys.stderr)
+    warn(domain.diagnostics)  # type: ignore[attr-defined]
+    code = EXIT_OK
+    results = []
+    display = Display(domain.program)  # type: ignore[attr-defined]
+    for label in labels:
+        if len(labels) > 1 and not args.json:
+            print(f"% query {label}")
+        on_horizon = horizon_progress(args.stats)
+
+        def on_iteration(it) -> None:
+            clear_progress(args.stats)
+            print(it.text(), file=sys.stderr)
         result = refine(task, label, args.max_iterations, args.max_horizon, args.solver, not args.no_refine,
-                        on_iteration=lambda it: print(it.text(), file=sys.stderr),
-                        on_horizon=horizon_progress(args.stats))
+                        nogoods=args.nogoods, eager={"auto": None, "yes": True, "no": False}[args.eager],
+                        on_iteration=on_iteration, on_horizon=on_horizon,
+                        on_precheck=lambda pre: print(pre.text(), file=sys.stderr) if args.stats else None)
+        clear_progress(args.stats)
         warn(domain.diagnostics)  # type: ignore[attr-defined]
-        shown = result.shown
-        if args.json:
-            docs.append(result.to_json(label))
-        else:
-            display = Display(domain.program)  # type: ignore[attr-defined]
+        results.append((label, result))
+        if not args.json:
+            shown = result.shown
             sys.stdout.write(format_result(display, result.no_solution_with_maxstep, [shown] if shown else [],
                                            False))
+        if args.stats:
+            print(_summary(result), file=sys.stderr)
         if result.reason:
             print(f"% {result.reason}", file=sys.stderr)
         code = max(code, robot_exit_code(result.status))
-        if result.status in (RefineStatus.FOUND, RefineStatus.UNSAFE):
+    if args.json:
+        json.dump({"format": PLAN_FORMAT, "file": args.file, "results": [r.to_json(label) for label, r in results]},
+                  sys.stdout, indent=1)
+        sys.stdout.write("\n")
+        sys.stdout.flush()
+    for _, result in results:
+        if result.status not in (RefineStatus.FOUND, RefineStatus.UNSAFE) or not exports:
+            continue
+        unsafe = result.history is None
+        try:
             export_plan(task, result.states or result.first_states or [],
-                        None if result.history else result.first_violation, domain_path=args.file,
+                        result.first_violation if unsafe else None, domain_path=args.file,
                         plot=args.plot, trajectory_json=args.trajectory, csv=args.csv,
                         points_per_step=args.points_per_step, step_time=args.step_time,
                         on_write=lambda path: print(f"% wrote {path}", file=sys.stderr))
-    if args.json:
-        json.dump({"format": PLAN_FORMAT, "file": args.file, "results": docs}, sys.stdout, indent=1)
-        sys.stdout.write("\n")
+        except TaskError as exc:
+            if not unsafe:
+                raise
+            print(f"cplus plan: {exc.message}; not written: "
+                  f"{', '.join(p for p in (args.trajectory, args.csv) if p)}", file=sys.stderr)
     return code
+
+
+def _summary(result) -> str:
+    """The --stats line of a refinement: iterations, nogoods, sizes at the last horizon."""
+    st = result.stats[-1] if result.stats else None
+    pre = result.precheck
+    size = f"; maxstep {st.maxstep}: {st.variables} variables, {st.clauses} clauses" if st else ""
+    eager = (f" (+ {pre.points} points, {pre.motions} moves, {pre.length_pairs} payload turns up front)"
+             if pre else "")
+    seconds = sum(it.seconds for it in result.iterations)
+    return (f"% refinement: {len(result.iterations)} iterations, {result.learned} nogoods learned{eager}{size}; "
+            f"checking and learning {seconds:.3f} s, solving {sum(s.solve_s for s in result.stats):.3f} s")

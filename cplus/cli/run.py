@@ -29,9 +29,12 @@ def build_parser() -> OneLineArgumentParser:
                    help="a robot's brick port, e.g. r1=/dev/rfcomm0 (default: emulated bricks)")
     p.add_argument("--out", default="out", metavar="DIR",
                    help="where to write the plan, trajectory, execution log and pictures (default out/)")
-    p.add_argument("--max-iterations", type=nonneg, default=100, metavar="N")
-    p.add_argument("--points-per-step", type=nonneg, default=10, metavar="K")
-    p.add_argument("--step-time", type=float, default=1.0, metavar="SECONDS")
+    p.add_argument("--max-iterations", type=nonneg, default=0, metavar="N",
+                   help="give up (exit 5) after N refinement iterations (default 0: no limit)")
+    p.add_argument("--points-per-step", type=nonneg, default=10, metavar="K",
+                   help="trajectory samples between two plan steps (default 10)")
+    p.add_argument("--step-time", type=float, default=1.0, metavar="SECONDS",
+                   help="duration of one plan step in the trajectory (default 1.0)")
     add_common(p)
     return p
 

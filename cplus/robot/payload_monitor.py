@@ -295,15 +295,14 @@ def run_arms(task: RobotTask, label: str, executor: ArmsExecutor, *, observers: 
         while True:
             t0 = time.perf_counter()
             session = model.session(state)
-            session.horizon.extra.extend(learned)
-            refined = refine(task, label, max_iterations, session=session)
+            refined = refine(task, label, max_iterations, session=session, known=learned)
             rec = CycleRecord(cycle, now(), state, replanned=reason, sensed=sensed, raw=raw, decision_s=carry)
             if refined.status is not RefineStatus.FOUND or refined.history is None:
                 rec.decision_s += time.perf_counter() - t0
                 record(rec)
                 return end(OnlineStatus.NO_PLAN, f"stopped safely at cycle {cycle}: {refined.reason or 'no plan'}",
                            state)
-            learned = list(refined.session.horizon.extra) if refined.session else learned
+            learned = refined.nogoods
             plan = model.plan_of(refined.history)
             rec.plan = plan
             rec.decision_s += time.perf_counter() - t0

@@ -1,15 +1,25 @@
-"""The refinement loop (the paper's Algorithm 1): plan, check continuously, forbid, re-plan.
+"""The refinement loop (the paper's Algorithm 1, learning geometry): plan, check, learn, re-plan.
 
-After each plan the continuous checker walks the steps; at the first violation between steps
-i and i+1 it reports the positions L (every bound coordinate at step i) and the actions A
-executed at step i; the planner then forbids "exactly A while the robots and the payload are
-at L" at every transition, by clauses added to the same live solver, and solves again, at
-longer horizons when the current one runs out.
+After each plan the continuous checker walks *every* step; each violation depends on the
+positions of a few bodies over one motion (an end-effector's two points, or the payload's
+four end points; see :func:`trajectory.cause_of`).  The loop forbids exactly those positions
+at consecutive steps, at every step of every horizon, as clauses over the position fluents
+only, added to the same live solver (lazy clause generation).  Whatever the actions and
+whatever the uninvolved robot does, that motion is never proposed again, and since every
+clause only excludes plans that would fail the check, running out of plans is a proof that
+none is collision-free.
 
-The paper forbids the conjunction of the executed actions only, which also forbids every
-larger action set (a diagonal move that contains the blocked straight one, say); we forbid
-the exact set (each action's truth value and the attributes of the executed ones), so no
-collision-free motion is lost.
+Before the first solve the loop hands the solver what is cheap to know up front (the eager
+pre-check): the grid points an arm cannot hold (a number linear in the grid's size) and the
+payload turns too fast for its length (a number independent of it); every straight move
+between grid points (the square of the grid's size) only when asked (``eager=True``): on the
+payload scenes and the small test grids those cost more solver time than the few iterations
+they save (measured in bench/ and docs/trajectory.md).
+
+The paper's form (:attr:`NogoodForm.ACTIONS`) forbids the actions executed at the first
+violating step while the bodies are where they are, one violation per plan; it is kept for
+comparison.  Position nogoods are sound when the check of a motion depends on nothing but the
+bound fluents: docs/trajectory.md says what a domain must satisfy for that.
 
 The result carries a :class:`RefineStatus`; the command line maps it to an exit code, and
 :meth:`RefinementResult.to_json` is the robot-task form of a ``cplus.plan/1`` result.
@@ -17,17 +27,18 @@ The result carries a :class:`RefineStatus`; the command line maps it to an exit 
 from __future__ import annotations
 
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
 from enum import StrEnum
 
 from cplus.history import History, decode_history
-from cplus.planner import find_horizon
 from cplus.program import QuerySpec
+from cplus.robot.nogoods import Nogood, NogoodStore, action_nogood, position_nogood
 from cplus.robot.task import RobotTask, TaskError
-from cplus.sat.horizon import QuerySession
+from cplus.sat.horizon import HorizonStats, QuerySession
 
-__all__ = ["DEFAULT_MAX_HORIZON", "Iteration", "RefineStatus", "RefinementResult", "refine"]
+__all__ = ["DEFAULT_MAX_HORIZON", "Iteration", "NogoodForm", "Precheck", "RefineStatus",
+           "RefinementResult", "refine"]
 
 DEFAULT_MAX_HORIZON = 40
 """Where an open maxstep range (``N..infinity``) stops during refinement unless told."""
@@ -38,39 +49,71 @@ class RefineStatus(StrEnum):
 
     FOUND = "found"                    # a collision-free plan
     UNSAFE = "unsafe"                  # refinement off, and the first plan has a violation
-    NO_SAFE_PLAN = "no_safe_plan"      # plans exist, none collision-free in the horizon range
+    NO_SAFE_PLAN = "no_safe_plan"      # proved: plans exist, none collision-free in the horizon range
+    GAVE_UP = "gave_up"                # --max-iterations stopped the loop before a plan or a proof
     NO_PLAN = "no_plan"                # no plan at all in the query's maxstep range
-    HORIZON_LIMIT = "horizon_limit"    # no plan up to --max-horizon of an open range
+    HORIZON_LIMIT = "horizon_limit"    # no plan at all up to --max-horizon of an open range
+
+
+class NogoodForm(StrEnum):
+    """What a violation teaches the planner."""
+
+    POSITIONS = "positions"    # the involved bodies' positions over the motion, every violation
+    ACTIONS = "actions"        # the paper's form: the executed actions where the bodies are, first violation
 
 
 @dataclass
 class Iteration:
-    """One pass of the loop: the plan's length, its first violation, what was forbidden."""
+    """One pass of the loop: the plan's length, its violations, what was learned from them."""
 
     number: int
     maxstep: int
-    violation: object | None       # trajectory.Violation
-    actions: list[str] = field(default_factory=list)
-    where: list[str] = field(default_factory=list)
+    violations: tuple = ()          # trajectory.Violation, by step and time
+    learned: tuple[Nogood, ...] = ()
+    seconds: float = 0.0
+
+    @property
+    def violation(self):
+        """The first violation, or ``None`` for a collision-free plan."""
+        return self.violations[0] if self.violations else None
+
+    def text(self) -> str:
+        head = f"% refinement {self.number}: plan of length {self.maxstep}"
+        if not self.violations:
+            return f"{head} is collision-free"
+        lines = [f"{head}: {len(self.violations)} violation{'s' if len(self.violations) > 1 else ''}"]
+        for v in self.violations:
+            lines.append(f"%   {v.kind.value} between steps {v.step} and {v.step + 1}: {v.message}")
+        if self.learned:
+            lines.append("%   forbidding at every step: " + "; ".join(n.text for n in self.learned))
+        return "\n".join(lines)
+
+    def to_json(self) -> dict:
+        return {"iteration": self.number, "maxstep": self.maxstep,
+                "violations": [{"kind": v.kind.value, "step": v.step, "u": v.u, "point": list(v.point),
+                                "subject": v.subject, "message": v.message} for v in self.violations],
+                "learned": [n.to_json() for n in self.learned], "seconds": round(self.seconds, 6)}
+
+
+@dataclass
+class Precheck:
+    """What the eager pre-check handed the solver before the first solve."""
+
+    points: int = 0          # (robot, grid point) it can never hold
+    motions: int = 0         # (robot, straight move between grid points) that fails
+    pairs_checked: int = 0   # pairs of grid points classified (0: pairs left to the lazy loop)
+    length_pairs: int = 0    # payload end vectors (before, after) whose motion leaves the length band
     seconds: float = 0.0
 
     def text(self) -> str:
-        if self.violation is None:
-            return f"% refinement {self.number}: plan of length {self.maxstep} is collision-free"
-        v = self.violation
-        acts = "  ".join(self.actions) or "no action"
-        return (f"% refinement {self.number}: plan of length {self.maxstep}: {v.kind.value} between steps "  # type: ignore[attr-defined]
-                f"{v.step} and {v.step + 1}: {v.message}\n"  # type: ignore[attr-defined]
-                f"%   forbidding {{{acts}}} where {', '.join(self.where)}")
+        pairs = (f"{self.motions} of {self.pairs_checked} straight moves between them" if self.pairs_checked
+                 else "moves between them learned as they occur")
+        return (f"% pre-check ({self.seconds:.3f} s): {self.points} grid points an arm cannot hold, {pairs}; "
+                f"{self.length_pairs} payload turns too fast for its length")
 
     def to_json(self) -> dict:
-        v = self.violation
-        return {"iteration": self.number, "maxstep": self.maxstep,
-                "violation": None if v is None else {
-                    "kind": v.kind.value, "step": v.step, "u": v.u,  # type: ignore[attr-defined]
-                    "point": list(v.point), "subject": v.subject,  # type: ignore[attr-defined]
-                    "message": v.message},  # type: ignore[attr-defined]
-                "forbidden_actions": self.actions, "where": self.where}
+        return {"points": self.points, "motions": self.motions, "pairs_checked": self.pairs_checked,
+                "length_pairs": self.length_pairs, "seconds": round(self.seconds, 6)}
 
 
 @dataclass
@@ -78,49 +121,89 @@ class RefinementResult:
     """What :func:`refine` found: the refined plan (or why there is none) and every iteration."""
 
     status: RefineStatus
-    history: History | None
-    states: list | None
-    iterations: list[Iteration]
-    first_history: History | None
-    first_states: list | None
-    first_violation: object | None
+    query: QuerySpec
+    form: NogoodForm = NogoodForm.POSITIONS
+    history: History | None = None
+    states: list | None = None
+    iterations: list[Iteration] = field(default_factory=list)
+    first_history: History | None = None
+    first_states: list | None = None
+    first_violation: object | None = None
     reason: str = ""
     no_solution_with_maxstep: list[int] = field(default_factory=list)
+    horizon: int | None = None       # the last maxstep the loop worked at
+    precheck: Precheck | None = None
     session: QuerySession | None = None
+    store: NogoodStore | None = None     # what the solver was taught (NogoodStore.excludes explains a plan)
+    known: list[Nogood] = field(default_factory=list)   # nogoods given to refine() (learned before)
 
     @property
     def found(self) -> bool:
         return self.history is not None
 
     @property
+    def learned(self) -> int:
+        """Nogoods learned by the loop (the pre-check's not counted)."""
+        return sum(len(it.learned) for it in self.iterations)
+
+    @property
+    def nogoods(self) -> list[Nogood]:
+        """Every nogood this refinement knew or learned: to give the next one (``known``)."""
+        return self.known + [ng for it in self.iterations for ng in it.learned]
+
+    @property
+    def stats(self) -> list[HorizonStats]:
+        return self.session.stats if self.session is not None else []
+
+    @property
     def shown(self) -> History | None:
         """The plan to print: the refined one, or the unsafe first plan when refinement is off."""
         return self.history or (self.first_history if self.status is RefineStatus.UNSAFE else None)
 
-    def to_json(self, label: str) -> dict:
+    def to_json(self, label: str | None = None) -> dict:
         from cplus.output import history_json
         hist = self.shown
+        q = self.query
         return {
-            "query": {"label": label},
+            "query": {"label": label if label is not None else q.label, "min_maxstep": q.lo, "max_maxstep": q.hi},
             "status": self.status.value,
             "maxstep": hist.maxstep if hist else None,
+            "no_solution_with_maxstep": list(self.no_solution_with_maxstep),
             "histories": [history_json(hist)] if hist else [],
+            "stats": [{"maxstep": s.maxstep, "variables": s.variables, "clauses": s.clauses,
+                       "encode_s": round(s.encode_s, 6), "solve_s": round(s.solve_s, 6),
+                       "satisfiable": s.satisfiable} for s in self.stats],
             "refinement": [it.to_json() for it in self.iterations],
+            "nogoods": {"form": self.form.value, "learned": self.learned,
+                        "precheck": self.precheck.to_json() if self.precheck else None},
+            "horizon": self.horizon,
             "reason": self.reason or None,
         }
 
 
-def refine(task: RobotTask, label: str = "0", max_iterations: int = 100, max_horizon: int | None = None,
-           solver: str | None = None, refine: bool = True,
+def refine(task: RobotTask, label: str = "0", max_iterations: int | None = None, max_horizon: int | None = None,
+           solver: str | None = None, refine: bool = True, *, nogoods: NogoodForm | str = NogoodForm.POSITIONS,
+           eager: bool | None = None,
            on_iteration: Callable[[Iteration], None] | None = None,
-           on_horizon: Callable | None = None, session: QuerySession | None = None) -> RefinementResult:
-    """Algorithm 1: plan, check continuously, forbid, plan again in the same solver.
+           on_horizon: Callable[[HorizonStats], None] | None = None,
+           on_precheck: Callable[[Precheck], None] | None = None,
+           session: QuerySession | None = None, known: Iterable[Nogood] = ()) -> RefinementResult:
+    """Plan, check every step continuously, learn, plan again in the same solver.
 
-    ``session``: a live solver to refine in, instead of a new one for the query ``label`` (the
-    online monitor plans from a state the arms were found in, with the clauses earlier
-    refinements learned)."""
-    import trajectory
+    ``max_iterations`` (``None`` or 0: no limit) bounds the plans examined; reaching it ends
+    with :attr:`RefineStatus.GAVE_UP`.  ``eager``: ``None`` pre-checks points and payload
+    turns, ``True`` also every move between two grid points, ``False`` nothing (all is learned
+    as plans meet it).  ``refine=False`` checks the first plan only.  ``session``: a live
+    solver to refine in (not yet solved), instead of a new one for the query ``label``, and
+    ``known``: nogoods learned before (:attr:`RefinementResult.nogoods` of an earlier
+    refinement of the same domain), forbidden from the start; the online monitor re-plans
+    from the state the arms were found in with both.
+
+    Raises:
+        TaskError: the start or goal cannot be reached, or the checker refuses the plan's states.
+    """
     from cplus.sat.solver import DEFAULT_SOLVER
+    form = NogoodForm(nogoods)
     domain = task.domain
     query = domain.query(label)  # type: ignore[attr-defined]
     task.check_start_goal(query)
@@ -130,65 +213,128 @@ def refine(task: RobotTask, label: str = "0", max_iterations: int = 100, max_hor
         session = QuerySession(domain.theory, query, solver or DEFAULT_SOLVER, max_horizon)  # type: ignore[attr-defined]
     else:
         query, max_horizon = session.query, session.max_horizon
-    failed = find_horizon(session, on_horizon)
-    result = RefinementResult(RefineStatus.NO_PLAN, None, None, [], None, None, None,
-                              no_solution_with_maxstep=list(failed), session=session)
-    if session.found is None:
-        result.reason = _exhausted(query, max_horizon)
-        if query.hi is None:
-            result.status = RefineStatus.HORIZON_LIMIT
-        return result
-
-    def finish(it: Iteration, t0: float, status: RefineStatus, reason: str = "") -> RefinementResult:
-        it.seconds = time.perf_counter() - t0
-        result.iterations.append(it)
-        if on_iteration:
-            on_iteration(it)
-        result.status, result.reason = status, reason
-        if status is RefineStatus.NO_SAFE_PLAN:
-            result.no_solution_with_maxstep = sorted({st.maxstep for st in session.stats})
-        return result
-
+    result = RefinementResult(RefineStatus.NO_PLAN, query, form, session=session)
+    horizon = session.horizon
+    store = result.store = NogoodStore(horizon, domain.theory.atoms)  # type: ignore[attr-defined]
+    guard = None
+    if refine and form is NogoodForm.POSITIONS and eager is not False:
+        # behind one assumption, so that an unsatisfiable horizon tells whether it needed them
+        guard = horizon.new_var()
+        session.assumptions.append(guard)
+        result.precheck = _precheck(task, store, guard, bool(eager))
+        if on_precheck:
+            on_precheck(result.precheck)
+    learned: set[tuple] = set()
+    for ng in known:
+        if ng.key not in learned:
+            learned.add(ng.key)
+            store.add(ng)
+            result.known.append(ng)
+    plans_exist = False     # does the domain have a plan in the range, geometry aside?
     number = 0
-    while True:
-        number += 1
-        t0 = time.perf_counter()
-        hist = decode_history(session)
-        states = task.states(hist)
-        try:
-            violation = trajectory.first_violation(task.scene, states)  # type: ignore[arg-type]
-        except trajectory.TrajectoryError as exc:
-            raise TaskError.from_trajectory(exc) from None
-        if result.first_history is None:
-            result.first_history, result.first_states, result.first_violation = hist, states, violation
-        if violation is None:
-            result.history, result.states = hist, states
-            return finish(Iteration(number, hist.maxstep, None), t0, RefineStatus.FOUND)
-        if not refine:
-            return finish(Iteration(number, hist.maxstep, violation), t0, RefineStatus.UNSAFE,
-                          "refinement is off (--no-refine)")
-        pf, acts, where = task.forbidden(hist, violation.step)
-        session.horizon.forbid_everywhere(pf)
-        it = Iteration(number, hist.maxstep, violation, acts, where)
-        if number >= max_iterations:
-            return finish(it, t0, RefineStatus.NO_SAFE_PLAN,
-                          f"no collision-free plan after {max_iterations} refinement iterations")
-        ok = session.resolve()
-        while not ok:
-            nxt = session.horizon.m + 1
-            if session.query.hi is not None and nxt > session.query.hi or \
-                    max_horizon is not None and nxt > max_horizon:
-                return finish(it, t0, RefineStatus.NO_SAFE_PLAN,
-                              "no collision-free plan: " + _exhausted(query, max_horizon))
-            ok = session.solve_at(nxt)
-            if on_horizon:
-                on_horizon(session.stats[-1])
-        it.seconds = time.perf_counter() - t0
-        result.iterations.append(it)
-        if on_iteration:
-            on_iteration(it)
 
+    def finish(status: RefineStatus, reason: str, it: Iteration | None = None, t0: float = 0.0) -> RefinementResult:
+        if it is not None:
+            it.seconds = time.perf_counter() - t0
+            result.iterations.append(it)
+            if on_iteration:
+                on_iteration(it)
+        result.status, result.reason = status, reason
+        return result
 
-def _exhausted(query: QuerySpec, max_horizon: int | None) -> str:
+    for m in session.horizons():
+        result.horizon = m
+        ok = session.solve_at(m)
+        if on_horizon:
+            on_horizon(session.stats[-1])
+        while ok:
+            plans_exist = True
+            number += 1
+            t0 = time.perf_counter()
+            hist = decode_history(session)
+            states = task.states(hist)
+            violations = _check(task, states, first_only=form is NogoodForm.ACTIONS)
+            if result.first_history is None:
+                result.first_history, result.first_states = hist, states
+                result.first_violation = violations[0] if violations else None
+            if not violations:
+                result.history, result.states = hist, states
+                return finish(RefineStatus.FOUND, "", Iteration(number, m), t0)
+            if not refine:
+                return finish(RefineStatus.UNSAFE, "refinement is off (--no-refine) and the plan is not "
+                              "collision-free", Iteration(number, m, violations), t0)
+            new = []
+            for ng in _nogoods(task, hist, states, violations, form):
+                if ng.key not in learned:
+                    learned.add(ng.key)
+                    store.add(ng)
+                    new.append(ng)
+            if not new:   # cannot happen: the plan violates each of its nogoods, which the solver had
+                raise TaskError(f"internal error: the solver proposed a plan of length {m} that its learned "
+                                "nogoods forbid")
+            it = Iteration(number, m, violations, tuple(new))
+            if max_iterations and number >= max_iterations:
+                proved = f"; none with maxstep {query.lo}..{m - 1}" if m > query.lo else ""
+                return finish(RefineStatus.GAVE_UP, f"gave up after {number} refinement iteration"
+                              f"{'s' if number > 1 else ''} (--max-iterations) at maxstep {m}{proved}", it, t0)
+            ok = session.resolve()
+            it.seconds = time.perf_counter() - t0
+            result.iterations.append(it)
+            if on_iteration:
+                on_iteration(it)
+        if not plans_exist and guard is not None and guard in horizon.solver.core():
+            # the pre-check's clauses took part: does the domain alone have a plan here?
+            t0 = time.perf_counter()
+            plans_exist = horizon.solver.solve([session.act])
+            session.stats[-1].solve_s += time.perf_counter() - t0
+        result.no_solution_with_maxstep.append(m)
     hi = query.hi if query.hi is not None else max_horizon
-    return f"no plan with maxstep {query.lo}..{hi}" + (" (--max-horizon)" if query.hi is None else "")
+    limit = "" if query.hi is not None else " (--max-horizon)"
+    if plans_exist:
+        return finish(RefineStatus.NO_SAFE_PLAN, f"no collision-free plan with maxstep {query.lo}..{hi}{limit}")
+    status = RefineStatus.NO_PLAN if query.hi is not None else RefineStatus.HORIZON_LIMIT
+    return finish(status, f"no plan with maxstep {query.lo}..{hi}{limit}")
+
+
+def _check(task: RobotTask, states: list, first_only: bool) -> tuple:
+    import trajectory
+    try:
+        if first_only:
+            v = trajectory.first_violation(task.scene, states)  # type: ignore[arg-type]
+            return () if v is None else (v,)
+        return trajectory.all_violations(task.scene, states)  # type: ignore[arg-type]
+    except trajectory.TrajectoryError as exc:
+        raise TaskError.from_trajectory(exc) from None
+
+
+def _nogoods(task: RobotTask, hist: History, states: list, violations: tuple, form: NogoodForm) -> list[Nogood]:
+    if form is NogoodForm.ACTIONS:
+        return [action_nogood(task, hist, violations[0].step)]
+    import trajectory
+    out = []
+    for v in violations:
+        cause = trajectory.cause_of(task.scene, states, v)  # type: ignore[arg-type]
+        box = trajectory.widen(task.scene, states, cause)  # type: ignore[arg-type]
+        held = list(hist.states[cause.first:cause.last + 1]) if cause.holds else None
+        out.append(position_nogood(task, box, held))
+    return out
+
+
+def _precheck(task: RobotTask, store: NogoodStore, guard: int, pairs: bool) -> Precheck:
+    """The eager pre-check: nogoods for the points an arm cannot hold and the payload turns,
+    and with ``pairs`` for every failing move between two grid points, before the first solve."""
+    import trajectory
+    t0 = time.perf_counter()
+    scene = task.scene
+    grid = scene.grid  # type: ignore[attr-defined]
+    n = (grid.x_max - grid.x_min + 1) * (grid.y_max - grid.y_min + 1)
+    bad = trajectory.bad_single_body_motions(scene, pairs=pairs)  # type: ignore[arg-type]
+    for b in bad:
+        box = {(k, b.robot, axis): (int(p[axis]), int(p[axis])) for k, p in enumerate(b.points) for axis in (0, 1)}
+        store.add(position_nogood(task, box), guard)
+    turns = trajectory.failing_length_pairs(scene)  # type: ignore[arg-type]
+    if turns:
+        store.add_vector_pairs(task, turns, guard)
+    return Precheck(sum(1 for b in bad if len(b.points) == 1), sum(1 for b in bad if len(b.points) == 2),
+                    len(scene.robots) * n * (n - 1) if pairs else 0, len(turns),  # type: ignore[attr-defined]
+                    time.perf_counter() - t0)

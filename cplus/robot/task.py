@@ -12,9 +12,7 @@ from dataclasses import dataclass
 
 from cplus import ir
 from cplus.errors import CPlusError, Location
-from cplus.ground.pf import mk_and
-from cplus.ground.theory import template_lit
-from cplus.history import History, executed_actions
+from cplus.history import History
 from cplus.output import Display
 from cplus.program import QuerySpec
 from cplus.signature import GroundConst, NamedSort
@@ -95,8 +93,23 @@ class RobotTask:
                                 "integer fluent", binding.location)
             return gc
 
-        robots = {r.name: (fluent(r.x), fluent(r.y)) for r in scene.robots}
-        ends = {e.name: (fluent(e.x), fluent(e.y)) for e in scene.payload.ends}
+        def coordinate(binding, axis: int) -> GroundConst:
+            """A coordinate fluent must range over exactly the scene's grid: the checker, the
+            pre-check and the learned nogoods all speak of grid points."""
+            gc = fluent(binding)
+            g = scene.grid
+            lo, hi = (g.x_min, g.x_max) if axis == 0 else (g.y_min, g.y_max)
+            if set(gc.domain) != set(range(lo, hi + 1)):
+                values = sorted(gc.domain)
+                have = (f"{values[0]}..{values[-1]}" if values == list(range(values[0], values[-1] + 1))
+                        else ", ".join(map(str, values)))
+                name = "xy"[axis]
+                raise TaskError(f"'{binding.fluent}' ranges over {have}, but the scene's [grid] has {name} in "
+                                f"{lo}..{hi} ({name}_min, {name}_max): make them agree", binding.location)
+            return gc
+
+        robots = {r.name: (coordinate(r.x, 0), coordinate(r.y, 1)) for r in scene.robots}
+        ends = {e.name: (coordinate(e.x, 0), coordinate(e.y, 1)) for e in scene.payload.ends}
         hb = scene.payload.holds
         decl = sig.lookup(hb.fluent, 2)
         if decl is None or not decl.is_fluent or decl.domain != NamedSort("boolean"):
@@ -127,22 +140,35 @@ class RobotTask:
         return out
 
     def check_start_goal(self, query: QuerySpec) -> None:
-        """Every robot must reach its start point, and each payload end's goal must be
-        reachable by a robot, before anything is planned."""
+        """Before anything is planned: every robot can hold its start point, outside the
+        obstacles; the payload's start and goal lie outside the obstacles, within its length
+        band; each payload end's goal is reachable by some robot.  Each refusal is one error
+        located at the query."""
         import trajectory
+        scene = self.scene
         start, goal = _stamped_values(query)
+
+        def point(table: dict, fluents: tuple) -> tuple | None:
+            x, y = fluents
+            if x.text in table and y.text in table:
+                (vx, loc), (vy, _) = table[x.text], table[y.text]
+                return (vx, vy), loc
+            return None
         try:
-            for r, (x, y) in self.robots.items():
-                if x.text in start and y.text in start:
-                    (vx, lx), (vy, _) = start[x.text], start[y.text]
-                    trajectory.check_reachable(self.scene, r, (vx, vy), "start", _tloc(lx))  # type: ignore[arg-type]
-            for e, (x, y) in self.ends.items():
-                if x.text in goal and y.text in goal:
-                    (vx, lx), (vy, _) = goal[x.text], goal[y.text]
+            for r, fluents in self.robots.items():
+                found = point(start, fluents)
+                if found:
+                    (p, loc) = found
+                    trajectory.check_reachable(scene, r, p, "start", _tloc(loc))  # type: ignore[arg-type]
+                    self._clear(f"robot {r}'s start {_pt(p)}", p, p, loc)
+            for e, fluents in self.ends.items():
+                found = point(goal, fluents)
+                if found:
+                    (p, loc) = found
                     errors = []
                     for r in self.robots:
                         try:
-                            trajectory.check_reachable(self.scene, r, (vx, vy), f"goal of {e}", _tloc(lx))  # type: ignore[arg-type]
+                            trajectory.check_reachable(scene, r, p, f"goal of {e}", _tloc(loc))  # type: ignore[arg-type]
                             break
                         except trajectory.TrajectoryError as exc:
                             errors.append(exc)
@@ -150,32 +176,35 @@ class RobotTask:
                         raise errors[0]
         except trajectory.TrajectoryError as exc:
             raise TaskError.from_trajectory(exc) from None
+        for table, when in ((start, "start"), (goal, "goal")):
+            ends = [point(table, f) for f in self.ends.values()]
+            for e, found in zip(self.ends, ends):
+                if found:
+                    self._clear(f"payload end {e}'s {when} {_pt(found[0])}", found[0], found[0], found[1])
+            if all(ends):
+                (a, loc), (b, _) = ends  # type: ignore[misc]
+                self._clear(f"the payload's {when} {_pt(a)}-{_pt(b)}", a, b, loc)
+                low, high = scene.payload.length_sq_band  # type: ignore[attr-defined]
+                sq = (a[0] - b[0]) ** 2 + (a[1] - b[1]) ** 2
+                if not low <= sq <= high:
+                    raise TaskError(f"the payload's {when} {_pt(a)}-{_pt(b)} has squared length {sq}, outside the "
+                                    f"scene's [{low:g}, {high:g}] (payload length and tolerance_sq)", loc)
 
-    def forbidden(self, hist: History, step: int) -> tuple:
-        """The template formula "exactly these actions at these positions" at ``step``,
-        and its description."""
-        atoms = self.domain.theory.atoms  # type: ignore[attr-defined]
-        state, acts = hist.states[step], hist.actions[step]
-        lits = []
-        where = []
-        for gcs in list(self.robots.values()) + list(self.ends.values()):
-            for gc in gcs:
-                lits.append(template_lit(atoms.lit(gc, state[gc]), 0))
-        for name, (x, y) in list(self.robots.items()) + list(self.ends.items()):
-            where.append(f"{name} at ({state[x]},{state[y]})")
-        done = set(executed_actions(acts))
-        for gc, v in acts.items():
-            d = gc.decl
-            if d.hidden or d.kind not in ("exogenousAction", "action", "attribute"):
-                continue
-            if d.kind == "attribute":
-                parent = d.parent.instances.get(gc.args[:d.parent.arity])  # type: ignore[union-attr]
-                if parent in done:
-                    lits.append(template_lit(atoms.lit(gc, v), 0))
-                continue
-            lits.append(template_lit(atoms.lit(gc, v), 0))
-        display = Display(self.domain.program)  # type: ignore[attr-defined]
-        return mk_and(lits), display.action_atoms(acts), where
+    def _clear(self, what: str, a: tuple, b: tuple, loc) -> None:
+        """Refuse a point or segment of the query that meets an obstacle."""
+        names = self.scene.obstacles_met(*a, *b)  # type: ignore[attr-defined]
+        if names:
+            raise TaskError(f"{what} is inside obstacle '{names[0]}'" if a == b
+                            else f"{what} meets obstacle '{names[0]}'", loc)
+
+    # ------------------------------------------------------------------ nogoods
+    def body_fluents(self, body: str) -> tuple[GroundConst, GroundConst]:
+        """The fluents of a robot's or a payload end's coordinates."""
+        return self.robots.get(body) or self.ends[body]
+
+
+def _pt(p: tuple) -> str:
+    return f"({p[0]},{p[1]})"
 
 
 def _tloc(loc: Location | None):

@@ -11,7 +11,7 @@ next and across refinement iterations.
 from __future__ import annotations
 
 import time
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 
 from cplus import ir
@@ -58,6 +58,7 @@ class Horizon:
         self._rigid_range = range(1, L.R + 1)
         self.m = -1
         self.extra: list[PF] = []          # transition constraints added later (refinement)
+        self.step_hooks: list[Callable[[int], None]] = []   # see each_step
         self.builder = ClauseBuilder(self.new_var, self.solver.add_clause)
         self._instantiate(self.t_rigid, 0, 0)
         self._add_block()
@@ -111,6 +112,8 @@ class Horizon:
             for f in self.extra:
                 self.builder.add(self._at(f, t))
             self.m += 1
+            for hook in self.step_hooks:
+                hook(self.m)
 
     def _at(self, f: PF, t: int) -> PF:
         """A transition formula over template codes, placed at transition t."""
@@ -120,6 +123,16 @@ class Horizon:
             aid, slot = divmod(code - 1, 3)
             return self.var(aid, None if slot == 2 else t + slot)
         return map_lits(f, place)
+
+    def each_step(self, hook: Callable[[int], None]) -> None:
+        """Call ``hook(t)`` for every step ``t`` of the horizon: now for 0..m, later for each
+        new step once its clauses are in.  The hook may allocate variables (:meth:`new_var`)
+        and add clauses over any step up to ``t`` (:meth:`var`): the way to constrain every
+        step, present and future, with clauses that are not transition formulas (nogoods over
+        several steps, auxiliary variables per step)."""
+        self.step_hooks.append(hook)
+        for t in range(self.m + 1):
+            hook(t)
 
     def forbid_everywhere(self, f: PF) -> None:
         """Add ``not f`` (a transition formula over template codes) at every transition,
@@ -149,6 +162,7 @@ class QuerySession:
             dynamic = ir.mentions(formula, (ir.MaxStepT,)) or _has_step_var(formula)
             self.items.append([formula, loc, compile_formula(formula, self.ctx), dynamic, False])
         self.stats: list[HorizonStats] = []
+        self.assumptions: list[int] = []   # assumed at every solve, besides the horizon's own
         self.act: int | None = None
         self.found: int | None = None
         self.out_of_range: list = []
@@ -229,7 +243,7 @@ class QuerySession:
         self._add_items(m)
         self._projection = None
         t1 = time.perf_counter()
-        ok = h.solver.solve([self.act])
+        ok = h.solver.solve([self.act, *self.assumptions])
         t2 = time.perf_counter()
         self.stats.append(HorizonStats(m, h.top, h.solver.count, t1 - t0, t2 - t1, ok, 1 if ok else 0))
         return ok
@@ -238,7 +252,7 @@ class QuerySession:
         """Solve again at the current horizon (after clauses were added)."""
         h = self.horizon
         t0 = time.perf_counter()
-        ok = h.solver.solve([self.act])
+        ok = h.solver.solve([self.act, *self.assumptions])
         st = self.stats[-1]
         st.solve_s += time.perf_counter() - t0
         st.satisfiable = ok

@@ -175,3 +175,79 @@ def test_dimacs_models_are_the_histories(tmp_path, capsys, text, query, maxstep)
     q = QuerySpec(q.label, maxstep, maxstep, q.items, q.loc)
     histories = run_query(d.theory, q, solutions=0).histories
     assert _count_models(nvars, clauses) == len(histories) > 0
+
+
+# --------------------------------------------------------------------------- promises
+
+
+def test_version(capsys):
+    from importlib.metadata import version
+    code, out, err = run(["--version"], capsys)
+    assert code == 0 and out == f"cplus {version('cplus')}\n" and err == ""
+
+
+def test_every_option_of_every_command_has_help():
+    import importlib
+
+    from cplus.cli import COMMANDS
+    for name in COMMANDS:
+        parser = importlib.import_module(f"cplus.cli.{name}").build_parser()
+        for action in parser._actions:
+            assert action.help, f"cplus {name} {'/'.join(action.option_strings) or action.dest} has no help"
+
+
+def test_plan_reads_standard_input():
+    proc = subprocess.run([sys.executable, "-m", "cplus", "plan", "-", "--query", "on"],
+                          input=LAMP.replace("[\\/X | X = 1]", "true"), capture_output=True, text=True, timeout=60)
+    assert proc.returncode == 0, proc.stderr
+    assert proc.stdout == "\nNo solution with maxstep 0.\n\n\n0:\n\nACTIONS:  flip\n\n1:  lit\n\n\n"
+
+
+def test_errors_in_standard_input_are_located_there():
+    proc = subprocess.run([sys.executable, "-m", "cplus", "plan", "-"], input=":- constants p :: inertialFluent.\ncaused q.",
+                          capture_output=True, text=True, timeout=60)
+    assert proc.returncode == 2 and proc.stderr.startswith("<stdin>:2:8: error: unknown name 'q'")
+
+
+def test_the_label_states_prints_every_state(tmp_path, capsys):
+    p = tmp_path / "s.cp"
+    p.write_text(":- constants p, q :: inertialFluent.")
+    code, out, _ = run(["plan", str(p), "--query", "states"], capsys)
+    assert code == 0
+    assert [line for line in out.splitlines() if line.startswith("Solution")] == [f"Solution {k}:" for k in range(1, 5)]
+    assert sorted(line for line in out.splitlines() if line.startswith("0:")) == ["0:", "0:  p", "0:  p  q", "0:  q"]
+    code, out, _ = run(["plan", str(p), "--query", "states", "-n", "1"], capsys)
+    assert out.count("0:") == 1 and "Solution" not in out
+
+
+def test_a_query_labelled_states_is_the_files_own(tmp_path, capsys):
+    p = tmp_path / "s.cp"
+    p.write_text(":- constants p, q :: inertialFluent. :- query label :: states; maxstep :: 0; 0: p & q.")
+    code, out, _ = run(["plan", str(p), "--query", "states"], capsys)
+    assert code == 0 and out.count("0:") == 1 and "Solution" not in out
+
+
+def test_the_api_prints_what_the_command_prints(tmp_path, capsys):
+    from cplus import Domain
+    p = tmp_path / "two.cp"
+    p.write_text(":- constants p, q :: inertialFluent. :- query maxstep :: 0; 0: p.")
+    for n in (0, 1, 2):
+        code, out, _ = run(["plan", str(p), "-n", str(n)], capsys)
+        d = Domain.load(str(p))
+        assert d.format(d.solve("0", solutions=n)) == out
+
+
+def test_the_api_values_are_the_json_values(lamp, capsys):
+    from cplus import Domain
+    code, out, _ = run(["plan", lamp, "--query", "on", "--json"], capsys)
+    hist = json.loads(out)["results"][0]["histories"][0]
+    api = Domain.load(lamp).solve("on").histories[0]
+    assert [api.state_text(t) for t in range(2)] == hist["states"] == [{"lit": False}, {"lit": True}]
+    assert api.value("flip", 0) is True and api.value("lit", 1) is True
+
+
+@pytest.mark.parametrize("target, fragment", [("NODIR/out.cnf", "no such directory"), (".", "it is a directory")])
+def test_ground_checks_its_output_before_grounding(lamp, tmp_path, capsys, target, fragment):
+    target = str(tmp_path / target.replace("NODIR", "missing")) if target != "." else str(tmp_path)
+    code, out, err = run(["ground", lamp, "--maxstep", "1", "--dimacs", target], capsys)
+    assert code == 2 and err.startswith(f"cplus ground: cannot write '{target}': {fragment}") and out == ""

@@ -39,7 +39,7 @@ def shape(e) -> str:
 
 
 @pytest.mark.parametrize("text, expected", [
-    # the examples of cplus-language.md A.4
+    # the examples of operator precedence (docs/language.md, section 4)
     ("-door(d1)=open & bell ++ alarm", "((not((door(d1) = open)) & bell) ++ alarm)"),
     ("p & q ->> r ++ s <->> t", "(((p & q) ->> (r ++ s)) <->> t)"),
     ("level(T)+1 >= cap(T)*2", "((level(T) + 1) >= (cap(T) * 2))"),
@@ -206,3 +206,259 @@ def test_nothing_but_project_errors_escape(pieces, noise):
             load_text(text, "fuzz.cp")
         except CPlusError as err:
             assert err.render()
+
+
+# --------------------------------------------------------------------------- keywords
+
+
+def test_the_grammar_and_the_parser_reserve_the_same_words():
+    """IDENT in the grammar excludes exactly the words RESERVED documents."""
+    import re
+    from pathlib import Path
+
+    from cplus.parser import RESERVED
+    grammar = (Path(__file__).resolve().parents[2] / "cplus" / "grammar" / "cplus.lark").read_text()
+    words = re.search(r"IDENT: /\(\?!\(\?:([a-z_|]+)\)", grammar).group(1).split("|")
+    assert set(words) == RESERVED
+
+
+@pytest.mark.parametrize("word", sorted(__import__("cplus.parser", fromlist=["RESERVED"]).RESERVED))
+def test_a_keyword_is_not_a_name(tmp_path, word):
+    err = located(tmp_path, f":- constants {word} :: inertialFluent.")
+    assert err.render().startswith(f"{tmp_path / 'bad.cp'}:1:14: error: unexpected '{word}'")
+
+
+def test_a_keyword_where_a_name_should_be_is_reported_at_the_keyword(tmp_path):
+    err = located(tmp_path, ":- constants lit :: inertialFluent.\ncaused lit if if lit.")
+    assert err.render().startswith(f"{tmp_path / 'bad.cp'}:2:15: error: unexpected 'if' ('if' is a keyword")
+
+
+@pytest.mark.parametrize("name", ["never", "impossible", "inertialFluent", "rigid", "may", "cause", "min"])
+def test_words_that_are_not_ccalc_keywords_stay_names(name):
+    """Cplus2ASP's additions and constant kinds may still name things, as in CCALC files."""
+    prog = load_text(f":- sorts s. :- objects {name} :: s. :- query label :: {name}; maxstep :: 0.")
+    assert name in prog.signature.sorts["s"].objects and prog.queries[0].label == name
+
+
+# --------------------------------------------------------------------------- Cplus2ASP spellings
+
+
+def histories(text: str) -> int:
+    from cplus import Domain
+    return len(Domain.from_text(text).solve("0", solutions=0).histories)
+
+
+NUMS = ":- sorts n. :- objects 0..3 :: n. :- variables X :: n. :- constants c :: inertialFluent(n).\n"
+
+
+@pytest.mark.parametrize("cplus2asp, ccalc", [
+    ("c <= 2", "c =< 2"), ("c => 2", "c >= 2"), ("c <> 2", "c \\= 2"),
+    ("[\\/X | X @<= c & c @=> X]", "[\\/X | X @=< c & c @>= X]"),
+])
+def test_cplus2asp_comparisons_mean_ccalcs(cplus2asp, ccalc):
+    """Read as CCALC's operator, and the same histories."""
+    assert shape(expr(cplus2asp)) == shape(expr(ccalc))
+    query = ":- query maxstep :: 0; 0: {}."
+    assert histories(NUMS + query.format(cplus2asp)) == histories(NUMS + query.format(ccalc)) > 0
+
+
+def test_tilde_is_the_false_atom_of_a_boolean_constant():
+    base = ":- constants p, q :: inertialFluent.\n"
+    assert histories(base + ":- query maxstep :: 0; 0: ~p & q.") == histories(base + ":- query maxstep :: 0; 0: -p & q.") == 1
+    assert shape(expr("caused p if ~q")) == "p"
+    assert shape(parse_program("caused p if ~q.", "t.cp").statements[0].if_) == "not(q)"
+
+
+def test_tilde_on_a_formula_says_what_to_write(tmp_path):
+    err = located(tmp_path, ":- constants p, q :: inertialFluent.\ncaused p if ~(p & q).")
+    assert "'~c' is CCALC's '-c'; to negate a formula write '-(F)'" in err.message
+    assert (err.loc.line, err.loc.col) == (2, 13)
+
+
+def test_double_negation_in_a_body_is_the_formula():
+    base = ":- constants p, q :: inertialFluent.\n"
+    assert histories(base + ":- query maxstep :: 0; 0: --(p & q).") == histories(base + ":- query maxstep :: 0; 0: p & q.")
+
+
+def test_double_negation_in_a_head_names_the_ccalc_form(tmp_path):
+    err = located(tmp_path, ":- constants p :: inertialFluent; a :: exogenousAction.\ncaused --(p) after a.")
+    assert "Cplus2ASP's choice" in err.message and "write 'default F'" in err.message
+    assert (err.loc.line, err.loc.col) == (2, 1)
+
+
+@pytest.mark.parametrize("text, hint", [
+    ("caused p if X != 1.", "write '\\=' for 'not equal'"),
+    ("caused p if q | r.", "write '++' for 'or'"),
+])
+def test_other_cplus2asp_spellings_say_what_to_write(tmp_path, text, hint):
+    err = located(tmp_path, text)
+    assert hint in err.message and (err.loc.line, err.loc.col) == (1, 15)
+
+
+# --------------------------------------------------------------------------- ranges and macros
+
+
+def objects(text: str, sort: str) -> list:
+    return list(load_text(text).signature.sorts[sort].objects)
+
+
+MACROS = ":- macros n -> 3; lo -> 1; span(#1) -> #1..#1+1; r -> 1..n; neg -> -n..n.\n:- sorts s.\n"
+
+
+@pytest.mark.parametrize("decl, expected", [
+    # objects: ranges with literal, macro and expression bounds
+    (":- objects 1..n :: s.", [1, 2, 3]),
+    (":- objects n-1..n+1 :: s.", [2, 3, 4]),
+    (":- objects -n..-n+1 :: s.", [-3, -2]),
+    (":- objects r :: s.", [1, 2, 3]),
+    (":- objects span(5) :: s.", [5, 6]),
+    (":- objects neg :: s.", [-3, -2, -1, 0, 1, 2, 3]),
+    # constructor arguments: the same, plus sorts and several arguments
+    (":- objects post(1..2) :: s.", [("post", 1), ("post", 2)]),
+    (":- objects post(lo..n) :: s.", [("post", 1), ("post", 2), ("post", 3)]),
+    (":- objects post(n-1..2*n-4) :: s.", [("post", 2)]),
+    (":- objects post(r) :: s.", [("post", 1), ("post", 2), ("post", 3)]),
+    (":- objects post(span(n)) :: s.", [("post", 3), ("post", 4)]),
+    (":- objects cell(1..2, lo..lo) :: s.", [("cell", 1, 1), ("cell", 2, 1)]),
+    (":- sorts t. :- objects a, b :: t. :- objects at(t, n..n) :: s.", [("at", "a", 3), ("at", "b", 3)]),
+    (":- sorts t. :- objects a :: t. :- objects at(t*) :: s.", [("at", "a"), ("at", "none")]),
+])
+def test_ranges_take_macros_and_integer_expressions_in_objects(decl, expected):
+    assert objects(MACROS + decl, "s") == expected
+
+
+@pytest.mark.parametrize("decl, expected", [
+    (":- constants c :: inertialFluent(n..5).", "3..5"),
+    (":- constants c :: inertialFluent(n-1..n+1).", "2..4"),
+    (":- constants c :: inertialFluent(-n..n).", "-3..3"),
+    (":- constants c :: inertialFluent(abs(0-n)..n).", "3..3"),
+    (":- constants c :: inertialFluent(r).", "1..3"),
+    (":- constants c :: inertialFluent(span(2)).", "2..3"),
+    (":- constants c :: 2*lo..n.", "2..3"),
+    (":- constants c :: span(n).", "3..4"),
+    (":- constants c :: r.", "1..3"),
+    (":- constants c :: rigid(lo..n*2).", "1..6"),
+    (":- constants c :: simpleFluent(s*).", "s*"),
+    (":- constants c :: simpleFluent(s+none).", "s*"),
+    (":- constants a :: exogenousAction; c :: attribute(lo..n) of a.", "1..3"),
+])
+def test_ranges_take_macros_and_integer_expressions_as_domains(decl, expected):
+    prog = load_text(MACROS + decl)
+    assert str(prog.signature.lookup("c", 0).domain) == expected
+
+
+@pytest.mark.parametrize("decl, argsorts", [
+    (":- constants c(n..n+1) :: inertialFluent.", ["3..4"]),
+    (":- constants c(r, s*) :: inertialFluent.", ["1..3", "s*"]),
+    (":- constants c(span(0)) :: inertialFluent.", ["0..1"]),
+    (":- constants a(s) :: exogenousAction; c(s, lo..n) :: attribute(span(1)) of a(s+none).", None),
+])
+def test_ranges_take_macros_and_integer_expressions_as_argument_sorts(decl, argsorts):
+    if argsorts is None:   # the parent's argument sorts must match: s vs s* is refused, located
+        with pytest.raises(CPlusError, match="argument sorts of 'a'"):
+            load_text(MACROS + decl)
+        return
+    prog = load_text(MACROS + decl)
+    assert [str(s) for s in prog.signature.lookup("c", len(argsorts)).argsorts] == argsorts
+
+
+@pytest.mark.parametrize("decl, sort", [
+    (":- variables X :: n..n+2.", "3..5"),
+    (":- variables X :: 2*lo..n.", "2..3"),
+    (":- variables X :: r.", "1..3"),
+    (":- variables X :: span(7).", "7..8"),
+    (":- variables X :: s*.", "s*"),
+])
+def test_ranges_take_macros_and_integer_expressions_as_variable_sorts(decl, sort):
+    from cplus.resolve import _Resolver
+    r = _Resolver(lambda p, loc: None, None, Diagnostics())  # type: ignore[arg-type]
+    r.run(parse_program(MACROS + decl, "t.cp"))
+    assert str(r.variables["X"].sort) == sort
+
+
+@pytest.mark.parametrize("query, label, lo, hi", [
+    (":- query maxstep :: n.", "0", 3, 3),
+    (":- query maxstep :: lo..n+1.", "0", 1, 4),
+    (":- query maxstep :: n..infinity.", "0", 3, None),
+    (":- query maxstep :: r.", "0", 1, 3),
+    (":- query label :: n; maxstep :: 0.", "3", 0, 0),
+    (":- query label :: n*2+1; maxstep :: 0.", "7", 0, 0),
+    (":- query label :: go; maxstep :: 0.", "go", 0, 0),
+])
+def test_queries_take_macros_and_integer_expressions(query, label, lo, hi):
+    q = load_text(MACROS + query).queries[0]
+    assert (q.label, q.lo, q.hi) == (label, lo, hi)
+
+
+def test_max_additive_takes_an_expression():
+    assert load_text(MACROS + ":- maxAdditive :: n*2+1.").signature.max_additive == 7
+
+
+@pytest.mark.parametrize("text, fragment", [
+    ("caused p if 1..3.", "a range 'lo..hi' may only occur in declarations"),
+    ("caused p if c(1..2).", "a range 'lo..hi' may only occur in declarations"),
+    (":- query maxstep :: 0; 0: c(s*).", "the sort 's*' may only occur in declarations"),
+])
+def test_ranges_and_star_sorts_elsewhere_are_located_errors(tmp_path, text, fragment):
+    err = located(tmp_path, ":- sorts s. :- constants p :: inertialFluent; c(s) :: inertialFluent.\n" + text)
+    assert fragment in err.message and err.loc.line == 2
+
+
+# --------------------------------------------------------------------------- declarations
+
+
+def test_an_empty_range_of_objects_is_a_warning(tmp_path):
+    d = Diagnostics()
+    prog = load_text(":- sorts n. :- objects 5..2, 7 :: n.", "t.cp", diagnostics=d)
+    assert prog.signature.sorts["n"].objects == [7]
+    assert [(x.message, x.loc.col) for x in d.items] == [("the range 5..2 is empty: it declares no objects", 24)]
+
+
+@pytest.mark.parametrize("decl", [":- constants c :: inertialFluent(5..2).", ":- variables X :: 5..2.",
+                                  ":- constants c(5..2) :: inertialFluent."])
+def test_an_empty_range_as_a_sort_is_an_error(tmp_path, decl):
+    err = located(tmp_path, decl)
+    assert "empty range 5..2: a sort must have at least one object" in err.message
+
+
+def test_a_variable_redeclared_with_another_sort_is_an_error(tmp_path):
+    err = located(tmp_path, ":- sorts s; t.\n:- variables X :: s.\n:- variables Y, X :: t.")
+    assert err.render().startswith(f"{tmp_path / 'bad.cp'}:3:17: error: variable X is declared again with "
+                                   f"another sort: 't' here, 's' at {tmp_path / 'bad.cp'}:2:14")
+
+
+def test_a_variable_redeclared_with_the_same_sort_is_fine():
+    """Files that include a common part often repeat its declarations."""
+    load_text(":- sorts s. :- variables X :: s. :- variables X, Y :: s. :- variables X :: s.")
+
+
+def test_sorts_nest_in_declaration_order():
+    (stmt,) = parse_program(":- sorts a >> (b; c >> d) >> e; f.", "t.cp").statements
+    assert [(d.name, d.parent) for d in stmt.decls] == [
+        ("a", None), ("b", "a"), ("c", "a"), ("d", "c"), ("e", "a"), ("f", None)]
+
+
+def test_a_byte_order_mark_is_not_text(tmp_path):
+    path = tmp_path / "bom.cp"
+    path.write_bytes(b"\xef\xbb\xbf:- constants p :: inertialFluent.\ncaused q.")
+    with pytest.raises(CPlusError) as info:
+        load_program(str(path))
+    assert info.value.render().startswith(f"{path}:2:8: error: unknown name 'q'")
+    assert load_text("\ufeff:- constants p :: inertialFluent.").signature.lookup("p", 0)
+
+
+@pytest.mark.parametrize("law, states", [
+    ("caused -true if q.", 2), ("caused -false.", 4), ("caused p & -false.", 2), ("caused p & -true if q.", 2),
+    ("default -true.", 4),
+])
+def test_negated_truth_values_in_heads(law, states):
+    """``-true`` in a head is ``false`` (a constraint), ``-false`` is ``true`` (nothing caused)."""
+    text = f":- constants p, q :: inertialFluent.\n{law}\n:- query maxstep :: 0."
+    assert histories(text) == states
+
+
+def test_a_long_line_is_cut_around_the_caret_in_messages(tmp_path):
+    err = located(tmp_path, ":- constants p :: inertialFluent.\ncaused p if " + " & ".join(["p"] * 2000) + " & zz.")
+    _, line, caret = err.render().splitlines()
+    assert len(line) < 120 and line.strip().startswith("...") and line.endswith("zz.")
+    assert line[caret.index("^"):caret.index("^") + 2] == "zz"

@@ -133,7 +133,7 @@ default -g(X).
 :- query maxstep :: 0; 0: f=a.
 """
     (hist,) = Domain.from_text(text).solve(solutions=0).histories
-    assert hist.value("g(a)", 0) == "true" and hist.value("g(b)", 0) == "false"
+    assert hist.value("g(a)", 0) is True and hist.value("g(b)", 0) is False
 
 
 def test_negative_values_and_nested_constants():
