@@ -209,16 +209,16 @@ def test_json_carries_rigid_values_and_attributes(tmp_path, capsys):
     p = tmp_path / "j.cp"
     p.write_text(""":- sorts box. :- objects b1, b2 :: box. :- variables B :: box.
 :- constants size :: 1..3; heavy :: rigid;
-  where(box) :: inertialFluent(0..2); push(box) :: exogenousAction; by(box) :: attribute(1..2) of push(box);
+  place(box) :: inertialFluent(0..2); push(box) :: exogenousAction; force(box) :: attribute(1..2) of push(box);
   light :: exogenousAction(0..2).
-exogenous size. heavy. push(B) causes where(B)=1 if by(B)=1. push(B) causes where(B)=2 if by(B)=2.
-:- query maxstep :: 1; 0: size=2 & where(b1)=0 & where(b2)=0 & light=1 & -push(b1); 0: push(b2) & by(b2)=2.
+exogenous size. heavy. push(B) causes place(B)=1 if force(B)=1. push(B) causes place(B)=2 if force(B)=2.
+:- query maxstep :: 1; 0: size=2 & place(b1)=0 & place(b2)=0 & light=1 & -push(b1); 0: push(b2) & force(b2)=2.
 """)
     code, out, _ = run(["plan", str(p), "--json"], capsys)
     (hist,) = json.loads(out)["results"][0]["histories"]
     assert hist["rigid"] == {"size": 2, "heavy": True}
-    assert hist["states"][1] == {"where(b1)": 0, "where(b2)": 2}
-    assert hist["actions"] == [[{"action": "push(b2)", "attributes": {"by(b2)": 2}},
+    assert hist["states"][1] == {"place(b1)": 0, "place(b2)": 2}
+    assert hist["actions"] == [[{"action": "push(b2)", "attributes": {"force(b2)": 2}},
                                 {"action": "light", "value": 1}]]
 
 

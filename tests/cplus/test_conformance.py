@@ -14,14 +14,17 @@ not used.)
 from __future__ import annotations
 
 import json
+import os
 import re
 from collections import Counter
 from pathlib import Path
 
 import pytest
-from conftest import CORPUS
 
 from cplus import Domain
+
+# where tests/conftest.py's `corpus` fixture looks; needed here at collection time already
+CORPUS = Path(os.environ.get("CPLUS_CORPUS", Path(__file__).resolve().parents[1] / "corpus"))
 
 REQUIRED = ("id", "path", "query_label", "step_range", "solutions_requested", "expected")
 
