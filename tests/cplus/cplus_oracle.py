@@ -97,7 +97,7 @@ class Law:
     """One law in its source form.
 
     ``form`` is one of caused, fact, default, possibly, causes, may_cause, nonexecutable,
-    exogenous, inertial, rigid, constraint, always, never, increments, decrements.  ``head``
+    exogenous, inertial, rigid, constraint, always, never, impossible, increments, decrements.  ``head``
     is the caused formula (the constant term for exogenous/inertial/rigid and for the
     additive target of increments); ``action`` the A of causes/may cause/nonexecutable/
     increments; ``amount`` the N of increments.
@@ -205,7 +205,7 @@ def law_text(law: Law) -> str:
     h = law.head
     if f == "fact":
         s = show(h)  # type: ignore[arg-type]
-    elif f in ("caused", "default", "constraint", "always", "never"):
+    elif f in ("caused", "default", "constraint", "always", "never", "impossible"):
         s = f"{f} {show(h)}"  # type: ignore[arg-type]
     elif f == "possibly":
         s = f"possibly caused {show(h)}"  # type: ignore[arg-type]
@@ -344,7 +344,7 @@ class _Theory:
             self._basic(law, None, conj(neg(h), g), a)  # type: ignore[arg-type]
         elif f == "always":
             self._basic(law, None, TRUE, conj(neg(h), a or TRUE))  # type: ignore[arg-type]
-        elif f == "never":
+        elif f in ("never", "impossible"):               # Cplus2ASP's spellings of caused false if F
             self._basic(law, None, conj(h, g), a)  # type: ignore[arg-type]
         else:
             raise ValueError(f"unknown law form {f}")

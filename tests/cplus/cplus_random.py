@@ -156,7 +156,7 @@ class _Gen:
         act_heads = [c for c in self.of("action", "exogenousAction", "abAction") if c.boolean]
         rigid = self.of("rigid")
         additive = self.of("additiveFluent", "additiveAction")
-        forms = ["static", "fact", "default", "constraint", "always", "nonexecutable",
+        forms = ["static", "fact", "default", "constraint", "never", "always", "nonexecutable",
                  "action_caused", "action_causes"]
         if dyn_heads:
             forms += ["dynamic", "causes", "may_cause", "default_after", "possibly", "constraint_after",
@@ -181,6 +181,8 @@ class _Gen:
                       cond=self.formula(F) if self.chance(0.3) else None)
         elif form == "constraint":
             law = Law("constraint", self.formula(F))
+        elif form == "never":
+            law = Law(self.pick(["never", "impossible"]), self.formula(F))
         elif form == "always":
             law, cls = Law("always", self.formula(E)), "dynamic"
         elif form == "nonexecutable":

@@ -272,6 +272,9 @@ CATALOGUE = {
         [F, G, Const("q", "sdFluent"), A],
         [Law("constraint", ("or", atom("f"), atom("g"))), Law("constraint", atom("g"), after=atom("a")),
          Law("fact", neg(atom("q"))), Law("causes", neg(atom("f")), action=atom("a"))]), 2),
+    "never and impossible (Cplus2ASP), also with after": (D(
+        [F, G, A],
+        [Law("never", conj(atom("f"), atom("g"))), Law("impossible", neg(atom("f")), after=atom("a"))]), 1),
     "rigid law on a fluent, possibly caused": (D(
         [Const("s", "simpleFluent"), A],
         [Law("rigid", cst("s")), Law("possibly", atom("s"), after=atom("s")),
