@@ -14,6 +14,8 @@ import pytest
 
 from nxt_link.stream_protocol import PROGRAM_NAME
 
+pytestmark = pytest.mark.slow   # nxt-python over a pty, in real time
+
 
 @pytest.fixture
 def nxt_brick(pty_server):

@@ -22,6 +22,8 @@ from nxt_link.serial_transport import SerialTransport
 from nxt_link.session import SessionTiming
 from nxt_link.vm import compile_nxc
 
+pytestmark = pytest.mark.slow   # processes and ptys, in real time
+
 ROOT = Path(__file__).resolve().parents[2]
 
 

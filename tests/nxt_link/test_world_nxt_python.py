@@ -19,6 +19,8 @@ from nxt_link.emulator import BrickEmulator, EmulatorConfig, LinkParams
 from nxt_link.input_module import SensorMode, SensorType
 from nxt_link.pty_server import PtyBrickServer
 
+pytestmark = pytest.mark.slow   # nxt-python over a pty, in real time
+
 
 def serve(program_running: bool):
     emu = BrickEmulator(EmulatorConfig(name="robot", world=delivery_world(seed=9),
