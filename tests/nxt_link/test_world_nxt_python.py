@@ -47,7 +47,7 @@ def bare_robot():
     yield from serve(False)
 
 
-def wait_for(predicate, timeout_s: float = 5.0) -> bool:
+def wait_for(predicate, timeout_s: float = 60.0) -> bool:
     """Poll (a bound against hanging, not a timing assertion)."""
     end = time.monotonic() + timeout_s
     while time.monotonic() < end:
