@@ -1,4 +1,5 @@
-"""How large an input the front end accepts, in one place.
+"""How large an input may get, in one place: what the front end accepts, and what grounding and
+the horizons may build in the memory the process has.
 
 Hostile or mistaken input (a range of a billion objects, a macro that doubles at every level,
 a formula nested a thousand parentheses deep, ``/dev/zero`` given as a domain) must end in a
@@ -10,8 +11,11 @@ few hundred megabytes.
 """
 from __future__ import annotations
 
+import os
+
 __all__ = ["MAX_FILE_BYTES", "MAX_INT", "MAX_NESTING", "MAX_EXPANSION", "MAX_EXPANDED", "MAX_OBJECTS", "MAX_RANGE",
-           "MAX_GROUND_CONSTANTS", "count"]
+           "MAX_GROUND_CONSTANTS", "count", "memory_budget", "ATOM_BYTES", "INSTANCE_BYTES", "RULE_BYTES",
+           "clause_bytes", "MAX_SOLVER_VARS", "too_large"]
 
 MAX_FILE_BYTES = 1024 * 1024
 """A C+ source file (or standard input): 1 MB, eighty times the largest corpus domain.  The
@@ -48,3 +52,57 @@ def count(n: int) -> str:
     if n.bit_length() > 64:
         return f"about 10^{int(n.bit_length() * 0.30103)}"
     return f"{n:,}"
+
+
+# --------------------------------------------------------------------------- memory
+# A domain can ask for far more than a machine has: ``maxstep :: 100000000000`` is that many
+# copies of the transition clauses, a law over three variables of 2,000 values eight billion
+# rules.  Grounding and the horizons *estimate* what they are about to build from counts they
+# already know and refuse, with the number that was too large, what cannot fit in the memory
+# the process may use: the soft address-space limit (``ulimit -v``) when one is set, else the
+# machine's physical memory, halved (the SAT solver's learned clauses, Python's own overhead and
+# the rest of the pipeline need the other half).  The byte costs are measured averages on
+# CPython 3.11; they only need to be right within a factor of two or so to turn "killed after a
+# minute" into "refused at once".
+
+INSTANCE_BYTES = 400      # a GroundConst with its text, argument tuple and table entries
+ATOM_BYTES = 160          # an atom's entries in the atom table and the template layout
+RULE_BYTES = 600          # a grounded rule (head literal, body formula), its template form and clauses
+MAX_SOLVER_VARS = 2**31 - 2   # solver variables are C ints
+
+
+def clause_bytes(clauses: int, literals: int) -> int:
+    """Memory of clauses inside the solver (clause headers, literals, two watches each)."""
+    return 64 * clauses + 8 * literals
+
+
+def memory_budget() -> int:
+    """Bytes a planning run may use for what it builds (half of what the process may have)."""
+    limit = _physical()
+    try:
+        import resource
+        soft, _ = resource.getrlimit(resource.RLIMIT_AS)
+        if soft != resource.RLIM_INFINITY and soft > 0:
+            limit = min(limit, soft)
+    except (ImportError, ValueError, OSError):  # pragma: no cover - not on this platform
+        pass
+    return limit // 2
+
+
+def _physical() -> int:
+    try:
+        return os.sysconf("SC_PHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
+    except (ValueError, OSError, AttributeError):  # pragma: no cover - not on this platform
+        return 8 << 30
+
+
+def too_large(what: str, needed_bytes: int) -> str:
+    """The common tail of a refusal: what was too large and how much memory it would need."""
+    return (f"{what}: that needs about {_gib(needed_bytes)} of memory, more than the "
+            f"{_gib(memory_budget())} this run may use")
+
+
+def _gib(n: int) -> str:
+    if n >= 1 << 40:
+        return f"{n / (1 << 40):,.0f} TiB"
+    return f"{n / (1 << 30):.1f} GiB"

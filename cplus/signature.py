@@ -280,14 +280,42 @@ class Signature:
 
     # -- ground instances ---------------------------------------------------------
     def finalize(self) -> None:
-        """Enumerate every constant's ground instances (objects are final now)."""
+        """Enumerate every constant's ground instances (objects are final now), after
+        checking that they fit in memory (see :mod:`cplus.limits`)."""
         self.ground = []
         self._sort_cache.clear()
         decls = sorted(self.constants.values(), key=lambda d: d.order)
+        self._check_size(decls)
         for decl in decls:
             self._instantiate(decl)
         self.finalized = True
         self._sort_cache.clear()
+
+    def _check_size(self, decls: list[ConstDecl]) -> None:
+        from cplus.limits import ATOM_BYTES, INSTANCE_BYTES, memory_budget, too_large
+        from cplus.limits import count as fmt
+        total = 0
+        biggest: tuple[int, ConstDecl | None, list[int]] = (0, None, [])
+        for decl in decls:
+            sizes = [len(self.objects_of(s)) for s in decl.argsorts]
+            count = 1
+            for n in sizes:
+                count *= n
+            values = len(self.objects_of(decl.domain)) if decl.domain is not None else 2
+            cost = count * (INSTANCE_BYTES + max(values, 1) * ATOM_BYTES)
+            total += cost
+            if cost > biggest[0]:
+                biggest = (cost, decl, sizes)
+        if total > memory_budget():
+            _, big, sizes = biggest
+            assert big is not None
+            count = 1
+            for n in sizes:
+                count *= n
+            shape = " x ".join(fmt(n) for n in sizes)
+            from cplus.errors import GroundingError
+            raise GroundingError(too_large(f"the constant '{big.name}' has {fmt(count)} ground instances "
+                                           f"({shape} arguments)", total), big.loc)
 
     def _instantiate(self, decl: ConstDecl) -> None:
         decl.instances = {}

@@ -15,6 +15,10 @@ caller (the CLI) can turn any of them into a one-line message with ``str(err)``.
   to be (truncated, wrong length, bad opcode); also a :class:`ValueError`.
 * :class:`StreamError` — the streaming protocol above the mailboxes failed
   (brick refused a configuration, program not installed, ...).
+* :class:`ExecutionFailed` — an execution stopped before its end; carries the
+  incomplete execution log (what every brick recorded) and the cause.
+  :class:`ExecutionInterrupted` is its counterpart for Ctrl-C (a
+  :class:`KeyboardInterrupt`).
 * :class:`SetpointError` — a setpoint stream was refused before anything moved
   (out of limits, too fast, too long); also a :class:`ValueError`.
 * :class:`ExecLogError` — an execution-log file does not validate.
@@ -47,6 +51,8 @@ __all__ = [
     "PortOpenError",
     "TelegramError",
     "StreamError",
+    "ExecutionFailed",
+    "ExecutionInterrupted",
     "SetpointError",
     "ExecLogError",
     "error_for_status",
@@ -210,6 +216,48 @@ class TelegramError(LinkError, ValueError):
 
 class StreamError(LinkError):
     """The setpoint streaming protocol failed (refused, program missing, ...)."""
+
+
+class ExecutionFailed(LinkError):
+    """An execution stopped before its end (the message is the cause's).
+
+    Raised through :meth:`of`, it is also an instance of its cause's class, so code that
+    catches ``StreamError`` or ``LinkTimeoutError`` around an execution still does.
+
+    Attributes:
+        log: the incomplete :class:`~nxt_link.execlog.ExecutionLog`: what every
+            brick recorded, the reason and the time it stopped.
+        brick: the brick that failed, or None.
+    """
+
+    _kinds: dict[type, type] = {}
+
+    def __init__(self, message: str, log: object, brick: str | None = None) -> None:
+        Exception.__init__(self, message)
+        self.log = log
+        self.brick = brick
+
+    @classmethod
+    def of(cls, cause: LinkError, log: object, brick: str | None = None) -> ExecutionFailed:
+        """The failure caused by ``cause``: an ExecutionFailed that is also a ``type(cause)``."""
+        kind = cls._kinds.get(type(cause))
+        if kind is None:
+            kind = cls if isinstance(cause, cls) else type(cls.__name__, (cls, type(cause)),
+                                                           {"__module__": __name__})
+            cls._kinds[type(cause)] = kind
+        failure: ExecutionFailed = kind.__new__(kind)  # type: ignore[call-overload]
+        failure.__dict__.update(getattr(cause, "__dict__", {}))  # opcode, status, ...
+        ExecutionFailed.__init__(failure, str(cause), log, brick)
+        return failure
+
+
+class ExecutionInterrupted(KeyboardInterrupt):
+    """Ctrl-C during an execution: the bricks were told to stop; ``log`` holds what was
+    gathered until then (incomplete)."""
+
+    def __init__(self, log: object) -> None:
+        super().__init__("interrupted")
+        self.log = log
 
 
 class SetpointError(LinkError, ValueError):

@@ -1,10 +1,20 @@
 """Run setpoint streams on several bricks together and collect what they did.
 
 :func:`execute_streams` is the one call the rest of the project needs:
-validate every stream (nothing moves if one is refused), upload each stream to
-its brick, bring every brick to its initial configuration, send the start
-signal to all bricks back to back, report progress while they run, read the
-logs back and return an :class:`~nxt_link.execlog.ExecutionLog`.
+validate every stream (nothing moves if one is refused), connect, check that
+every motor stands near its first setpoint (nothing moves if one does not),
+upload each stream to its brick, bring every brick to its initial
+configuration, send the start signal to all bricks back to back, report
+progress while they run, read the logs back and return an
+:class:`~nxt_link.execlog.ExecutionLog`.
+
+Nothing gathered is lost: when a brick fails for good (no valid answer for
+``SessionTiming.max_silent_s``, a link that cannot be reopened, a refusal),
+every other brick is sent STOP at once, the logs of the bricks still reachable
+are read back (resuming where a read stopped), and
+:class:`~nxt_link.errors.ExecutionFailed` carries the incomplete log: what each
+brick recorded, the reason and the time it stopped. Ctrl-C does the same
+without the read-back (:class:`~nxt_link.errors.ExecutionInterrupted`).
 
 Bricks are driven one after another within each phase from a single thread:
 each phase is short except the run itself, during which the bricks work on
@@ -19,8 +29,16 @@ from dataclasses import dataclass, field
 
 from nxt_link import stream_protocol as sp
 from nxt_link.brick import Brick, LinkEvent
-from nxt_link.errors import SetpointError, StreamError
-from nxt_link.execlog import BrickLog, ExecutionLog, LogEvent
+from nxt_link.errors import (
+    ExecutionFailed,
+    ExecutionInterrupted,
+    LinkDisconnectedError,
+    LinkError,
+    LinkTimeoutError,
+    SetpointError,
+    StreamError,
+)
+from nxt_link.execlog import BrickLog, ExecutionLog, LogEvent, Stopped
 from nxt_link.session import PORT_NUMBERS, BrickSession, ControllerSettings, SessionTiming
 
 __all__ = ["SetpointStream", "ExecutionOptions", "Progress", "execute_streams",
@@ -115,6 +133,11 @@ class ExecutionOptions:
             trajectory should have ended.
         start_delay_s: the common start time is this far after the first GO
             is sent, leaving room to resend a lost GO without skewing the start.
+        max_start_offset_deg: refuse, before anything moves, a stream whose
+            first setpoint is farther than this from where its motor stands
+            (homing would swing the arm there unplanned); None: no check.
+        time_scale: the bricks' clocks run this many times faster than ours
+            (emulated bricks with a time scale; 1 for real bricks).
     """
 
     controller: ControllerSettings = field(default_factory=ControllerSettings)
@@ -124,6 +147,14 @@ class ExecutionOptions:
     replace_program: bool = False
     run_margin_s: float = 10.0
     start_delay_s: float = 1.0
+    max_start_offset_deg: int | None = 10
+    time_scale: float = 1.0
+
+    def __post_init__(self) -> None:
+        if not self.time_scale > 0:
+            raise ValueError("time_scale must be > 0")
+        if self.max_start_offset_deg is not None and self.max_start_offset_deg < 0:
+            raise ValueError("max_start_offset_deg must be >= 0")
 
 
 @dataclass(frozen=True, slots=True)
@@ -187,15 +218,19 @@ def execute_streams(streams: Sequence[SetpointStream], bricks: Mapping[str, Bric
         session_ids: fixed session ids per brick (tests); random by default.
 
     Returns:
-        The :class:`~nxt_link.execlog.ExecutionLog`: per brick the verified
-        reference rows, the measured rows and the events.
+        The complete :class:`~nxt_link.execlog.ExecutionLog`: per brick the
+        verified reference rows, the measured rows, when it started and the events.
 
     Raises:
-        SetpointError: a stream was refused before anything moved.
-        StreamError: a brick refused something, lacks the program, or failed
-            to reach its initial configuration (the bricks are stopped).
-        LinkError: the link failed beyond recovery (the bricks are stopped
-            where the link still works).
+        SetpointError: a stream was refused before anything moved (also a first
+            setpoint far from where its motor stands).
+        ExecutionFailed: a brick refused something, lacks the program, failed to
+            reach its initial configuration, or its link failed beyond recovery;
+            the other bricks were stopped at once and ``.log`` holds what every
+            brick recorded (incomplete, with the reason and the time). It is also
+            an instance of the cause's class (``StreamError``, ``LinkTimeoutError``,
+            ...), which is its ``__cause__``.
+        ExecutionInterrupted: Ctrl-C; the bricks were told to stop.
 
     Example (in-memory emulator, virtual clock)::
 
@@ -207,101 +242,214 @@ def execute_streams(streams: Sequence[SetpointStream], bricks: Mapping[str, Bric
     """
     opts = options or ExecutionOptions()
     validate_streams(streams, list(bricks), opts.max_speed_deg_s)
-    clock = bricks[streams[0].brick].clock
-    t0 = clock.now()
-    events: dict[str, list[LogEvent]] = {s.brick: [] for s in streams}
+    return _Execution(streams, bricks, opts, on_progress, session_ids or {}).run()
 
-    def note(brick: str) -> Callable[[str, str], None]:
+
+class _Execution:
+    """One call of :func:`execute_streams`: the sessions, their events, and what failed."""
+
+    def __init__(self, streams: Sequence[SetpointStream], bricks: Mapping[str, Brick],
+                 opts: ExecutionOptions, on_progress: Callable[[Progress], None] | None,
+                 session_ids: Mapping[str, int]) -> None:
+        self.streams = list(streams)
+        self.bricks = bricks
+        self.opts = opts
+        self.on_progress = on_progress
+        self.clock = bricks[streams[0].brick].clock
+        self.t0 = self.clock.now()
+        self.events: dict[str, list[LogEvent]] = {s.brick: [] for s in streams}
+        self.current: str | None = None  # the brick being talked to
+        self.opened: list[str] = []
+        self.sessions = {
+            s.brick: BrickSession(bricks[s.brick], s.ports, s.tick_ms, s.rows, s.limits,
+                                  opts.controller, opts.timing, on_event=self._note(s.brick),
+                                  session_id=session_ids.get(s.brick),
+                                  time_scale=opts.time_scale)
+            for s in streams}
+
+    def _note(self, brick: str) -> Callable[[str, str], None]:
         def record(event: str, detail: str) -> None:
-            events[brick].append(LogEvent(round(clock.now() - t0, 4), event, detail))
+            self.events[brick].append(LogEvent(round(self.clock.now() - self.t0, 4), event,
+                                               detail))
         return record
 
-    def link_event(ev: LinkEvent) -> None:
-        if ev.brick in events:
-            events[ev.brick].append(LogEvent(round(ev.t_s - t0, 4), ev.event, ev.detail))
+    def _link_event(self, ev: LinkEvent) -> None:
+        if ev.brick in self.events:
+            self.events[ev.brick].append(LogEvent(round(ev.t_s - self.t0, 4), ev.event,
+                                                  ev.detail))
 
-    def report(brick: str, phase: str, done: int, total: int) -> None:
-        if on_progress is not None:
-            on_progress(Progress(brick, phase, done, total))
+    def _report(self, brick: str, phase: str, done: int, total: int) -> None:
+        if self.on_progress is not None:
+            self.on_progress(Progress(brick, phase, done, total))
 
-    sessions: dict[str, BrickSession] = {}
-    for s in streams:
-        b = bricks[s.brick]
-        b.on_event = _chain(b.on_event, link_event)
-        sessions[s.brick] = BrickSession(
-            b, s.ports, s.tick_ms, s.rows, s.limits, opts.controller, opts.timing,
-            on_event=note(s.brick),
-            session_id=(session_ids or {}).get(s.brick))
-    started = False
-    try:
-        for s in streams:
-            report(s.brick, "connect", 0, 1)
-            sessions[s.brick].open(start_program=opts.start_program,
-                                   replace_program=opts.replace_program)
-            report(s.brick, "connect", 1, 1)
-        for s in streams:
-            sessions[s.brick].upload(
-                lambda done, total, name=s.brick: report(name, "upload", done, total))  # type: ignore[misc]
-        for s in streams:
-            sessions[s.brick].prepare()
-        for s in streams:
-            report(s.brick, "homing", 0, 1)
-            sessions[s.brick].wait_ready()
-            report(s.brick, "homing", 1, 1)
-        # the start signal: one common start time, GO to every brick back to back
-        start_at = clock.now() + opts.start_delay_s
-        for s in streams:
-            sessions[s.brick].post_go(start_at)
-        started = True
-        latest = [sessions[s.brick].confirm_go() for s in streams]
-        skew_bound = max(latest) - start_at
-        for s in streams:
-            report(s.brick, "start", 1, 1)
-        _wait_done(streams, sessions, clock, opts, report)
-        logs = []
-        for s in streams:
-            measured = sessions[s.brick].read_log(
-                lambda done, total, name=s.brick: report(name, "log", done, total))  # type: ignore[misc]
-            logs.append((s, measured))
-    except BaseException:
-        if started:
-            for sess in sessions.values():
-                try:
-                    sess.stop()
-                except Exception:  # the link may be the reason we are here
-                    log.debug("could not stop %s", sess.name, exc_info=True)
-        raise
-    finally:
-        for s in streams:
-            bricks[s.brick].on_event = _unchain(bricks[s.brick].on_event)
-    for s in streams:
-        report(s.brick, "done", 1, 1)
-    return ExecutionLog(
-        tuple(BrickLog(s.brick, s.ports, s.tick_ms, s.rows, measured, tuple(events[s.brick]))
-              for s, measured in logs),
-        round(skew_bound, 4))
+    # -- the phases -------------------------------------------------------------------
 
+    def run(self) -> ExecutionLog:
+        for s in self.streams:
+            b = self.bricks[s.brick]
+            b.on_event = _chain(b.on_event, self._link_event)
+        try:
+            self._connect()
+            self._check_start()
+            for s in self.streams:
+                self.current = s.brick
+                self.sessions[s.brick].upload(
+                    lambda done, total, name=s.brick: self._report(name, "upload", done, total))  # type: ignore[misc]
+            for s in self.streams:
+                self.current = s.brick
+                self.sessions[s.brick].prepare()
+            for s in self.streams:
+                self.current = s.brick
+                self._report(s.brick, "homing", 0, 1)
+                self.sessions[s.brick].wait_ready()
+                self._report(s.brick, "homing", 1, 1)
+            self._start()
+            self._wait_done()
+            for s in self.streams:
+                self.current = s.brick
+                self.sessions[s.brick].read_log(
+                    lambda done, total, name=s.brick: self._report(name, "log", done, total))  # type: ignore[misc]
+        except SetpointError:
+            raise  # refused before anything moved
+        except KeyboardInterrupt:
+            stopped = self._stopped("interrupted")
+            self._stop_all(failed=None, confirm_s=1.0)
+            raise ExecutionInterrupted(self._log(stopped)) from None
+        except LinkError as exc:
+            stopped = self._stopped(str(exc))
+            self._abort(exc)
+            raise ExecutionFailed.of(exc, self._log(stopped), stopped.brick) from exc
+        finally:
+            for s in self.streams:
+                self.bricks[s.brick].on_event = _unchain(self.bricks[s.brick].on_event)
+        for s in self.streams:
+            self._report(s.brick, "done", 1, 1)
+        return self._log(None)
 
-def _wait_done(streams: Sequence[SetpointStream], sessions: Mapping[str, BrickSession],
-               clock, opts: ExecutionOptions,
-               report: Callable[[str, str, int, int], None]) -> None:
-    duration = max(s.duration_s for s in streams)
-    start = clock.now()
-    pending = {s.brick for s in streams}
-    while pending:
-        for s in streams:
-            if s.brick not in pending:
-                continue
-            ack = sessions[s.brick].poll_progress()
-            report(s.brick, "run", min(ack.logged, len(s.rows)), len(s.rows))
-            if ack.state == sp.State.DONE:
-                pending.discard(s.brick)
-        if not pending:
+    def _connect(self) -> None:
+        for s in self.streams:
+            self.current = s.brick
+            self._report(s.brick, "connect", 0, 1)
+            self.sessions[s.brick].open(start_program=self.opts.start_program,
+                                        replace_program=self.opts.replace_program)
+            self.opened.append(s.brick)
+            self._report(s.brick, "connect", 1, 1)
+
+    def _check_start(self) -> None:
+        """Refuse, before anything moves, a first setpoint far from where the motor is."""
+        limit = self.opts.max_start_offset_deg
+        if limit is None:
             return
-        if clock.now() - start > duration + opts.run_margin_s:
-            raise StreamError(f"brick(s) {', '.join(sorted(pending))} not done "
-                              f"{opts.run_margin_s:g} s after the trajectory should have ended")
-        clock.sleep(opts.timing.query_interval_s)
+        for s in self.streams:
+            self.current = s.brick
+            angles = self.sessions[s.brick].motor_angles()
+            for port, angle, first in zip(s.ports, angles, s.rows[0]):
+                if abs(first - angle) > limit:
+                    raise SetpointError(
+                        f"brick {s.brick} motor {port} stands at {angle} deg, the trajectory "
+                        f"starts at {first} deg ({abs(first - angle)} deg away, more than "
+                        f"{limit}): move the arm to the start configuration and restart "
+                        f"{sp.PROGRAM_NAME} there (its encoders count from where it started)")
+
+    def _start(self) -> None:
+        """GO to every brick back to back, then look after all of them in turn."""
+        start_at = self.clock.now() + self.opts.start_delay_s
+        for s in self.streams:
+            self.current = s.brick
+            self.sessions[s.brick].post_go(start_at)
+        pending = [s.brick for s in self.streams]
+        while pending:
+            for name in list(pending):
+                self.current = name
+                if self.sessions[name].poll_go() is not None:
+                    pending.remove(name)
+                    self._report(name, "start", 1, 1)
+
+    def _wait_done(self) -> None:
+        duration = max(s.duration_s for s in self.streams) / self.opts.time_scale
+        start = self.clock.now()
+        pending = {s.brick for s in self.streams}
+        while pending:
+            for s in self.streams:
+                if s.brick not in pending:
+                    continue
+                self.current = s.brick
+                ack = self.sessions[s.brick].poll_progress()
+                self._report(s.brick, "run", min(ack.logged, len(s.rows)), len(s.rows))
+                if ack.state == sp.State.DONE:
+                    pending.discard(s.brick)
+            if not pending:
+                return
+            self.current = None
+            if self.clock.now() - start > duration + self.opts.run_margin_s:
+                raise StreamError(f"brick(s) {', '.join(sorted(pending))} not done "
+                                  f"{self.opts.run_margin_s:g} s after the trajectory should "
+                                  "have ended")
+            self.clock.sleep(self.opts.timing.query_interval_s)
+
+    # -- failure ----------------------------------------------------------------------------
+
+    def _stopped(self, reason: str) -> Stopped:
+        return Stopped(round(self.clock.now() - self.t0, 4), reason, self.current)
+
+    def _stop_all(self, failed: str | None, confirm_s: float) -> None:
+        """STOP to every opened brick but ``failed`` at once, then make sure they got it."""
+        others = [n for n in self.opened if n != failed]
+        for name in others:
+            try:
+                self.sessions[name].post_stop()
+            except LinkError:
+                pass  # stop() below tries again
+        for name in others:
+            self.sessions[name].stop(confirm_s)
+
+    def _abort(self, exc: LinkError) -> None:
+        """Stop every brick (the others first), then read back what they logged."""
+        failed = self.current
+        lost = isinstance(exc, (LinkTimeoutError, LinkDisconnectedError))
+        self._stop_all(failed, self.opts.timing.max_silent_s)
+        if failed is not None and failed in self.opened \
+                and not isinstance(exc, LinkDisconnectedError):  # its port cannot be reopened
+            # one short try at a brick that went silent (its link may come back); a brick that
+            # refused something still answers and is stopped like the others
+            self.sessions[failed].stop(2 * self.opts.timing.ack_timeout_s if lost
+                                       else self.opts.timing.max_silent_s)
+        for s in self.streams:
+            sess = self.sessions[s.brick]
+            if not sess.go_sent or (s.brick == failed and lost):
+                continue  # never started, or gone
+            self.current = s.brick
+            try:
+                sess.read_log(lambda done, total, name=s.brick: self._report(  # type: ignore[misc]
+                    name, "log", done, total), rows=sess.logged)
+            except LinkError as err:
+                self.events[s.brick].append(LogEvent(round(self.clock.now() - self.t0, 4),
+                                                     "log read failed", str(err)))
+
+    # -- the log ------------------------------------------------------------------------------
+
+    def _log(self, stopped: Stopped | None) -> ExecutionLog:
+        x = self.opts.time_scale
+        logs = []
+        windows = []
+        for s in self.streams:
+            sess = self.sessions[s.brick]
+            got = sess.log_rows
+            if stopped is None:
+                measured: tuple[tuple[int, ...] | None, ...] = tuple(got[r] for r in range(len(s.rows)))
+            else:
+                n = min(len(s.rows), max([sess.logged, *(r + 1 for r in got)]))
+                measured = tuple(got.get(r) for r in range(n))
+            window = None
+            if sess.start_window is not None:
+                lo, hi = sess.start_window
+                window = (round(lo - self.t0, 4), round(hi - self.t0, 4))
+                windows.append(sess.start_window)
+            logs.append(BrickLog(s.brick, s.ports, s.tick_ms, s.rows, measured,
+                                 tuple(self.events[s.brick]), window, sess.phase))
+        bound = (max(hi for _, hi in windows) - min(lo for lo, _ in windows)) * x \
+            if len(windows) > 1 else 0.0
+        return ExecutionLog(tuple(logs), round(bound, 4), stopped, x)
 
 
 class _Chained:

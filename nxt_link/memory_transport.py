@@ -8,11 +8,19 @@ delivered or the deadline passes, so a test with a 10-second trajectory and
 dropped frames finishes in a fraction of a second and never depends on the
 machine's load. Several transports may share one clock (two bricks); each
 emulator catches up with the clock whenever it is used.
+
+``damage`` lets a test decide the fate of every frame the brick sends, exactly:
+it gets the frame's index (0, 1, ... in the order the brick sent them) and its
+bytes (length prefix included) and returns the bytes to deliver instead
+(damaged, truncated, lengthened, several frames or none at all). The random
+faults of :class:`~nxt_link.emulator.FaultParams` are for soak runs; this is
+for deterministic tests of one kind of damage at one place.
 """
 from __future__ import annotations
 
 import logging
 from collections import deque
+from collections.abc import Callable
 
 from nxt_link.clock import Deadline, VirtualClock
 from nxt_link.emulator import BrickEmulator
@@ -28,7 +36,8 @@ class MemoryTransport:
     """Telegrams straight into an emulator; ``clock`` must be a VirtualClock."""
 
     def __init__(self, emulator: BrickEmulator, clock: VirtualClock, name: str | None = None,
-                 stale_frame_s: float = 0.25) -> None:
+                 stale_frame_s: float = 0.25,
+                 damage: Callable[[int, bytes], bytes] | None = None) -> None:
         self.emulator = emulator
         self.clock = clock
         self.name = name or f"memory:{emulator.config.name}"
@@ -36,6 +45,8 @@ class MemoryTransport:
         self._ready: deque[bytes] = deque()
         self._epoch = emulator.link_epoch
         self._closed = False
+        self._damage = damage
+        self.frames_out = 0
 
     def _now_ms(self) -> float:
         # the emulator counts whole milliseconds; keep float noise out of comparisons
@@ -57,6 +68,9 @@ class MemoryTransport:
         if now is None:
             now = self._now_ms()
         for data in self.emulator.take_output(now):
+            if self._damage is not None:
+                data = self._damage(self.frames_out, data)
+            self.frames_out += 1
             self._ready.extend(self._decoder.feed(data, now / 1000.0))
 
     def recv(self, deadline: Deadline) -> bytes:
@@ -88,8 +102,9 @@ class MemoryTransport:
             self.emulator.advance_to(self._now_ms())
             while self.emulator.run_until_output(end):
                 self.clock.advance_to(self.emulator.now_ms / 1000.0)
-                dropped += sum(len(d) for d in self.emulator.take_output(
-                    max(self._now_ms(), self.emulator.now_ms)))
+                late = self.emulator.take_output(max(self._now_ms(), self.emulator.now_ms))
+                self.frames_out += len(late)
+                dropped += sum(len(d) for d in late)
                 end = self._now_ms() + quiet_s * 1000.0
             self.clock.advance_to(end / 1000.0)
         return dropped

@@ -1,6 +1,7 @@
 """`cplus execute`: a cplus.trajectory/1 file run on emulated bricks through the serial path."""
 from __future__ import annotations
 
+import importlib
 import json
 from pathlib import Path
 
@@ -10,7 +11,7 @@ import pytest
 import nxt_link
 import trajectory as tj
 from cplus.cli import main
-from cplus.robot.execution import streams_from_trajectory, tracking_report
+from cplus.robot.execution import skew_verdict, streams_from_trajectory, tracking_report
 from nxt_link.execlog import BrickLog, ExecutionLog
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -132,7 +133,10 @@ def test_unexecutable_trajectory_is_refused_before_anything_moves(traj_file, tmp
     data["robots"][0]["setpoints_deg"][5][0] += 900  # a jump no motor can make in 100 ms
     bad = tmp_path / "jump.json"
     bad.write_text(json.dumps(data))
-    one_line_error(capsys, [str(bad), *FAST], 2, "refused before anything moved")
+    one_line_error(capsys, [str(bad), *FAST], 2, "setpoints_deg[5][0]: 941 deg, but sample 5 puts "
+                                                 "motor A at 40.9 deg")
+    one_line_error(capsys, [str(traj_file), "--max-speed", "10", *FAST], 2,
+                   "refused before anything moved: stream 'r1' port A:")
 
 
 def test_plot_needs_a_scene(traj_file, tmp_path, capsys):
@@ -142,3 +146,208 @@ def test_plot_needs_a_scene(traj_file, tmp_path, capsys):
     orphan.write_text(json.dumps(data))
     one_line_error(capsys, [str(orphan), "--plot", str(tmp_path / "p.png"), *FAST], 2,
                    "--plot needs the scene")
+
+
+@pytest.fixture
+def bricks_on_ptys():
+    """Two emulated bricks on ptys (instant link, 10x time), for --brick; stopped at the end."""
+    servers = []
+
+    def start(program: str | None = None) -> list:
+        for name in ("r1", "r2"):
+            emu = nxt_link.BrickEmulator(nxt_link.EmulatorConfig(
+                name=name, link=nxt_link.LinkParams.instant(), stale_frame_ms=2500,
+                program_running=program is None))
+            if program is not None:
+                emu.firmware.files.add(program)
+                emu.firmware.start_program_now(program)
+            server = nxt_link.PtyBrickServer(emu, time_scale=10)
+            server.start()
+            servers.append(server)
+        return servers
+
+    yield start
+    for s in servers:
+        s.stop()
+
+
+def brick_args(servers) -> list[str]:
+    return ["--brick", f"r1={servers[0].path}", "--brick", f"r2={servers[1].path}"]
+
+
+def test_outputs_and_ports_are_checked_before_anything_moves(traj_file, tmp_path, capsys,
+                                                            bricks_on_ptys):
+    servers = bricks_on_ptys()
+    a_file = tmp_path / "file"
+    a_file.write_text("x")
+    one_line_error(capsys, [str(traj_file), *brick_args(servers), "--log", str(tmp_path)], 2,
+                   f"cannot write --log {tmp_path}: it is a directory")
+    one_line_error(capsys, [str(traj_file), *brick_args(servers), "--report",
+                            str(a_file / "r.txt")], 2, f"{a_file} is not a directory")
+    one_line_error(capsys, [str(traj_file), *brick_args(servers), "--log", str(a_file),
+                            "--report", str(a_file)], 2, "--log and --report are the same file")
+    one_line_error(capsys, [str(traj_file), *brick_args(servers), "--plot",
+                            str(tmp_path / "p.gif")], 2, "use a .png or .svg file name")
+    one_line_error(capsys, [str(traj_file), "--brick", f"r1={servers[0].path}",
+                            "--brick", f"r2={servers[0].path}"], 2,
+                   "--brick r1 and --brick r2 are both")
+    one_line_error(capsys, [str(traj_file), "--tolerance", "300"], 2, "must be in 0..255")
+    one_line_error(capsys, [str(traj_file), "--max-start-offset", "-1"], 2, "must be in 0..")
+    for s in servers:
+        assert s.emulator.stats.frames_in == 0  # nobody talked to the bricks
+
+
+def test_hostile_trajectory_files_are_one_line(tmp_path, capsys):
+    deep = tmp_path / "deep.json"
+    deep.write_text("[" * 200_000 + "]" * 200_000)
+    one_line_error(capsys, [str(deep), *FAST], 2, "nested too deeply")
+    huge = tmp_path / "huge.json"
+    huge.write_text('{"format": "cplus.trajectory/1", "tick_ms": ' + "9" * 5000 + "}")
+    one_line_error(capsys, [str(huge), *FAST], 2, "invalid JSON")
+
+
+def test_the_scene_decides_the_motor_limits(traj_file, tmp_path, capsys):
+    scene = SCENE.read_text().replace("theta_limits_deg = [5.0, 175.0]",
+                                      "theta_limits_deg = [10.0, 175.0]")
+    other = tmp_path / "scene.toml"
+    other.write_text(scene)
+    one_line_error(capsys, [str(traj_file), "--scene", str(other), *FAST], 2,
+                   "robot r1: the trajectory's theta_limits_deg [5, 175] is not the scene's "
+                   "[10, 175]")
+    scene = SCENE.read_text().replace("deg_per_unit = 5.0", "deg_per_unit = 4.0", 1)
+    other.write_text(scene)
+    one_line_error(capsys, [str(traj_file), "--scene", str(other), *FAST], 2,
+                   "robot r1: the trajectory's motors A:sx81.82, B:sx81.82, C:thetax5 are not "
+                   "the scene's")
+
+
+def test_a_failed_run_still_writes_its_log_and_report(traj_file, tmp_path, capsys,
+                                                      bricks_on_ptys):
+    servers = bricks_on_ptys(program="tetris.rxe")  # the wrong program runs on both
+    log_path, report_path = tmp_path / "log.json", tmp_path / "report.txt"
+    code = execute_main([str(traj_file), *brick_args(servers), "--log", str(log_path),
+                         "--report", str(report_path), "-q"])
+    err = capsys.readouterr().err
+    assert code == 1
+    assert err == ("cplus execute: brick r1 is running 'tetris.rxe', not 'cplus_follow.rxe'; "
+                   "stop it on the brick first\n")
+    log = ExecutionLog.loads(log_path.read_text())
+    assert not log.complete and log.stopped.brick == "r1"
+    assert log.stopped.reason == err.split(": ", 1)[1].strip()
+    assert [b.reached for b in log.bricks] == ["connect", "connect"]
+    report = report_path.read_text()
+    assert "INCOMPLETE: the execution stopped at" in report and ": brick r1 is running" in report
+    assert "r1: 0 of 21 ticks measured" in report and "(no measurements)" in report
+
+
+def test_the_payload_is_compared_on_a_common_clock(traj_file):
+    """A brick that started late shows as the payload error it caused."""
+    traj = tj.load_trajectory(traj_file)
+
+    def log_with_starts(r2_start: float) -> ExecutionLog:
+        bricks = []
+        for robot, start in zip(traj.robots, (1.0, r2_start)):
+            ref = tuple(tuple(int(v) for v in row) for row in robot.setpoints_deg)
+            bricks.append(BrickLog(robot.name, robot.ports, traj.tick_ms, ref, ref, (),
+                                   (start, start)))
+        return ExecutionLog(tuple(bricks), abs(r2_start - 1.0))
+
+    together = tracking_report(traj, log_with_starts(1.0))
+    late = tracking_report(traj, log_with_starts(1.3))  # three ticks late
+    assert together.payload_length_max_grid < 0.05
+    assert late.payload_mid_max_grid > 0.2  # r2 lagging three ticks behind r1
+    assert late.start_skew.estimate == pytest.approx(0.3)
+    assert "start skew (measured from the log): 300 ms (r2 after r1" in late.text()
+    # each robot on its own clock still tracked its own setpoints perfectly
+    assert all(r.max_deg == (0, 0, 0) for r in late.robots)
+    error, warning = skew_verdict(traj, log_with_starts(1.3))
+    assert error == ("the bricks started 300 ms apart (between 300 and 300 ms), more than one "
+                     "tick (100 ms)") and warning is None
+    assert skew_verdict(traj, log_with_starts(1.05)) == (None, None)
+
+
+def run_main(argv):
+    return main(["run", *argv])
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["nosuch.cp"], "cannot read nosuch.cp: no such file"),
+    ([str(ROOT / "domains/payload/payload.cp"), "--points-per-step", "0"],
+     "--points-per-step must be at least 1"),
+    ([str(ROOT / "domains/payload/payload.cp"), "--points-per-step", "3"],
+     "a tick of 333.333 ms; it must be a whole number of milliseconds"),
+    ([str(ROOT / "domains/payload/payload.cp"), "--step-time", "0.05"],
+     "a tick of 5 ms; it must be a whole number of milliseconds from 10"),
+    ([str(ROOT / "domains/payload/payload.cp"), "--step-time", "inf"],
+     "--step-time must be a positive number"),
+    ([str(ROOT / "domains/payload/payload.cp"), "--brick", "r1=/dev/x", "--brick", "r2=/dev/x"],
+     "--brick r1 and --brick r2 are both /dev/x"),
+    ([str(ROOT / "domains/payload/payload.cp"), "--brick", "r1"], "expects NAME=PORT"),
+    ([str(ROOT / "domains/payload/payload.cp"), "--time-scale", "0"], "must be > 0"),
+])
+def test_cplus_run_checks_everything_before_planning(argv, message, capsys):
+    assert run_main(argv) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and message in err and "% planning" not in err, err
+
+
+def test_cplus_run_refuses_an_out_that_is_a_file(tmp_path, capsys):
+    a_file = tmp_path / "out"
+    a_file.write_text("x")
+    assert run_main([str(ROOT / "domains/payload/payload.cp"), "--out", str(a_file)]) == 2
+    assert "--out" in capsys.readouterr().err
+
+
+def test_cplus_run_is_fast_by_default_and_names_every_file(tmp_path, capsys):
+    out = tmp_path / "out"
+    code = run_main([str(ROOT / "domains/payload/payload.cp"), "--out", str(out), "--step-time",
+                     "0.5", "--points-per-step", "5"])
+    err = capsys.readouterr().err
+    assert code == 0, err
+    assert "on emulated bricks (10x real time, no latency)" in err
+    for name in ("plan.txt", "plan.json", "plan.png", "trajectory.json", "trajectory.csv",
+                 "execution.json", "execution.png", "report.txt"):
+        assert (out / name).is_file()
+        assert f"wrote {out / name}\n" in err, name
+    log = ExecutionLog.loads((out / "execution.json").read_text())
+    assert log.complete and log.time_scale == 10
+
+
+def test_cplus_run_keeps_real_time_for_given_bricks(tmp_path):
+    run = importlib.import_module("cplus.cli.run")  # (cplus.cli.run is also a function)
+    domain = str(ROOT / "domains/payload/payload.cp")
+    out = str(tmp_path / "out")
+    args = run.build_parser().parse_args([domain, "--out", out])
+    run._validate(args)
+    assert (args.time_scale, args.latency) == (10.0, False)  # emulated: fast by default
+    args = run.build_parser().parse_args([domain, "--out", out, "--brick", "r1=/dev/rfcomm0",
+                                          "--brick", "r2=/dev/rfcomm1"])
+    run._validate(args)
+    assert args.time_scale == 1.0  # real bricks keep time
+    args = run.build_parser().parse_args([domain, "--out", out, "--time-scale", "1", "--latency"])
+    run._validate(args)
+    assert (args.time_scale, args.latency) == (1.0, True)
+
+
+def test_a_trajectory_that_continues_from_elsewhere_is_streamed_in_the_encoders_frame():
+    """A re-plan starts where the arms stopped; the brick's encoders count from the first start."""
+    scene = tj.load_scene(str(SCENE))
+    holds = {"pl1": "r1", "pl2": "r2"}
+
+    def at(p1, p2):
+        return tj.StepState({"r1": p1, "r2": p2}, {"pl1": p1, "pl2": p2}, holds)
+
+    first = tj.build_trajectory(scene, [at((0, 0), (0, 5)), at((1, 0), (1, 5))], points_per_step=5,
+                                step_time_s=0.5)
+    later = tj.build_trajectory(scene, [at((1, 0), (1, 5)), at((2, 0), (2, 5))], points_per_step=5,
+                                step_time_s=0.5)
+    own = streams_from_trajectory(later)
+    framed = streams_from_trajectory(later, origin=first)
+    for a, b, f in zip(own, framed, streams_from_trajectory(first)):
+        assert a.rows[0] == (0, 0, 0)  # its own frame: zero at its own start
+        # in the encoders' frame it starts where the first one ended, and moves the same way
+        assert all(abs(x - y) <= 1 for x, y in zip(b.rows[0], f.rows[-1]))
+        assert all(abs((r1[j] - r0[j]) - (s1[j] - s0[j])) <= 1
+                   for (r0, r1), (s0, s1) in zip(zip(a.rows, a.rows[1:]), zip(b.rows, b.rows[1:]))
+                   for j in range(3))
+        assert b.limits == f.limits

@@ -1,7 +1,12 @@
 """Trajectory files: `cplus.trajectory/1` JSON (read and write) and a flat CSV (write).
 
 The JSON file is what crosses to the execution side, so loading validates every field and a
-problem names it (``robots[0].samples.x: expected 111 numbers``). The CSV has one row per
+problem names it (``robots[0].samples.x: expected 111 numbers``). A file is also checked for
+consistency, because an edit by hand must not reach the motors unnoticed: the times are
+``k * tick_ms``, the steps ``k // points_per_step``, every sample's hand position is the
+forward kinematics of its joints, the joints stay within the joint limits, the motor limits are
+those of the joint limits through the gear ratios (or narrower), and every setpoint is its
+sample's joint value through the gear ratio, rounded (within one degree). The CSV has one row per
 (robot, tick) with the columns ``robot,tick,t_s,step,x,y,s,theta_deg`` followed by one
 ``<port>_deg`` column per motor port used by any robot (empty where a robot lacks that port).
 
@@ -41,7 +46,7 @@ from typing import Any
 import numpy as np
 
 from .errors import TrajectoryError, TrajectoryFormatError
-from .kinematics import Arm, BranchChoice
+from .kinematics import Arm, BranchChoice, forward
 from .model import TRAJECTORY_FORMAT, MotorChannel, RobotTrajectory, Trajectory, frozen_array
 
 __all__ = [
@@ -55,6 +60,10 @@ __all__ = [
 ]
 
 _SAMPLE_FIELDS = ("t_s", "step", "x", "y", "s", "theta_deg")
+#: Larger files are refused before reading: 3000 setpoints per brick need far less.
+MAX_FILE_BYTES = 64 * 2**20
+#: Setpoints beyond this cannot be motor degrees (the brick holds 16-bit values).
+_MAX_SETPOINT = 2**31
 
 
 def _num(v: float) -> float | int:
@@ -164,6 +173,13 @@ def load_trajectory(path: str | Path) -> Trajectory:
     """
     p = Path(path)
     try:
+        if not p.is_file():
+            raise TrajectoryFormatError(f"{p}: cannot read: " + ("not a regular file" if p.exists()
+                                                                else "No such file or directory"))
+        size = p.stat().st_size
+        if size > MAX_FILE_BYTES:
+            raise TrajectoryFormatError(f"{p}: {size} bytes, more than a trajectory can hold "
+                                        f"({MAX_FILE_BYTES // 2**20} MiB)")
         text = p.read_text(encoding="utf-8")
     except OSError as exc:
         raise TrajectoryFormatError(f"{p}: cannot read: {exc.strerror or exc}") from None
@@ -173,6 +189,10 @@ def load_trajectory(path: str | Path) -> Trajectory:
         data = json.loads(text)
     except json.JSONDecodeError as exc:
         raise TrajectoryFormatError(f"{p}:{exc.lineno}:{exc.colno}: invalid JSON: {exc.msg}") from None
+    except RecursionError:
+        raise TrajectoryFormatError(f"{p}: invalid JSON: nested too deeply for a trajectory") from None
+    except ValueError as exc:  # e.g. an integer of thousands of digits
+        raise TrajectoryFormatError(f"{p}: invalid JSON: {exc}") from None
     return trajectory_from_dict(data, str(p))
 
 
@@ -261,6 +281,8 @@ def trajectory_from_dict(data: Any, filename: str = "trajectory.json") -> Trajec
         raise f.fail("robots[0].samples.t_s", f"a plan of whole steps has k * {pps} + 1 samples, "
                      f"not {ticks}")
     plan_length = int(steps[-1]) if len(steps) else 0
+    for i, robot in enumerate(robots):
+        _check_consistent(f, robot, f"robots[{i}]", tick_ms, pps)
     return Trajectory(tick_ms=tick_ms, step_time_s=step_time_s, points_per_step=pps,
                       plan_length=plan_length, robots=tuple(robots), source=dict(source))
 
@@ -337,7 +359,11 @@ def _robot(f: _Fields, raw: Any, base: str, ticks: int | None) -> RobotTrajector
     for k, row in enumerate(raw_sp):
         if not isinstance(row, list) or len(row) != len(motors):
             raise f.fail(f"{base}.setpoints_deg[{k}]", f"expected {len(motors)} integers, one per motor")
-        rows.append([f.integer(v, f"{base}.setpoints_deg[{k}][{j}]") for j, v in enumerate(row)])
+        values = [f.integer(v, f"{base}.setpoints_deg[{k}][{j}]") for j, v in enumerate(row)]
+        for j, v in enumerate(values):
+            if abs(v) >= _MAX_SETPOINT:
+                raise f.fail(f"{base}.setpoints_deg[{k}][{j}]", f"{v} is not a motor angle")
+        rows.append(values)
     return RobotTrajectory(
         name=name, arm=arm, branch=BranchChoice(branch, turns), motors=tuple(motors),
         t_s=frozen_array(t_s), step=frozen_array(step, np.int64),
@@ -345,3 +371,63 @@ def _robot(f: _Fields, raw: Any, base: str, ticks: int | None) -> RobotTrajector
         s=frozen_array(columns["s"]), theta_deg=frozen_array(columns["theta_deg"]),
         setpoints_deg=frozen_array(np.array(rows, dtype=np.int64).reshape(n, len(motors)), np.int64),
     )
+
+
+def _check_consistent(f: _Fields, r: RobotTrajectory, base: str, tick_ms: int, pps: int) -> None:
+    """Refuse a file whose parts contradict each other (see the module docstring)."""
+    sb = f"{base}.samples"
+    n = len(r.t_s)
+    expected_t = np.arange(n) * tick_ms / 1000.0
+    bad = np.flatnonzero(np.abs(r.t_s - expected_t) > 1e-6)
+    if len(bad):
+        k = int(bad[0])
+        raise f.fail(f"{sb}.t_s[{k}]", f"{r.t_s[k]:g} s, expected {expected_t[k]:g} s: sample k is "
+                     f"at k * tick_ms ({tick_ms} ms), times must increase by one tick")
+    m = (n - 1) // pps
+    expected_step = np.minimum(np.arange(n) // pps, m)
+    bad = np.flatnonzero(r.step != expected_step)
+    if len(bad):
+        k = int(bad[0])
+        raise f.fail(f"{sb}.step[{k}]", f"{int(r.step[k])}, expected {int(expected_step[k])} "
+                     f"({pps} samples per step)")
+    arm = r.arm
+    s_lo, s_hi = arm.s_limits
+    t_lo, t_hi = (math.degrees(t) for t in arm.theta_limits_rad)
+    tol = 1e-6 * arm.scale
+    for key, values, lo, hi in (("s", r.s, s_lo, s_hi), ("theta_deg", r.theta_deg, t_lo, t_hi)):
+        bad = np.flatnonzero((values < lo - tol) | (values > hi + tol))
+        if len(bad):
+            k = int(bad[0])
+            raise f.fail(f"{sb}.{key}[{k}]", f"{values[k]:g} is outside the joint limits "
+                         f"[{lo:g}, {hi:g}]")
+    x, y = forward(arm, r.s, np.radians(r.theta_deg))
+    miss = np.hypot(x - r.x, y - r.y)
+    bad = np.flatnonzero(miss > 1e-4 * arm.scale)
+    if len(bad):
+        k = int(bad[0])
+        raise f.fail(f"{sb}.x[{k}]", f"({r.x[k]:g}, {r.y[k]:g}) is not where the joints s, theta of "
+                     f"sample {k} put the hand ({float(x[k]):.4g}, {float(y[k]):.4g})")
+    for j, motor in enumerate(r.motors):
+        mb = f"{base}.motors[{j}]"
+        joint = r.s if motor.joint == "s" else r.theta_deg
+        if abs(motor.zero_joint - float(joint[0])) > tol:
+            raise f.fail(f"{mb}.zero_joint", f"{motor.zero_joint:g}, but the first sample's "
+                         f"{motor.joint} is {float(joint[0]):g} (the encoders count from tick 0)")
+        lo, hi = (s_lo, s_hi) if motor.joint == "s" else (t_lo, t_hi)
+        ends = sorted(motor.offset_deg + motor.deg_per_unit * (v - motor.zero_joint) for v in (lo, hi))
+        lo_deg, hi_deg = math.ceil(ends[0] - 1e-9), math.floor(ends[1] + 1e-9)
+        if motor.min_deg < lo_deg or motor.max_deg > hi_deg or motor.min_deg > motor.max_deg:
+            raise f.fail(f"{mb}", f"motor limits [{motor.min_deg}, {motor.max_deg}] deg are not within "
+                         f"[{lo_deg}, {hi_deg}], the joint limits through the gear ratio")
+        column = r.setpoints_deg[:, j]
+        bad = np.flatnonzero((column < motor.min_deg) | (column > motor.max_deg))
+        if len(bad):
+            k = int(bad[0])
+            raise f.fail(f"{base}.setpoints_deg[{k}][{j}]", f"{int(column[k])} deg is outside motor "
+                         f"{motor.port}'s limits [{motor.min_deg}, {motor.max_deg}]")
+        exact = motor.motor_deg(joint)
+        bad = np.flatnonzero(np.abs(column - exact) > 1.0 + 1e-6)
+        if len(bad):
+            k = int(bad[0])
+            raise f.fail(f"{base}.setpoints_deg[{k}][{j}]", f"{int(column[k])} deg, but sample {k} "
+                         f"puts motor {motor.port} at {float(exact[k]):.1f} deg")

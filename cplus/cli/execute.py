@@ -3,7 +3,13 @@
 Without ``--brick`` each robot gets an emulated brick on a pseudo-terminal.  The tracking
 report compares the encoder logs with the plan (:mod:`cplus.robot.execution`).
 
-Exit codes: 0 done, 1 the link or a brick failed, 2 bad input, 130 interrupted.
+Everything that can be checked is checked before a motor moves: every option, every output
+path (``--log``, ``--report``, ``--plot``), the trajectory file, the scene, the ``--brick``
+ports.  A run that fails after the start still writes its log and report, marked incomplete
+with the reason and the time it stopped.
+
+Exit codes: 0 done, 1 the link or a brick failed (or the bricks started more than a tick
+apart), 2 bad input, 130 interrupted.
 """
 from __future__ import annotations
 
@@ -11,16 +17,32 @@ import argparse
 import os
 import sys
 from collections.abc import Mapping
+from dataclasses import dataclass
 from pathlib import Path
 from typing import TextIO
 
 import nxt_link
 import trajectory
-from cplus.cli.common import EXIT_INPUT, EXIT_INTERRUPTED, EXIT_LINK, EXIT_OK, OneLineArgumentParser, positive
-from cplus.robot.execution import EmulatorSettings, execute_trajectory, tracking_report
-from nxt_link.errors import LinkError, SetpointError
+from cplus.cli.common import (
+    EXIT_INPUT,
+    EXIT_INTERRUPTED,
+    EXIT_LINK,
+    EXIT_OK,
+    CliError,
+    OneLineArgumentParser,
+    positive,
+)
+from cplus.robot.execution import (
+    EmulatorSettings,
+    check_ports,
+    execute_trajectory,
+    skew_verdict,
+    streams_from_trajectory,
+    tracking_report,
+)
+from nxt_link.errors import ExecutionFailed, ExecutionInterrupted, LinkError, SetpointError
 
-__all__ = ["build_parser", "main"]
+__all__ = ["build_parser", "main", "output_problem", "parse_bricks"]
 
 
 class _ProgressPrinter:
@@ -63,34 +85,130 @@ def _kp(text: str) -> tuple[int, int]:
     return n, d
 
 
+def _degrees(lo: int, hi: int):
+    def parse(text: str) -> int:
+        try:
+            v = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"expected whole degrees, got {text!r}") from None
+        if not lo <= v <= hi:
+            raise argparse.ArgumentTypeError(f"must be in {lo}..{hi} degrees, got {v}")
+        return v
+    return parse
+
+
 def build_parser() -> OneLineArgumentParser:
     p = OneLineArgumentParser(
         prog="cplus execute",
         description="Execute a cplus.trajectory/1 file on NXT bricks (real, or emulated when no "
                     "--brick is given), report the tracking error and plot executed vs planned.")
     p.add_argument("trajectory", help="trajectory JSON (cplus.trajectory/1)")
-    p.add_argument("--brick", action="append", default=[], metavar="NAME=PORT",
-                   help="robot NAME's brick is at PORT (/dev/rfcomm0, or a `cplus brick` pty); "
-                        "repeat per robot; none: emulate every brick")
+    add_execution_options(p)
     p.add_argument("--log", metavar="FILE", help="write the execution log (cplus.execlog/1)")
     p.add_argument("--plot", metavar="FILE", help="plot executed against planned (.png or .svg)")
     p.add_argument("--report", metavar="FILE",
                    help="write the tracking report to FILE instead of standard output")
     p.add_argument("--scene", metavar="SCENE",
-                   help="scene file for the plot (default: scene.toml beside the trajectory's "
-                        "source domain)")
-    p.add_argument("--kp", type=_kp, default=(2, 1), metavar="N[/D]",
-                   help="brick P-controller gain in %%power per degree (default 2)")
-    p.add_argument("--tolerance", type=int, default=3, metavar="DEG",
-                   help="initial configuration reached within DEG degrees (default 3)")
-    p.add_argument("--max-speed", type=positive, default=1000.0, metavar="DEG_S",
-                   help="refuse setpoints faster than this (default 1000 deg/s)")
-    p.add_argument("--no-latency", action="store_true",
-                   help="emulated bricks answer at once instead of with Bluetooth timing")
-    p.add_argument("--time-scale", type=positive, default=1.0, metavar="X",
-                   help="emulated bricks run X times faster than real time (default 1)")
+                   help="the scene: motor limits and the plot (default: scene.toml beside the "
+                        "trajectory's source domain)")
     p.add_argument("--quiet", "-q", action="store_true", help="no progress on stderr")
     return p
+
+
+def add_execution_options(p: argparse.ArgumentParser, *, fast: bool = False) -> None:
+    """The options ``cplus execute`` and ``cplus run`` share.  ``fast``: emulated bricks run
+    10 times faster than real time with instant answers unless asked otherwise."""
+    p.add_argument("--brick", action="append", default=[], metavar="NAME=PORT",
+                   help="robot NAME's brick is at PORT (/dev/rfcomm0, or a `cplus brick` pty); "
+                        "repeat per robot; none: emulate every brick")
+    p.add_argument("--kp", type=_kp, default=(2, 1), metavar="N[/D]",
+                   help="brick P-controller gain in %%power per degree (default 2)")
+    p.add_argument("--tolerance", type=_degrees(0, 255), default=3, metavar="DEG",
+                   help="initial configuration reached within DEG degrees (0..255, default 3)")
+    p.add_argument("--max-speed", type=positive, default=1000.0, metavar="DEG_S",
+                   help="refuse setpoints faster than this (default 1000 deg/s)")
+    p.add_argument("--max-start-offset", type=_degrees(0, 32767), default=10, metavar="DEG",
+                   help="refuse to start when a motor stands more than DEG degrees from its first "
+                        "setpoint (default 10)")
+    latency = p.add_mutually_exclusive_group()
+    latency.add_argument("--latency", dest="latency", action="store_true", default=not fast,
+                         help="emulated bricks answer with Bluetooth timing"
+                              + ("" if fast else " (default)"))
+    latency.add_argument("--no-latency", dest="latency", action="store_false",
+                         help="emulated bricks answer at once" + (" (default)" if fast else ""))
+    p.add_argument("--time-scale", type=positive, default=None if fast else 1.0, metavar="X",
+                   help="emulated bricks run X times faster than real time (default "
+                        f"{'10, or 1 with --brick' if fast else 1}; 1 = real time); with --brick, "
+                        "the bricks' own time scale")
+
+
+def parse_bricks(items: list[str], prog: str) -> dict[str, str]:
+    """``--brick NAME=PORT`` options as a mapping (a robot once, a port once).
+
+    Raises:
+        CliError: one line for the user.
+    """
+    ports: dict[str, str] = {}
+    for item in items:
+        name, sep, port = item.partition("=")
+        if not sep or not name or not port:
+            raise CliError(f"{prog}: error: --brick expects NAME=PORT, got {item!r}")
+        if name in ports:
+            raise CliError(f"{prog}: error: two --brick options for {name!r}")
+        ports[name] = port
+    seen: dict[str, str] = {}
+    for name, port in ports.items():
+        key = os.path.realpath(port)
+        if key in seen:
+            raise CliError(f"{prog}: error: --brick {seen[key]} and --brick {name} are both "
+                             f"{port}: each robot needs its own brick")
+        seen[key] = name
+    return ports
+
+
+def output_problem(path: str) -> str | None:
+    """Why ``path`` cannot be written (or its directory created), or None.
+
+    Checked before the work starts, so an unwritable output is found before the robots move.
+    Nothing is created.
+    """
+    p = os.path.abspath(path)
+    if os.path.isdir(p):
+        return "it is a directory"
+    if os.path.exists(p):
+        return None if os.access(p, os.W_OK) else "permission denied"
+    parent = os.path.dirname(p)
+    while not os.path.exists(parent):
+        parent = os.path.dirname(parent)
+    if not os.path.isdir(parent):
+        return f"{parent} is not a directory"
+    if not os.access(parent, os.W_OK | os.X_OK):
+        return f"permission denied in {parent}"
+    return None
+
+
+def check_outputs(paths: Mapping[str, str | None], prog: str) -> str | None:
+    """One line for the first output option that cannot be written, or None."""
+    seen: dict[str, str] = {}
+    for option, path in paths.items():
+        if not path:
+            continue
+        key = os.path.abspath(path)
+        if key in seen:
+            return f"{prog}: error: {seen[key]} and {option} are the same file {path}"
+        seen[key] = option
+        problem = output_problem(path)
+        if problem is not None:
+            return f"{prog}: error: cannot write {option} {path}: {problem}"
+    return None
+
+
+def execution_options(args: argparse.Namespace) -> nxt_link.ExecutionOptions:
+    return nxt_link.ExecutionOptions(
+        controller=nxt_link.ControllerSettings(kp_num=args.kp[0], kp_den=args.kp[1],
+                                               tolerance_deg=args.tolerance),
+        max_speed_deg_s=args.max_speed, max_start_offset_deg=args.max_start_offset,
+        time_scale=args.time_scale)
 
 
 def _scene_for(args: argparse.Namespace, traj: trajectory.Trajectory) -> trajectory.Scene | None:
@@ -107,87 +225,129 @@ def _scene_for(args: argparse.Namespace, traj: trajectory.Trajectory) -> traject
     return trajectory.load_scene(path)
 
 
+@dataclass
+class _Outputs:
+    """Where the products go, and how to write them whatever happened."""
+
+    args: argparse.Namespace
+    traj: trajectory.Trajectory
+    scene: trajectory.Scene | None
+    err: TextIO
+
+    def write(self, log: nxt_link.ExecutionLog) -> bool:
+        """Log, plot and report; returns False (after one line on stderr) if one failed."""
+        args = self.args
+        unit_mm = self.scene.grid.unit_mm if self.scene is not None else None
+        report = tracking_report(self.traj, log, unit_mm)
+        header = (f"{args.trajectory}: {len(self.traj.robots)} robot(s), {self.traj.ticks} ticks "
+                  f"x {self.traj.tick_ms} ms ({self.traj.ticks * self.traj.tick_ms / 1000:g} s)")
+        try:
+            if args.log:
+                _write(args.log, log.dumps() + "\n")
+                self._wrote(args.log)
+            if args.plot and self.scene is not None:
+                _mkdir_for(args.plot)
+                title = f"{self.scene.name}: executed (solid) vs planned (dashed)"
+                if not log.complete:
+                    title += ", incomplete"
+                trajectory.plot_execution(self.scene, self.traj.planned_paths(),
+                                          {k: v for k, v in report.executed_paths.items() if len(v)},
+                                          args.plot, title=title)
+                self._wrote(args.plot)
+            if args.report:
+                _write(args.report, report.text(header))
+                self._wrote(args.report)
+            else:
+                sys.stdout.write(report.text(header))
+                sys.stdout.flush()
+        except trajectory.TrajectoryError as exc:
+            print(f"cplus execute: {exc}", file=self.err)
+            return False
+        except OSError as exc:
+            print(f"cplus execute: error: cannot write {exc.filename}: {exc.strerror}",
+                  file=self.err)
+            return False
+        return True
+
+    def _wrote(self, path: str) -> None:
+        if not self.args.quiet:
+            print(f"cplus execute: wrote {path}", file=self.err)
+
+
 def main(args: argparse.Namespace) -> int:
     """``cplus execute``; returns the exit code."""
     err = sys.stderr
-    ports: dict[str, str] = {}
-    for item in args.brick:
-        name, sep, port = item.partition("=")
-        if not sep or not name or not port:
-            print(f"cplus execute: error: --brick expects NAME=PORT, got {item!r}", file=err)
-            return EXIT_INPUT
-        if name in ports:
-            print(f"cplus execute: error: two --brick options for {name!r}", file=err)
-            return EXIT_INPUT
-        ports[name] = port
+    prog = "cplus execute"
+    try:
+        ports = parse_bricks(args.brick, prog)
+    except CliError as exc:
+        print(exc, file=err)
+        return EXIT_INPUT
+    problem = check_outputs({"--log": args.log, "--report": args.report, "--plot": args.plot},
+                            prog)
+    if problem is None and args.plot and Path(args.plot).suffix.lower() not in (".png", ".svg"):
+        problem = f"{prog}: error: cannot plot to {args.plot}: use a .png or .svg file name"
+    if problem is not None:
+        print(problem, file=err)
+        return EXIT_INPUT
     try:
         traj = trajectory.load_trajectory(args.trajectory)
-        scene = _scene_for(args, traj) if (args.plot or args.scene) else None
-        if args.plot and scene is None:
-            print("cplus execute: error: --plot needs the scene: pass --scene SCENE", file=err)
-            return EXIT_INPUT
-        if scene is not None:
-            missing = [r.name for r in traj.robots if r.name not in scene.robot_names]
-            if missing:
-                print(f"cplus execute: error: robot {missing[0]!r} of the trajectory is not in "
-                      f"the scene {scene.file}", file=err)
-                return EXIT_INPUT
+        scene = _scene_for(args, traj)
     except trajectory.TrajectoryError as exc:
-        print(f"cplus execute: {exc}", file=err)
+        print(f"{prog}: {exc}", file=err)
         return EXIT_INPUT
-    options = nxt_link.ExecutionOptions(
-        controller=nxt_link.ControllerSettings(kp_num=args.kp[0], kp_den=args.kp[1],
-                                               tolerance_deg=max(0, min(255, args.tolerance))),
-        max_speed_deg_s=args.max_speed)
+    if args.plot and scene is None:
+        print(f"{prog}: error: --plot needs the scene: pass --scene SCENE", file=err)
+        return EXIT_INPUT
+    if scene is None:
+        print(f"{prog}: warning: no scene found beside the trajectory's domain (give --scene): "
+              "the motor limits come from the trajectory file's own joint limits", file=err)
+    try:
+        streams_from_trajectory(traj, scene)
+        if ports:
+            check_ports(traj, ports)
+    except SetpointError as exc:
+        print(f"{prog}: refused before anything moved: {exc}", file=err)
+        return EXIT_INPUT
     progress = None if args.quiet else _ProgressPrinter(err)
+    outputs = _Outputs(args, traj, scene, err)
 
     def announce(bricks: Mapping[str, str]) -> None:
         if not args.quiet:
             kind = "" if ports else " (emulated)"
-            print("cplus execute: bricks " + ", ".join(f"{n}={p}" for n, p in bricks.items())
+            print(f"{prog}: bricks " + ", ".join(f"{n}={p}" for n, p in bricks.items())
                   + kind, file=err, flush=True)
 
     try:
-        log = execute_trajectory(traj, ports or None, options=options,
-                                 emulator=EmulatorSettings(latency=not args.no_latency,
+        log = execute_trajectory(traj, ports or None, options=execution_options(args),
+                                 emulator=EmulatorSettings(latency=args.latency,
                                                            time_scale=args.time_scale),
-                                 on_progress=progress, on_bricks=announce)
+                                 on_progress=progress, on_bricks=announce, scene=scene)
     except SetpointError as exc:
-        print(f"cplus execute: refused before anything moved: {exc}", file=err)
+        print(f"{prog}: refused before anything moved: {exc}", file=err)
         return EXIT_INPUT
+    except ExecutionFailed as exc:
+        outputs.write(exc.log)  # type: ignore[arg-type]
+        print(f"{prog}: {exc}", file=err)
+        return EXIT_LINK
+    except ExecutionInterrupted as exc:
+        outputs.write(exc.log)  # type: ignore[arg-type]
+        print(f"{prog}: interrupted (bricks told to stop)", file=err)
+        return EXIT_INTERRUPTED
     except LinkError as exc:
-        print(f"cplus execute: {exc}", file=err)
+        print(f"{prog}: {exc}", file=err)
         return EXIT_LINK
     except KeyboardInterrupt:
-        print("cplus execute: interrupted (bricks told to stop)", file=err)
+        print(f"{prog}: interrupted (bricks told to stop)", file=err)
         return EXIT_INTERRUPTED
-    unit_mm = scene.grid.unit_mm if scene is not None else None
-    report = tracking_report(traj, log, unit_mm)
-    header = (f"{args.trajectory}: {len(traj.robots)} robot(s), {traj.ticks} ticks x "
-              f"{traj.tick_ms} ms ({traj.ticks * traj.tick_ms / 1000:g} s)")
-    try:
-        if args.log:
-            _write(args.log, log.dumps() + "\n")
-            if not args.quiet:
-                print(f"cplus execute: wrote {args.log}", file=err)
-        if args.plot:
-            assert scene is not None
-            _mkdir_for(args.plot)
-            trajectory.plot_execution(scene, traj.planned_paths(), report.executed_paths,
-                                      args.plot, title=f"{scene.name}: executed (solid) vs "
-                                                       "planned (dashed)")
-            if not args.quiet:
-                print(f"cplus execute: wrote {args.plot}", file=err)
-        if args.report:
-            _write(args.report, report.text(header))
-        else:
-            sys.stdout.write(report.text(header))
-    except trajectory.TrajectoryError as exc:
-        print(f"cplus execute: {exc}", file=err)
+    if not outputs.write(log):
         return EXIT_INPUT
-    except OSError as exc:
-        print(f"cplus execute: error: cannot write {exc.filename}: {exc.strerror}", file=err)
-        return EXIT_INPUT
+    error, warning = skew_verdict(traj, log)
+    if warning:
+        print(f"{prog}: warning: {warning}", file=err)
+    if error:
+        print(f"{prog}: {error}", file=err)
+        return EXIT_LINK
     return EXIT_OK
 
 

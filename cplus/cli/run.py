@@ -1,22 +1,39 @@
 """``cplus run DOMAIN``: the whole robot job in one command.
 
 Plan and refine (as ``cplus plan``), write the plan, its picture and its trajectory, execute
-the trajectory on the bricks (emulated ones on pseudo-terminals when no ``--brick`` is given),
+the trajectory on the bricks (emulated ones on pseudo-terminals when no ``--brick`` is given:
+10 times faster than real time with instant answers, unless ``--time-scale 1 --latency``),
 read the encoder logs back, report the tracking error and draw the execution.  Every product
-goes to ``--out``.
+goes to ``--out`` and every file written is named on standard error.  Every option and path is
+checked before planning starts.
 """
 from __future__ import annotations
 
 import argparse
 import json
+import math
 import os
 import sys
 
 from cplus.cli import execute
-from cplus.cli.common import EXIT_OK, OneLineArgumentParser, Warnings, horizon_progress, nonneg, query, robot_exit_code
+from cplus.cli.common import (
+    EXIT_INPUT,
+    CliError,
+    OneLineArgumentParser,
+    Warnings,
+    horizon_progress,
+    nonneg,
+    query,
+    robot_exit_code,
+)
 from cplus.cli.plan import add_common
 
 __all__ = ["build_parser", "main"]
+
+#: How much faster than real time emulated bricks run by default.
+FAST_TIME_SCALE = 10.0
+#: The brick program's tick range (``nxt_link.SetpointStream``).
+_TICK_MS = (10, 10000)
 
 
 def build_parser() -> OneLineArgumentParser:
@@ -25,8 +42,6 @@ def build_parser() -> OneLineArgumentParser:
     p.add_argument("file", help="a robot task: a C+ domain with a scene.toml beside it (or --scene)")
     p.add_argument("--query", "-q", metavar="LABEL", default="0", help="the query to plan (default 0)")
     p.add_argument("--scene", metavar="FILE", help="scene file (default: scene.toml beside the domain)")
-    p.add_argument("--brick", action="append", default=[], metavar="NAME=PORT",
-                   help="a robot's brick port, e.g. r1=/dev/rfcomm0 (default: emulated bricks)")
     p.add_argument("--out", default="out", metavar="DIR",
                    help="where to write the plan, trajectory, execution log and pictures (default out/)")
     p.add_argument("--max-iterations", type=nonneg, default=0, metavar="N",
@@ -34,23 +49,65 @@ def build_parser() -> OneLineArgumentParser:
     p.add_argument("--points-per-step", type=nonneg, default=10, metavar="K",
                    help="trajectory samples between two plan steps (default 10)")
     p.add_argument("--step-time", type=float, default=1.0, metavar="SECONDS",
-                   help="duration of one plan step in the trajectory (default 1.0)")
+                   help="duration of one plan step in the trajectory (default 1.0); step time / "
+                        "points per step is the tick, a whole number of milliseconds from 10 to 10000")
+    execute.add_execution_options(p, fast=True)
     add_common(p)
     return p
 
 
-def main(args: argparse.Namespace) -> int:
-    from cplus.output import PLAN_FORMAT, Display, format_result
-    from cplus.robot import RefineStatus, RobotTask, TaskError, export_plan, refine
+def _validate(args: argparse.Namespace) -> tuple[str, dict[str, str]]:
+    """Every option and path, before planning.  Returns the scene path and the ports.
+
+    Raises:
+        CliError: one line for the user.
+    """
+    prog = "cplus run"
+    if not os.path.isfile(args.file):
+        what = "not a regular file" if os.path.exists(args.file) else "no such file"
+        raise CliError(f"{prog}: error: cannot read {args.file}: {what}")
     scene_path = args.scene or os.path.join(os.path.dirname(os.path.abspath(args.file)), "scene.toml")
     if not os.path.isfile(scene_path):
-        raise TaskError(f"no scene: '{scene_path}' does not exist (give --scene FILE)")
+        raise CliError(f"{prog}: error: no scene: '{scene_path}' does not exist (give --scene FILE)")
+    if args.points_per_step < 1:
+        raise CliError(f"{prog}: error: --points-per-step must be at least 1")
+    if not (math.isfinite(args.step_time) and args.step_time > 0):
+        raise CliError(f"{prog}: error: --step-time must be a positive number of seconds")
+    tick = args.step_time * 1000.0 / args.points_per_step
+    if abs(tick - round(tick)) > 1e-6 or not _TICK_MS[0] <= round(tick) <= _TICK_MS[1]:
+        raise CliError(f"{prog}: error: --step-time {args.step_time:g} s / --points-per-step "
+                       f"{args.points_per_step} = a tick of {tick:g} ms; it must be a whole number "
+                       f"of milliseconds from {_TICK_MS[0]} to {_TICK_MS[1]}")
+    ports = execute.parse_bricks(args.brick, prog)
+    if args.time_scale is None:  # emulated bricks are fast unless asked; real ones keep time
+        args.time_scale = 1.0 if ports else FAST_TIME_SCALE
+    if os.path.exists(args.out) and not os.path.isdir(args.out):
+        raise CliError(f"{prog}: error: --out {args.out} is not a directory")
+    problem = execute.output_problem(os.path.join(args.out, "plan.txt"))
+    if problem is not None:
+        raise CliError(f"{prog}: error: cannot write into --out {args.out}: {problem}")
+    return scene_path, ports
+
+
+def main(args: argparse.Namespace) -> int:
+    from cplus.output import PLAN_FORMAT, Display, format_result
+    from cplus.robot import RefineStatus, RobotTask, export_plan, refine
+    try:
+        scene_path, ports = _validate(args)
+    except CliError as exc:
+        print(exc, file=sys.stderr)
+        return EXIT_INPUT
     out = args.out
     os.makedirs(out, exist_ok=True)
     paths = {k: os.path.join(out, name) for k, name in (
         ("plan", "plan.txt"), ("json", "plan.json"), ("picture", "plan.png"), ("trajectory", "trajectory.json"),
         ("csv", "trajectory.csv"), ("log", "execution.json"), ("execution", "execution.png"),
         ("report", "report.txt"))}
+    for path in paths.values():
+        problem = execute.output_problem(path)
+        if problem is not None:
+            print(f"cplus run: error: cannot write {path}: {problem}", file=sys.stderr)
+            return EXIT_INPUT
     warn = Warnings()
     task = RobotTask.load(args.file, scene_path, args.extern)
     warn(task.domain.diagnostics)  # type: ignore[attr-defined]
@@ -63,22 +120,36 @@ def main(args: argparse.Namespace) -> int:
         return robot_exit_code(result.status)
     text = format_result(Display(task.domain.program), [], [result.history], False)  # type: ignore[attr-defined]
     sys.stdout.write(text)
+
+    def wrote(path: str) -> None:
+        print(f"% wrote {path}", file=sys.stderr)
+
     with open(paths["plan"], "w", encoding="utf-8") as fh:
         fh.write(text)
+    wrote(paths["plan"])
     with open(paths["json"], "w", encoding="utf-8") as fh:
         json.dump({"format": PLAN_FORMAT, "file": args.file, "results": [result.to_json(args.query)]}, fh,
                   indent=1)
+    wrote(paths["json"])
     export_plan(task, result.states, None, domain_path=args.file, plot=paths["picture"],
                 trajectory_json=paths["trajectory"], csv=paths["csv"], points_per_step=args.points_per_step,
-                step_time=args.step_time, on_write=lambda path: print(f"% wrote {path}", file=sys.stderr))
-    print(f"% executing {paths['trajectory']} on "
-          + ("the bricks " + ", ".join(args.brick) if args.brick else "emulated bricks"), file=sys.stderr)
+                step_time=args.step_time, on_write=wrote)
+    where = ("the bricks " + ", ".join(f"{n}={p}" for n, p in ports.items()) if ports else
+             f"emulated bricks ({'real time' if args.time_scale == 1 else f'{args.time_scale:g}x real time'}, "
+             f"{'Bluetooth latency' if args.latency else 'no latency'})")
+    print(f"% executing {paths['trajectory']} on {where}", file=sys.stderr)
+    for key in ("log", "execution", "report"):  # no product of an earlier run may pass for this one's
+        if os.path.isfile(paths[key]):
+            os.remove(paths[key])
     argv = [paths["trajectory"], "--scene", scene_path, "--log", paths["log"], "--plot", paths["execution"],
-            "--report", paths["report"]]
+            "--report", paths["report"], "--kp", f"{args.kp[0]}/{args.kp[1]}",
+            "--tolerance", str(args.tolerance), "--max-speed", repr(args.max_speed),
+            "--max-start-offset", str(args.max_start_offset), "--time-scale", repr(args.time_scale),
+            "--latency" if args.latency else "--no-latency"]
     for b in args.brick:
         argv += ["--brick", b]
     code = execute.main(execute.build_parser().parse_args(argv))
-    if code == EXIT_OK and os.path.isfile(paths["report"]):
+    if os.path.isfile(paths["report"]) and code != EXIT_INPUT:
         with open(paths["report"], encoding="utf-8") as fh:
             sys.stdout.write("\n" + fh.read())
     return code

@@ -454,19 +454,14 @@ def _compile_quant(f: ir.Quant, ctx: Ctx) -> Callable:
 # --------------------------------------------------------------------------- binding
 
 
-def bind(sig: Signature, variables: dict[str, ir.Var], filters: list[tuple[Callable, set[str]]],
-         leaf: Callable[[dict], None], env: dict | None = None) -> None:
-    """Call ``leaf(env)`` for every binding of ``variables`` that passes every filter.
-
-    A filter is tested as soon as all its variables are bound; variables are bound in an
-    order that completes filters early, so most of the cross product is never built.
-    """
+def binding_levels(sig: Signature, variables: dict[str, ir.Var], filters: list[tuple[Callable, set[str]]],
+                   env: dict | None = None) -> list[tuple[str, tuple, list[Callable]]]:
+    """The order in which :func:`bind` binds variables: ``(name, domain, filters tested
+    once it is bound)`` per level.  Variables that complete filters come first, then those
+    that take part in more filters, then those with smaller domains."""
     env = {} if env is None else env
     names = list(variables)
     pending = [(fn, set(vs) & set(names)) for fn, vs in filters]
-    for fn, vs in pending:
-        if not vs and fn(env, 0) is not True:
-            return
     pending = [(fn, vs) for fn, vs in pending if vs]
     doms = {n: domain_of(sig, variables[n], env) for n in names}
     order: list[str] = []
@@ -487,6 +482,22 @@ def bind(sig: Signature, variables: dict[str, ir.Var], filters: list[tuple[Calla
         fl = [fn for i, (fn, vs) in enumerate(pending) if i not in done and vs <= bound]
         done |= {i for i, (fn, vs) in enumerate(pending) if vs <= bound}
         levels.append((n, doms[n], fl))
+    return levels
+
+
+def bind(sig: Signature, variables: dict[str, ir.Var], filters: list[tuple[Callable, set[str]]],
+         leaf: Callable[[dict], None], env: dict | None = None) -> None:
+    """Call ``leaf(env)`` for every binding of ``variables`` that passes every filter.
+
+    A filter is tested as soon as all its variables are bound; variables are bound in an
+    order that completes filters early, so most of the cross product is never built.
+    """
+    env = {} if env is None else env
+    pending = [(fn, set(vs) & set(variables)) for fn, vs in filters]
+    for fn, vs in pending:
+        if not vs and fn(env, 0) is not True:
+            return
+    levels = binding_levels(sig, variables, filters, env)
     depth = len(levels)
 
     def rec(i: int) -> None:

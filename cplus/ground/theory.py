@@ -20,11 +20,23 @@ from __future__ import annotations
 import time as _time
 from dataclasses import dataclass, field
 
-from cplus import ir
+from cplus import ir, limits
 from cplus.errors import GroundingError, Location, SortError
 from cplus.ground.atoms import AtomTable
-from cplus.ground.compile import UNDEF, Cases, Ctx, bind, combine, compile_formula, compile_term, evaluate_all
+from cplus.ground.compile import (
+    UNDEF,
+    Cases,
+    Ctx,
+    bind,
+    combine,
+    compile_formula,
+    compile_term,
+    domain_of,
+    evaluate_all,
+)
 from cplus.ground.pf import PF, mk_and, neg
+from cplus.ground.vector import ground_vectorized
+from cplus.limits import RULE_BYTES, count, too_large
 from cplus.program import BasicLaw, IncrementLaw, Program
 from cplus.signature import SIMPLE_KINDS, ConstDecl, GroundConst, RangeSort, StepSort
 
@@ -83,6 +95,7 @@ class _Grounder:
         self.ctx = Ctx(self.sig, self.atoms, mklit)
         self.mklit = mklit
         self.warned: set[int] = set()
+        self.rule_budget = limits.memory_budget() // RULE_BYTES
 
     def _rigid_flags(self) -> list[bool]:
         flags = [False] * (len(self.atoms) + 1)
@@ -127,6 +140,40 @@ class _Grounder:
         return out
 
 
+    def _bind(self, variables: dict[str, ir.Var], filters: list, leaf, loc: Location) -> None:
+        """:func:`bind` with a memory check.  When the product of the variables' domains is
+        more than could fit, the share of combinations that pass the law's conditions is
+        estimated from a fixed sample, and the law refused at once if that is still too
+        many; any law is stopped as soon as the rules grounded so far cannot fit (checked
+        every 4096 bindings)."""
+        doms = {n: domain_of(self.sig, v, {}) for n, v in variables.items()}
+        cells = 1
+        for d in doms.values():
+            cells *= len(d)
+        if cells > self.rule_budget:
+            estimate = cells if not filters else _sampled(doms, filters, cells)
+            if estimate > self.rule_budget:
+                names = ", ".join(variables)
+                what = "every combination" if not filters else "the combinations that pass the conditions"
+                raise GroundingError(too_large(f"this law has about {count(estimate)} instances ({what} of "
+                                               f"{names})", estimate * RULE_BYTES), loc)
+        seen = [0]
+        check = self._check_rules
+
+        def counted(env: dict) -> None:
+            leaf(env)
+            seen[0] += 1
+            if not seen[0] & 4095:
+                check(loc)
+        bind(self.sig, variables, filters, counted)
+
+    def _check_rules(self, loc: Location) -> None:
+        th = self.theory
+        total = sum(map(len, th.rules.values())) + sum(map(len, th.constraints.values()))
+        if total > self.rule_budget:
+            raise GroundingError(too_large(f"grounding reached {count(total)} rules at this law", total * RULE_BYTES),
+                                 loc)
+
     # ------------------------------------------------------------------ laws
     def _law(self, law: BasicLaw) -> None:
         head_slot = SLOT_NEXT if law.cls == "dynamic" else SLOT_NOW
@@ -143,6 +190,12 @@ class _Grounder:
 
         if law.frame is not None:
             self._frame_law(law, variables, filters, parts, rules, constraints)
+            return
+        done = ground_vectorized(self, law, variables, filters, head_slot) if variables else None
+        if done is not None:
+            rules.extend(done[0])
+            constraints.extend(done[1])
+            self._check_rules(law.loc)
             return
         heads = [self._head_fn(h) for h in ir.conjuncts(law.head)] if law.head is not None else None
         if heads == []:   # head `true`
@@ -165,7 +218,7 @@ class _Grounder:
                         constraints.append(b)
                     else:
                         rules.append((lit, b))
-        bind(self.sig, variables, filters, leaf)
+        self._bind(variables, filters, leaf, law.loc)
 
     def _head_fn(self, h: ir.Formula):
         """Compile one head conjunct into ``fn(env, slot) -> [(literal or None, condition)]``."""
@@ -267,7 +320,7 @@ class _Grounder:
                     rules.append((lit1, mk_and((lit1, mklit(aid, SLOT_NOW), body))))
                 else:  # rigid c: false if -(c=v) after c=v
                     constraints.append(mk_and((neg(mklit(aid, SLOT_NEXT)), mklit(aid, SLOT_NOW), body)))
-        bind(self.sig, variables, filters, leaf)
+        self._bind(variables, filters, leaf, law.loc)
 
     # ------------------------------------------------------------------ implied laws
     def _implied(self, gc: GroundConst) -> None:
@@ -367,7 +420,7 @@ class _Grounder:
                 groups[key] = []
                 order.append((target, action))
             groups[key].append((sign * amount, mk_and((action, body))))
-        bind(self.sig, variables, filters, leaf)
+        self._bind(variables, filters, leaf, inc.loc)
 
     # ------------------------------------------------------------------ noconcurrency
     def _noconcurrency(self) -> None:
@@ -384,6 +437,22 @@ class _Grounder:
                 group.append(neg(self.mklit(self.atoms.lit(gc, "none"), SLOT_NOW)))
         if len(group) > 1:
             self.theory.noconcurrency.append(group)
+
+
+def _sampled(doms: dict[str, tuple], filters: list, cells: int, samples: int = 4096) -> int:
+    """Estimated number of bindings that pass every filter, from a fixed random sample."""
+    import random
+    rnd = random.Random(0)
+    names = list(doms)
+    passed = 0
+    for _ in range(samples):
+        env = {n: rnd.choice(doms[n]) for n in names}
+        try:
+            ok = all(fn(env, 0) is True for fn, _ in filters)
+        except GroundingError:
+            ok = False
+        passed += ok
+    return cells * passed // samples
 
 
 def ground_program(program: Program) -> GroundTheory:

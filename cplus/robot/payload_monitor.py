@@ -291,6 +291,7 @@ def run_arms(task: RobotTask, label: str, executor: ArmsExecutor, *, observers: 
     carry = 0.0                                   # reading and mapping the angles, before a re-plan
     sensed: dict[GroundConst, object] = {}
     raw: dict[str, object] = {}
+    origin: trajectory.Trajectory | None = None  # where the encoders count from: the first start
     try:
         while True:
             t0 = time.perf_counter()
@@ -310,12 +311,16 @@ def run_arms(task: RobotTask, label: str, executor: ArmsExecutor, *, observers: 
                 record(rec)
                 return end(OnlineStatus.GOAL_REACHED, f"goal '{label}' reached at cycle {cycle}", state)
             try:
-                traj = trajectory.build_trajectory(task.scene, refined.states,  # type: ignore[arg-type]
+                # a re-plan keeps each arm on the IK branch it is on (the joints go on from where
+                # they are; the other branch is another configuration of the arm)
+                scene = task.scene if origin is None else _on_branches(task.scene, origin)
+                traj = trajectory.build_trajectory(scene, refined.states,  # type: ignore[arg-type]
                                                    points_per_step=points_per_step, step_time_s=step_time,
                                                    source={"domain": task.domain.path})  # type: ignore[attr-defined]
             except trajectory.TrajectoryError as exc:
                 raise TaskError.from_trajectory(exc) from None
-            streams = streams_from_trajectory(traj)
+            origin = origin or traj
+            streams = streams_from_trajectory(traj, origin=origin)
             monitor = TrackingMonitor(streams, executor.bricks, threshold_deg)
             rec.executed = [a for step in plan.steps for a in step]
             for obs in observers:
@@ -323,7 +328,8 @@ def run_arms(task: RobotTask, label: str, executor: ArmsExecutor, *, observers: 
             t_act = clock.now()
             fault: TrackingFault | None = None
             try:
-                nxt_link.execute_streams(streams, executor.bricks, options=options, on_progress=monitor)
+                nxt_link.execute_streams(streams, executor.bricks, options=_homing_allowed(options, task.scene)
+                                         if cycle else options, on_progress=monitor)
             except TrackingFault as exc:
                 fault = exc
             except (StreamError, SetpointError) as exc:
@@ -341,7 +347,8 @@ def run_arms(task: RobotTask, label: str, executor: ArmsExecutor, *, observers: 
             angles = {r.name: read_angles(executor.bricks[r.name], r.ports) for r in traj.robots}
             rec.raw = {f"{name}.{port}": a for r in traj.robots for name in [r.name]
                        for port, a in zip(r.ports, angles[name])}
-            positions = {r.name: tuple(float(v) for v in r.xy_from_motor_deg(angles[r.name])) for r in traj.robots}
+            positions = {r.name: tuple(float(v) for v in origin.robot(r.name).xy_from_motor_deg(angles[r.name]))
+                         for r in traj.robots}
             step = plan.length - 1 if fault is None else min(fault.tick // points_per_step, plan.length - 1)
             done = plan.length if fault is None else step + 1
             rec.executed = [a for s in plan.steps[:done] for a in s]
@@ -379,3 +386,23 @@ def run_arms(task: RobotTask, label: str, executor: ArmsExecutor, *, observers: 
 
 def _positions(task: RobotTask, state: State) -> dict[GroundConst, object]:
     return {gc: state[gc] for pair in task.robots.values() for gc in pair}
+
+
+def _on_branches(scene, origin):
+    """``scene`` with each robot's preferred IK branch the one it follows in ``origin``."""
+    from dataclasses import replace
+    return replace(scene, robots=tuple(replace(r, branch=origin.robot(r.name).branch.branch)
+                                       for r in scene.robots))
+
+
+def _homing_allowed(options: nxt_link.ExecutionOptions | None, scene) -> nxt_link.ExecutionOptions:
+    """A re-plan starts at the grid state nearest to where the arms stopped: the brick's homing
+    makes that short move on purpose, so the start check of :func:`nxt_link.execute_streams`
+    allows up to one cell of each joint (the hand moves less than a cell diagonal; the joints,
+    through the inverse kinematics, about as much) through its gear ratio, and no more: a start
+    on another IK branch, a whole configuration away, is still refused."""
+    from dataclasses import replace
+    opts = options or nxt_link.ExecutionOptions()
+    cell = max(abs(m.deg_per_unit) * (1.0 if m.joint == "s" else math.degrees(1.0 / r.arm.length))
+               for r in scene.robots for m in r.motors)
+    return replace(opts, max_start_offset_deg=(opts.max_start_offset_deg or 0) + math.ceil(cell))

@@ -12,11 +12,12 @@ it; a body that is just h makes h free.
 """
 from __future__ import annotations
 
+import sys
 from collections.abc import Callable, Iterable
 
 from cplus.ground.pf import PF, mk_and, mk_or, neg
 
-__all__ = ["ClauseBuilder", "simplify_units"]
+__all__ = ["ClauseBuilder", "simplify_units", "CONFLICT"]
 
 _PAIRWISE_MAX = 6
 _UNIT_PASSES = 100
@@ -43,7 +44,7 @@ class ClauseBuilder:
         v = self._defs.get(key)
         if v is not None:
             return v
-        lits = [self.lit(g) for g in items]
+        lits = [g if type(g) is int else self.lit(g) for g in items]
         v = self.new_var()
         add = self.add_clause
         if op == "&":
@@ -55,7 +56,7 @@ class ClauseBuilder:
             for c in lits:
                 add([v, -c])
         self._defs[key] = v
-        neg_key = ("|" if op == "&" else "&", frozenset(neg(g) for g in items))
+        neg_key = ("|" if op == "&" else "&", frozenset(-g if type(g) is int else neg(g) for g in items))
         self._defs.setdefault(neg_key, -v)
         return v
 
@@ -161,16 +162,32 @@ def simplify_units(clauses: list[list[int]], keep: int | None = None) -> list[li
     false, and every rule and constraint about them disappears.  With ``keep``, units on
     variables above ``keep`` (auxiliary variables, which nothing else mentions once the
     propagation is complete) are dropped too, and their variables with them.
+
+    Large clause sets are propagated with numpy, every clause at once per round (a round
+    per level of the propagation), small ones in Python (numpy's import costs more than
+    it saves there).
     """
+    if not any(len(c) == 1 for c in clauses):
+        return clauses
+    if len(clauses) >= _NUMPY_FROM and ("numpy" in sys.modules or len(clauses) >= _NUMPY_COLD):
+        return _simplify_numpy(clauses, keep)
+    return _simplify_python(clauses, keep)
+
+
+_NUMPY_FROM = 20000     # clauses; numpy once it is loaded
+_NUMPY_COLD = 60000     # ... and above this even when it must be imported for it
+CONFLICT = [[1], [-1]]
+"""What :func:`simplify_units` returns when the clauses have no model (compare by identity)."""
+
+
+def _simplify_python(clauses: list[list[int]], keep: int | None) -> list[list[int]]:
     value: dict[int, bool] = {}
     for c in clauses:
         if len(c) == 1:
             lit = c[0]
             if value.get(abs(lit), lit > 0) != (lit > 0):
-                return [[1], [-1]]
+                return CONFLICT
             value[abs(lit)] = lit > 0
-    if not value:
-        return clauses
     current = [c for c in clauses if len(c) > 1]
     complete = False
     for _ in range(_UNIT_PASSES):
@@ -189,7 +206,7 @@ def simplify_units(clauses: list[list[int]], keep: int | None = None) -> list[li
             if satisfied:
                 continue
             if not kept:
-                return [[1], [-1]]
+                return CONFLICT
             if len(kept) == 1:
                 lit = kept[0]
                 value[abs(lit)] = lit > 0
@@ -203,6 +220,61 @@ def simplify_units(clauses: list[list[int]], keep: int | None = None) -> list[li
     limit = keep if (keep is not None and complete) else None
     units = [[v if b else -v] for v, b in value.items() if limit is None or v <= limit]
     return units + current
+
+
+def _simplify_numpy(clauses: list[list[int]], keep: int | None) -> list[list[int]]:
+    from itertools import chain
+
+    import numpy as np
+    n = len(clauses)
+    lens = np.fromiter(map(len, clauses), dtype=np.int64, count=n)
+    if not lens.all():
+        return CONFLICT
+    flat = np.fromiter(chain.from_iterable(clauses), dtype=np.int64, count=int(lens.sum()))
+    starts = np.zeros(n, dtype=np.int64)
+    np.cumsum(lens[:-1], out=starts[1:])
+    cid = np.repeat(np.arange(n), lens)
+    var = np.abs(flat)
+    sign = np.where(flat > 0, 1, -1).astype(np.int8)
+    val = np.zeros(int(var.max()) + 1, dtype=np.int8)     # 1 true, -1 false, 0 unassigned
+
+    def assign(lits) -> bool:
+        v, sg = np.abs(lits), np.where(lits > 0, 1, -1).astype(np.int8)
+        order = np.argsort(v, kind="stable")
+        v, sg = v[order], sg[order]
+        same = v[1:] == v[:-1]
+        if (same & (sg[1:] != sg[:-1])).any():
+            return False
+        val[v] = sg
+        return True
+
+    if not assign(flat[starts[lens == 1]]):
+        return CONFLICT
+    while True:
+        lv = val[var] * sign
+        sat = np.add.reduceat((lv == 1).astype(np.int32), starts) > 0
+        free = np.add.reduceat((lv == 0).astype(np.int32), starts)
+        open_ = ~sat
+        if (open_ & (free == 0)).any():
+            return CONFLICT
+        unit = open_ & (free == 1)
+        if not unit.any():
+            break
+        if not assign(flat[(lv == 0) & unit[cid]]):
+            return CONFLICT
+    keep_lit = (lv == 0) & (open_ & (free > 1))[cid]
+    kept = flat[keep_lit].tolist()
+    kept_lens = free[open_ & (free > 1)].tolist()
+    out: list[list[int]] = []
+    assigned = np.nonzero(val)[0]
+    if keep is not None:
+        assigned = assigned[assigned <= keep]
+    out.extend([int(v) if val[v] > 0 else -int(v)] for v in assigned.tolist())
+    i = 0
+    for k in kept_lens:
+        out.append(kept[i:i + k])
+        i += k
+    return out
 
 
 def _without(body: PF, head: int) -> PF | None:

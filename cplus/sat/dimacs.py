@@ -39,7 +39,7 @@ def horizon_cnf(theory: GroundTheory, maxstep: int, query: QuerySpec | None = No
     """(number of variables, clauses, names) of D_maxstep plus the query's conditions."""
     q = query or QuerySpec("domain", maxstep, maxstep, (), None)
     session = QuerySession(theory, q, solver_factory=ClauseCollector)
-    session.horizon.extend_to(maxstep)
+    session.horizon.extend_to(maxstep, query.loc if query else None)
     session.assert_items(maxstep)
     h = session.horizon
     clauses = h.solver.clauses

@@ -10,23 +10,26 @@ next and across refinement iterations.
 """
 from __future__ import annotations
 
+import sys
 import time
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 
 from cplus import ir
-from cplus.errors import GroundingError
+from cplus.errors import GroundingError, Location
 from cplus.ground.compile import Ctx, bind, compile_formula
 from cplus.ground.pf import PF, mk_and
 from cplus.ground.theory import GroundTheory
+from cplus.limits import MAX_SOLVER_VARS, clause_bytes, count, memory_budget, too_large
 from cplus.program import QuerySpec
 from cplus.sat.cnf import ClauseBuilder
+from cplus.sat.reach import unreachable
 from cplus.sat.solver import DEFAULT_SOLVER, SatSolver
 from cplus.sat.templates import Layout, Template, build_templates
 
 __all__ = ["Horizon", "QuerySession", "HorizonStats"]
 
-_VECTORIZE_FROM = 20000   # clauses; below this, numpy's import and set-up cost more than they save
+_VECTORIZE_FROM = 20000   # clauses; below this numpy's set-up costs more than it saves (and its import always)
 
 
 @dataclass
@@ -44,12 +47,17 @@ class Horizon:
     """The clauses of D_m for growing m in one incremental solver."""
 
     def __init__(self, theory: GroundTheory, solver: str = DEFAULT_SOLVER, solver_factory=SatSolver,
-                 templates: tuple[Layout, Template, Template, Template] | None = None) -> None:
+                 templates: tuple[Layout, Template, Template, Template] | None = None,
+                 fixed: set[int] | None = None) -> None:
         """``templates``: the result of :func:`build_templates` for ``theory``, when the caller
-        keeps it for several solvers (the online loop makes one per re-plan)."""
+        keeps it for several solvers (the online loop makes one per re-plan).  Otherwise they
+        are built here, and ``fixed`` (positive atoms that hold at step 0 in every history
+        wanted: a query's initial state) leaves out fluent values unreachable from them."""
         t0 = time.perf_counter()
         self.theory = theory
-        self.layout, self.t_rigid, self.t_init, self.t_trans = templates or build_templates(theory)
+        if templates is None:
+            templates = build_templates(theory, unreachable(theory, fixed) if fixed else set())
+        self.layout, self.t_rigid, self.t_init, self.t_trans = templates
         self.template_s = time.perf_counter() - t0
         self.solver = solver_factory(solver)
         L = self.layout
@@ -93,18 +101,26 @@ class Horizon:
         off.extend(range(b0, b0 + L.N))
         off.extend(range(b1, b1 + L.N))
         off.extend(range(aux, aux + n_aux))
-        if len(tpl.clauses) < _VECTORIZE_FROM:
-            self.solver.add_clauses([off[x] if x > 0 else -off[-x] for x in c] for c in tpl.clauses)
+        if len(tpl.clauses) < _VECTORIZE_FROM or "numpy" not in sys.modules:
+            # literal x of the template is entry x + top of a signed table: one C-level lookup
+            # per literal, and the solver reads the map object itself (no list per clause)
+            top = tpl.top
+            table = [-off[top - i] for i in range(top)] + off
+            get = table.__getitem__
+            self.solver.add_clauses(map(get, c) for c in tpl.shifted())
             return
-        # large templates: rename every literal at once with numpy, then cut into clauses
+        # large templates once numpy is loaded anyway: rename every literal at once
         import numpy as np
         flat, ends = tpl.flat()
         mapped = (np.asarray(off, dtype=np.int64)[np.abs(flat)] * np.sign(flat)).tolist()
         starts = [0] + ends[:-1]
         self.solver.add_clauses(mapped[a:b] for a, b in zip(starts, ends))
 
-    def extend_to(self, m: int) -> None:
-        """Add transitions until the horizon is m."""
+    def extend_to(self, m: int, loc: Location | None = None) -> None:
+        """Add transitions until the horizon is m (refused at once, located at ``loc``, when
+        the clauses of horizon m cannot fit in memory)."""
+        if m > self.m:
+            self._check_size(m, loc)
         while self.m < m:
             t = self.m
             self._add_block()
@@ -114,6 +130,20 @@ class Horizon:
             self.m += 1
             for hook in self.step_hooks:
                 hook(self.m)
+
+    def _check_size(self, m: int, loc: Location | None) -> None:
+        steps = m - self.m
+        tpl = self.t_trans
+        if tpl._literals is None:
+            tpl._literals = sum(len(c) for c in tpl.clauses)
+        per_var = self.layout.N + tpl.top - self.layout.base_top
+        need = steps * (clause_bytes(len(tpl.clauses), tpl._literals) + 64 * per_var)
+        if need > memory_budget():
+            raise GroundingError(too_large(f"maxstep {count(m)} means {count(steps * len(tpl.clauses))} clauses "
+                                           f"({count(len(tpl.clauses))} per step)", need), loc)
+        if self.top + steps * per_var > MAX_SOLVER_VARS:
+            raise GroundingError(f"maxstep {count(m)} means {count(self.top + steps * per_var)} solver variables, "
+                                 f"more than the solver's limit of {count(MAX_SOLVER_VARS)}", loc)
 
     def _at(self, f: PF, t: int) -> PF:
         """A transition formula over template codes, placed at transition t."""
@@ -152,7 +182,6 @@ class QuerySession:
                  templates: tuple[Layout, Template, Template, Template] | None = None) -> None:
         self.theory = theory
         self.query = query
-        self.horizon = Horizon(theory, solver, solver_factory, templates)
         self.max_horizon = max_horizon
         self.sig = theory.sig
         self.atoms = theory.atoms
@@ -161,6 +190,8 @@ class QuerySession:
         for formula, loc in query.items:
             dynamic = ir.mentions(formula, (ir.MaxStepT,)) or _has_step_var(formula)
             self.items.append([formula, loc, compile_formula(formula, self.ctx), dynamic, False])
+        self.horizon = Horizon(theory, solver, solver_factory, templates,
+                               None if templates is not None else self._fixed_at_zero())
         self.stats: list[HorizonStats] = []
         self.assumptions: list[int] = []   # assumed at every solve, besides the horizon's own
         self.act: int | None = None
@@ -169,6 +200,25 @@ class QuerySession:
         self._projection: list[tuple[int, int | None]] | None = None
 
     # ------------------------------------------------------------------ query items
+    def _fixed_at_zero(self) -> set[int]:
+        """Positive atoms the query's permanent items force at step 0 (other literals are
+        read as true, which only weakens the items: what the weakened items force, the
+        items force)."""
+        def mklit(aid: int, t: object) -> PF:
+            return aid if t == 0 and not self.atoms.gc_of[abs(aid)].decl.kind == "rigid" else True  # type: ignore[union-attr]
+        ctx = Ctx(self.sig, self.atoms, mklit)
+        fixed: set[int] = set()
+        for formula, _ in self.query.items:
+            if ir.mentions(formula, (ir.MaxStepT,)) or _has_step_var(formula):
+                continue
+            try:
+                pf = _ground_formula(self.sig, formula, ctx, self.query.lo)
+            except Exception:   # the real grounding of the item reports it
+                continue
+            items = pf[1] if type(pf) is tuple and pf[0] == "&" else (pf,)
+            fixed.update(g for g in items if type(g) is int and g > 0)
+        return fixed
+
     def _mklit(self, aid: int, t: object) -> PF:
         a = aid if aid > 0 else -aid
         gc = self.atoms.gc_of[a]
@@ -239,7 +289,7 @@ class QuerySession:
         if self.act is not None:
             h.solver.add_clause([-self.act])    # retire the previous horizon's goal
         self.out_of_range = []
-        h.extend_to(m)
+        h.extend_to(m, self.query.loc)
         self._add_items(m)
         self._projection = None
         t1 = time.perf_counter()
@@ -285,6 +335,13 @@ class QuerySession:
                 out.extend(h.var(aid, t) for t in range(last + 1))
             self._projection = out  # type: ignore[assignment]
         return self._projection  # type: ignore[return-value]
+
+
+def _ground_formula(sig, formula: ir.Formula, ctx: Ctx, maxstep: int) -> PF:
+    fn = compile_formula(formula, ctx)
+    parts: list[PF] = []
+    bind(sig, ir.free_vars(formula), [], lambda env: parts.append(fn(env, None)), {"$maxstep": maxstep})
+    return mk_and(parts)
 
 
 def _has_step_var(f) -> bool:

@@ -1,57 +1,129 @@
-"""The SAT solver behind a small facade (the only module that imports ``pysat.solvers``).
+"""The SAT solver behind a small facade (the only module that talks to pysat).
 
 >>> with SatSolver() as s:
 ...     s.add_clause([1, 2]); s.add_clause([-1])
 ...     s.solve(), s.value(2)
 (True, True)
+
+The common backends (Glucose 4 by default, Glucose 3, CaDiCaL 1.9.5, MiniSat 2.2) are driven
+through pysat's C module ``pysolvers`` directly: ``pysat.solvers`` costs a fifth of the start-up
+of a small domain (it imports ``tempfile``, ``random`` and pysat's formula classes), and its
+Python layers around each added clause cost more than the C call for the hundreds of thousands
+of clauses of a long horizon.  Every other solver pysat knows goes through ``pysat.solvers``.
+
+Ctrl-C while a solver runs: pysolvers catches SIGINT inside the C code and raises its own
+``pysolvers.error``; the facade turns that into :class:`KeyboardInterrupt`, which the command
+reports as "interrupted" with exit code 130.
 """
 from __future__ import annotations
 
 import functools
-
-from pysat.solvers import Solver, SolverNames
+import threading
 
 from cplus.errors import CPlusError
 
-__all__ = ["SatSolver", "SOLVERS", "DEFAULT_SOLVER"]
+__all__ = ["SatSolver", "DEFAULT_SOLVER", "solver_names"]
 
 DEFAULT_SOLVER = "glucose4"
-SOLVERS = tuple(sorted(n for n in vars(SolverNames) if not n.startswith("_")))
 
-
-# pysat's backends add a clause through two Python layers around one C call; for the
-# hundreds of thousands of clauses of a long horizon we call the C function directly.
-_RAW_ADD = {
-    "Glucose4": ("glucose41_add_cl", "glucose"), "Glucose3": ("glucose3_add_cl", "glucose"),
-    "Cadical195": ("cadical195_add_cl", "cadical"), "Cadical153": ("cadical153_add_cl", "cadical"),
-    "Minisat22": ("minisat22_add_cl", "minisat"), "MinisatGH": ("minisatgh_add_cl", "minisat"),
+# pysat's names for the backends driven natively -> the prefix of their pysolvers functions
+_NATIVE = {
+    **dict.fromkeys(("g4", "g41", "glucose4", "glucose41"), "glucose41"),
+    **dict.fromkeys(("g3", "g30", "glucose3", "glucose30"), "glucose3"),
+    **dict.fromkeys(("cd19", "cd195", "cdl19", "cdl195", "cadical195"), "cadical195"),
+    **dict.fromkeys(("m22", "msat22", "minisat22"), "minisat22"),
 }
+
+
+def solver_names() -> tuple[str, ...]:
+    """Every solver name pysat accepts (imports ``pysat.solvers``)."""
+    from pysat.solvers import SolverNames
+    return tuple(sorted(n for n in vars(SolverNames) if not n.startswith("_")))
+
+
+def __getattr__(name: str):  # SOLVERS stays importable without paying for it at start-up
+    if name == "SOLVERS":
+        return solver_names()
+    raise AttributeError(name)
+
+
+def _interrupted(exc: Exception) -> bool:
+    return "interrupt" in str(exc).lower()
+
+
+class _Native:
+    """One pysolvers backend: new / add_cl / solve / model / del."""
+
+    def __init__(self, prefix: str) -> None:
+        import pysolvers
+        self._mod = pysolvers
+        self._prefix = prefix
+        self.handle = getattr(pysolvers, prefix + "_new")()
+        self._assumptions: list[int] = []
+        self.add_clause = functools.partial(getattr(pysolvers, prefix + "_add_cl"), self.handle)
+        self._solve = getattr(pysolvers, prefix + "_solve")
+        self._model = getattr(pysolvers, prefix + "_model")
+
+    def solve(self, assumptions: list[int]) -> bool:
+        main = int(threading.current_thread() is threading.main_thread())
+        self._assumptions = assumptions
+        return bool(self._solve(self.handle, assumptions, main))
+
+    def get_model(self) -> list[int]:
+        return self._model(self.handle) or []
+
+    def get_core(self) -> list[int]:
+        fn = getattr(self._mod, self._prefix + "_core")
+        if self._prefix.startswith("cadical"):      # CaDiCaL asks which assumptions to test
+            return fn(self.handle, self._assumptions) or []
+        return fn(self.handle) or []
+
+    def delete(self) -> None:
+        if self.handle is not None:
+            fn = getattr(self._mod, self._prefix + "_del")
+            if self._prefix.startswith("cadical"):
+                fn(self.handle, None)
+            else:
+                fn(self.handle)
+            self.handle = None
+
+
+class _Generic:
+    """Any other solver pysat knows, through ``pysat.solvers.Solver``."""
+
+    def __init__(self, name: str) -> None:
+        from pysat.solvers import Solver
+        self._s = Solver(name=name)
+        self.add_clause = self._s.add_clause
+
+    def solve(self, assumptions: list[int]) -> bool:
+        return bool(self._s.solve(assumptions=assumptions))
+
+    def get_model(self) -> list[int]:
+        return self._s.get_model() or []
+
+    def get_core(self) -> list[int]:
+        return self._s.get_core() or []
+
+    def delete(self) -> None:
+        self._s.delete()
 
 
 class SatSolver:
     """An incremental solver: add clauses, solve under assumptions, read the model."""
 
     def __init__(self, name: str = DEFAULT_SOLVER) -> None:
-        try:
-            self._s = Solver(name=name)
-        except Exception:  # pysat raises a bare ValueError-like error for unknown names
-            raise CPlusError(f"unknown SAT solver '{name}' (choose one of: {', '.join(SOLVERS)})") from None
         self.name = name
         self._model: list[int] | None = None
         self.count = 0
-        self._raw = self._raw_adder()
-
-    def _raw_adder(self):
-        backend = self._s.solver
-        spec = _RAW_ADD.get(type(backend).__name__)
-        if spec is None:
-            return backend.add_clause
-        import pysolvers
-        fn = getattr(pysolvers, spec[0], None)
-        handle = getattr(backend, spec[1], None)
-        if fn is None or handle is None:
-            return backend.add_clause
-        return functools.partial(fn, handle)
+        self._b: _Native | _Generic | None
+        try:
+            prefix = _NATIVE.get(name)
+            self._b = _Native(prefix) if prefix else _Generic(name)
+        except Exception:  # pysat raises a bare ValueError-like error for unknown names
+            self._b = None
+            raise CPlusError(f"unknown SAT solver '{name}' (choose one of: {', '.join(solver_names())})") from None
+        self._raw = self._b.add_clause
 
     def add_clause(self, clause: list[int]) -> None:
         self._raw(clause)
@@ -67,16 +139,15 @@ class SatSolver:
         self.count += n
 
     def solve(self, assumptions: list[int] = ()) -> bool:  # type: ignore[assignment]
+        assert self._b is not None
         try:
-            ok = self._s.solve(assumptions=list(assumptions))
-        except Exception as exc:
-            # A SIGINT caught inside the C solver comes back as pysat's own error; it is
-            # still Ctrl-C, and the command line answers it with exit code 130.
-            if "keyboard interrupt" in str(exc).lower():
+            ok = self._b.solve(list(assumptions))
+        except Exception as exc:   # pysolvers reports Ctrl-C as its own error
+            if _interrupted(exc):
                 raise KeyboardInterrupt from None
             raise
-        self._model = self._s.get_model() if ok else None
-        return bool(ok)
+        self._model = self._b.get_model() if ok else None
+        return ok
 
     def value(self, var: int) -> bool:
         """Truth value of a variable in the last model (unassigned counts as false)."""
@@ -87,7 +158,8 @@ class SatSolver:
     def core(self) -> list[int]:
         """After an unsatisfiable :meth:`solve`: assumptions that together cannot hold (a
         subset of those given; not necessarily minimal)."""
-        return list(self._s.get_core() or [])
+        assert self._b is not None
+        return list(self._b.get_core() or [])
 
     @property
     def model(self) -> list[int]:
@@ -95,9 +167,9 @@ class SatSolver:
         return self._model
 
     def delete(self) -> None:
-        if self._s is not None:
-            self._s.delete()
-            self._s = None
+        if self._b is not None:
+            self._b.delete()
+            self._b = None
 
     def __enter__(self) -> SatSolver:
         return self

@@ -16,7 +16,8 @@ from dataclasses import dataclass
 
 from cplus.ground.pf import PF, map_lits, mk_and
 from cplus.ground.theory import GroundTheory, initially_free
-from cplus.sat.cnf import ClauseBuilder, simplify_units
+from cplus.sat.cnf import CONFLICT, ClauseBuilder, _without, simplify_units
+from cplus.sat.tables import TABLE_LIMIT, encode_table
 from cplus.signature import GroundConst
 
 __all__ = ["Layout", "Template", "build_templates"]
@@ -28,6 +29,15 @@ class Template:
     top: int                      # highest template id used
     name: str
     _flat: tuple | None = None
+    _literals: int | None = None
+    _shifted: list | None = None
+
+    def shifted(self) -> list[list[int]]:
+        """The clauses with every literal x as x + top, an index into a signed table (cached)."""
+        if self._shifted is None:
+            top = self.top
+            self._shifted = [[x + top for x in c] for c in self.clauses]
+        return self._shifted
 
     def flat(self) -> tuple:
         """All literals in one numpy array, and the end offset of each clause (cached)."""
@@ -61,6 +71,7 @@ class Layout:
                 self.step_atoms.append(aid)
         self.R = len(self.rigid_atoms)
         self.N = len(self.step_atoms)
+        self.dead: frozenset[int] = frozenset()
         self._tids: dict[int, int] = {}
 
     def tid(self, code: int) -> int:
@@ -98,7 +109,22 @@ class Layout:
 
 
 def _to_tids(layout: Layout, f: PF) -> PF:
-    return map_lits(f, layout.tid)
+    """A formula over template literal codes, renamed to template ids (the hot path of
+    template building: bodies are mostly flat conjunctions of literals)."""
+    if type(f) is int:
+        return layout.tid(f)
+    if type(f) is bool:
+        return f
+    get, tid = layout._tids.get, layout.tid
+    op, items = f  # type: ignore[misc]
+    out: list[PF] = []
+    for g in items:
+        if type(g) is int:
+            t = get(g)
+            out.append(t if t is not None else tid(g))
+        else:
+            out.append(_to_tids(layout, g))
+    return (op, tuple(out))
 
 
 def _shift_static(f: PF) -> PF:
@@ -108,9 +134,23 @@ def _shift_static(f: PF) -> PF:
     return map_lits(f, shift)
 
 
-def build_templates(theory: GroundTheory) -> tuple[Layout, Template, Template, Template]:
+def build_templates(theory: GroundTheory, dead: set[int] | frozenset[int] = frozenset()
+                    ) -> tuple[Layout, Template, Template, Template]:
+    """The three templates; ``dead`` atoms (fluent values no history can take, see
+    :mod:`cplus.sat.reach`) are false at every step, and every rule, constraint and table
+    row that needs one of them is left out."""
     layout = Layout(theory)
+    layout.dead = frozenset(dead)
     return layout, _rigid(layout), _initial(layout), _transition(layout)
+
+
+def _needs_dead(dead: frozenset[int], body: PF) -> bool:
+    """Whether a body (over template codes) has a positive top-level atom that is dead."""
+    items = body[1] if type(body) is tuple and body[0] == "&" else (body,)
+    for g in items:
+        if type(g) is int and g > 0 and (g - 1) // 3 in dead:
+            return True
+    return False
 
 
 class _Builder:
@@ -129,6 +169,8 @@ class _Builder:
         densely (every instance of the template allocates that many solver variables)."""
         base = self.layout.base_top
         clauses = simplify_units(self.cb.clauses, keep=base)
+        if clauses is CONFLICT:   # no model at all: say so with a variable of this template's own
+            return Template([[base + 1], [-(base + 1)]], base + 1, self.name)
         used = sorted({abs(x) for c in clauses for x in c if abs(x) > base})
         renumber = {v: base + i for i, v in enumerate(used, start=1)}
         if len(used) < self.top - base:
@@ -139,7 +181,10 @@ class _Builder:
 
 def _heads(theory: GroundTheory, layout: Layout, rules: list[tuple[int, PF]], shift: bool = False) -> dict:
     out: dict[int, list[PF]] = {}
+    dead = layout.dead
     for code, body in rules:
+        if dead and ((code > 0 and (code - 1) // 3 in dead) or _needs_dead(dead, body)):
+            continue
         if shift:
             code, body = _shift_static(code), _shift_static(body)  # type: ignore[assignment]
         out.setdefault(layout.tid(code), []).append(_to_tids(layout, body))
@@ -165,22 +210,13 @@ def _complete_atoms(b: _Builder, gcs: list[GroundConst], slot: int, heads: dict,
             b.cb.exactly_one(ts)
 
 
-_TABLE_LIMIT = 60000     # full assignments of the body constants we are willing to enumerate
-
-
 def _table_completion(b: _Builder, gc: GroundConst, slot: int, heads: dict) -> bool:
-    """Completion of a constant whose rules are tables over other constants.
-
-    When every rule for ``gc`` at this slot has a body that is a conjunction of atoms
-    ``d=w`` of other constants (at most one atom per constant), the completion of all of
-    gc's values together says: some rule fires.  Given the soundness clauses (body -> head)
-    and gc's exactly-one axiom this is equivalent to literal completion, and it needs no
-    auxiliary variable per rule: it forbids each assignment of the body constants that no
-    rule covers (a physics law over three integer fluents, say, becomes a few thousand short
-    clauses instead of a defined variable per rule).  Returns False when the rules do not
-    have that shape or the assignments are too many to enumerate; the caller then writes the
-    ordinary completion.
-    """
+    """Completion of a constant whose rules are tables over other constants (see
+    :mod:`cplus.sat.tables`): every rule for ``gc`` at this slot has a body that is a
+    conjunction of atoms ``d=w`` of other constants (at most one atom per constant), or is
+    self-supporting with such a rest (inertia, defaults).  Returns False when the rules do
+    not have that shape or the table is too large; the caller then writes the ordinary
+    completion."""
     layout = b.layout
     atoms = layout.theory.atoms
     lits = atoms.head_lits(gc)
@@ -188,48 +224,67 @@ def _table_completion(b: _Builder, gc: GroundConst, slot: int, heads: dict) -> b
     for aid, _ in lits:
         t = layout.tid_atom(abs(aid), slot)
         head_tids.append(t if aid > 0 else -t)
-    cubes: list[tuple[int, dict]] = []
+    strong: list[tuple[int, dict]] = []
+    weak: list[tuple[int, dict]] = []
     keys: set = set()
-    for h in head_tids:
+    for hi, h in enumerate(head_tids):
         for body in heads.get(h, ()):
-            cube = _cube(layout, body, gc, slot)
+            if body is False:
+                continue
+            rest = _without(body, h)
+            if rest is not None:
+                # self-supporting rules (inertia) as weak table rows give the same models but
+                # propagate badly backwards from a goal (hanoi-6-3 solved 12x slower): the
+                # ordinary completion keeps them
+                return False
+            target = body
+            cube = {} if target is True else _cube(layout, target, gc, slot)
             if cube is None:
                 return False
-            cubes.append((h, cube))
+            (strong if rest is None else weak).append((hi, cube))
             keys.update(cube)
-    if not cubes:
+    if not strong:
         return False
     order = sorted(keys, key=lambda k: (k[0].id, k[1]))
     size = 1
     for key in order:
-        size *= len(key[0].domain)
-        if size > _TABLE_LIMIT:
+        size *= len(_live_values(layout, key[0]))
+        if size > TABLE_LIMIT:
             return False
+    pos = {k: i for i, k in enumerate(order)}
     cb = b.cb
-    lit = {k: _value_lits(layout, k) for k in order}
-    covered: dict[tuple, set] = {}
-    for h, cube in cubes:
-        cb.add_clause([-lit[k][v] for k, v in cube.items()] + [h])
-        pattern = tuple(k for k in order if k in cube)
-        covered.setdefault(pattern, set()).add(tuple(cube[k] for k in pattern))
-    from itertools import product
-    domains = [k[0].domain for k in order]
-    neg = [{v: -lit[k][v] for v in k[0].domain} for k in order]
-    add = cb.add_clause
-    if len(covered) == 1 and len(next(iter(covered))) == len(order):   # every cube is full
-        full_set = next(iter(covered.values()))
-        for full in product(*domains):
-            if full not in full_set:
-                add([n[v] for n, v in zip(neg, full)])
-    else:
-        index = {k: i for i, k in enumerate(order)}
-        patterns = [(tuple(index[k] for k in p), vals) for p, vals in covered.items()]
-        for full in product(*domains):
-            if not any(tuple(full[i] for i in idx) in vals for idx, vals in patterns):
-                add([n[v] for n, v in zip(neg, full)])
+    domains = [_live_values(layout, k[0]) for k in order]
+    if not encode_table(domains, [_value_lits(layout, k) for k in order], head_tids,
+                        [(h, {pos[k]: v for k, v in c.items()}) for h, c in strong],
+                        [(h, {pos[k]: v for k, v in c.items()}) for h, c in weak],
+                        _nonempty(cb), b._new, cb.at_most_one):  # type: ignore[arg-type]
+        return False
     if not gc.boolean:
         cb.exactly_one(head_tids)
     return True
+
+
+def _nonempty(cb: ClauseBuilder):
+    def add(clause: list[int]) -> None:
+        if clause:
+            cb.add_clause(clause)
+        else:
+            cb.add(False)
+    return add
+
+
+def _live_values(layout: Layout, gc: GroundConst) -> tuple:
+    """The values of a constant that are not dead."""
+    if not layout.dead or gc.boolean:
+        return gc.domain
+    lit = layout.theory.atoms.lit
+    return tuple(v for v in gc.domain if lit(gc, v) not in layout.dead)
+
+
+def _dead_units(b: _Builder, slots: tuple[int, ...]) -> None:
+    for aid in sorted(b.layout.dead):
+        for slot in slots:
+            b.cb.add_clause([-b.layout.tid_atom(aid, slot)])
 
 
 def _value_lits(layout: Layout, key: tuple) -> dict:
@@ -247,13 +302,24 @@ def _cube(layout: Layout, body: PF, gc: GroundConst, slot: int) -> dict | None:
     other than gc@slot, each at most once; None otherwise."""
     items = body[1] if type(body) is tuple and body[0] == "&" else (body,)
     atoms = layout.theory.atoms
+    gc_of, value_of = atoms.gc_of, atoms.value_of
+    base, R, N = layout.base_top, layout.R, layout.N
+    rigid, step = layout.rigid_atoms, layout.step_atoms
     cube: dict = {}
     for lit in items:
-        if type(lit) is not int or abs(lit) > layout.base_top:
+        if type(lit) is not int:
             return None
-        aid, s = layout.atom_of_tid(abs(lit))
-        other = atoms.gc_of[aid]
-        value = atoms.value_of[aid]
+        t = lit if lit > 0 else -lit
+        if t > base:
+            return None
+        if t <= R:
+            aid, s = rigid[t - 1], 2
+        elif t <= R + N:
+            aid, s = step[t - R - 1], 0
+        else:
+            aid, s = step[t - R - N - 1], 1
+        other = gc_of[aid]
+        value = value_of[aid]
         if value is None:
             value = "true" if lit > 0 else "false"
         elif lit < 0:
@@ -267,7 +333,10 @@ def _cube(layout: Layout, body: PF, gc: GroundConst, slot: int) -> dict | None:
 
 def _constraints(b: _Builder, bodies: list[PF], shift: bool = False) -> None:
     from cplus.ground.pf import neg
+    dead = b.layout.dead
     for body in bodies:
+        if dead and _needs_dead(dead, body):
+            continue
         if shift:
             body = _shift_static(body)
         b.cb.add(neg(_to_tids(b.layout, body)))
@@ -289,6 +358,7 @@ def _fluents(th: GroundTheory, additive: bool) -> list[GroundConst]:
 def _initial(layout: Layout) -> Template:
     th = layout.theory
     b = _Builder(layout, "initial")
+    _dead_units(b, (0,))
     heads = _heads(th, layout, th.rules["static"])
     free = lambda gc: initially_free(gc.decl)  # noqa: E731
     _complete_atoms(b, _fluents(th, False), 0, heads, free)
@@ -302,6 +372,7 @@ def _initial(layout: Layout) -> Template:
 def _transition(layout: Layout) -> Template:
     th = layout.theory
     b = _Builder(layout, "transition")
+    _dead_units(b, (0, 1))
     actions = [gc for gc in th.sig.ground if gc.decl.is_action and gc.decl.kind != "additiveAction"]
     _complete_atoms(b, actions, 0, _heads(th, layout, th.rules["action"]))
     heads = _heads(th, layout, th.rules["static"], shift=True)

@@ -31,10 +31,10 @@ class MemoryRig:
         self.bricks: dict[str, Brick] = {}
         self.events: list = []
 
-    def add(self, name: str = "r1", policy: RetryPolicy = FAST, **kw) -> Brick:
+    def add(self, name: str = "r1", policy: RetryPolicy = FAST, damage=None, **kw) -> Brick:
         emu = make_emulator(name, **kw)
         self.emulators[name] = emu
-        brick = Brick(MemoryTransport(emu, self.clock), name=name, policy=policy,
+        brick = Brick(MemoryTransport(emu, self.clock, damage=damage), name=name, policy=policy,
                       on_event=self.events.append)
         self.bricks[name] = brick
         return brick

@@ -83,9 +83,11 @@ def test_missing_program_is_a_clear_error(rig):
     rig.add("r1", program_running=False)
     rig.emulators["r1"].firmware.files.clear()
     stream = SetpointStream("r1", ("A",), 50, ((0,), (1,)))
-    with pytest.raises(errors.StreamError) as info:
+    with pytest.raises(errors.ExecutionFailed) as info:
         execute_streams([stream], rig.bricks, options=OPTIONS)
+    assert isinstance(info.value.__cause__, errors.StreamError)
     assert str(info.value).startswith("brick r1 has no cplus_follow.rxe: compile")
+    assert info.value.brick == "r1" and info.value.log.brick("r1").reached == "connect"
 
 
 def test_other_program_running_is_a_clear_error(rig):
@@ -93,14 +95,15 @@ def test_other_program_running_is_a_clear_error(rig):
     fw = rig.emulators["r1"].firmware
     fw.files.add("tetris.rxe")
     fw.start_program_now("tetris.rxe")
-    with pytest.raises(errors.StreamError, match="is running 'tetris.rxe', not"):
+    with pytest.raises(errors.ExecutionFailed, match="is running 'tetris.rxe', not"):
         execute_streams([SetpointStream("r1", ("A",), 50, ((0,),))], rig.bricks, options=OPTIONS)
 
 
 def test_brick_that_does_not_answer_is_a_timeout(rig):
     rig.add("r1", faults=FaultParams(delay_ms=5000))
-    with pytest.raises(errors.LinkTimeoutError, match="brick r1 did not answer"):
+    with pytest.raises(errors.ExecutionFailed, match="brick r1 did not answer") as info:
         execute_streams([SetpointStream("r1", ("A",), 50, ((0,),))], rig.bricks, options=OPTIONS)
+    assert isinstance(info.value.__cause__, errors.LinkTimeoutError)
 
 
 @pytest.mark.parametrize("streams, message", [
@@ -168,7 +171,7 @@ def test_log_read_back_resumes_where_it_stopped(rig, wave):
 def test_program_not_running_is_a_clear_error_when_not_started_for_us(rig):
     rig.add("r1", program_running=False)
     options = ExecutionOptions(timing=TIMING, start_program=False)
-    with pytest.raises(errors.StreamError) as info:
+    with pytest.raises(errors.ExecutionFailed) as info:
         execute_streams([SetpointStream("r1", ("A",), 50, ((0,),))], rig.bricks, options=options)
     assert str(info.value) == ("brick r1: no program is running (start cplus_follow.rxe on the "
                                "brick)")

@@ -1,0 +1,28 @@
+"""What `pip install .` installs: every module and data file of the three packages.
+
+The tests run on an editable install, which sees the source tree; only a built wheel shows a
+package or a data file that the packaging configuration leaves out (as happened once with
+`nxt_link.vm`), so build one and compare it with the tree.
+"""
+from __future__ import annotations
+
+import subprocess
+import sys
+import zipfile
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+PACKAGES = ("cplus", "trajectory", "nxt_link")
+
+
+def test_the_wheel_holds_every_file_of_the_packages(tmp_path):
+    proc = subprocess.run([sys.executable, "-m", "pip", "wheel", "--no-deps", "--no-build-isolation", "-q",
+                           "-w", str(tmp_path), str(ROOT)], capture_output=True, text=True)
+    assert proc.returncode == 0, proc.stderr
+    wheel = next(tmp_path.glob("cplus-*.whl"))
+    names = set(zipfile.ZipFile(wheel).namelist())
+    tree = {str(p.relative_to(ROOT)) for pkg in PACKAGES for p in (ROOT / pkg).rglob("*")
+            if p.is_file() and "__pycache__" not in p.parts and p.suffix != ".pyc"}
+    assert len(tree) > 50
+    missing = sorted(tree - names)
+    assert not missing, f"not installed by `pip install .`: {missing}"
