@@ -79,7 +79,7 @@ def test_corrupt_damages_replies_that_the_client_sees(brick_process):
     """Direct commands have no checksum: a flipped byte is caught when it breaks the
     telegram (a resync), or comes back as a wrong value; either way it shows."""
     events: list = []
-    with client(brick_process("--corrupt", "0.3"), events, reply_timeout_s=0.3) as b:
+    with client(brick_process("--corrupt", "0.3"), events, reply_timeout_s=0.3, retries=30) as b:
         values = [b.get_battery_level() for _ in range(30)]
     assert kinds(events) & {"damaged reply", "suspicious status"} or set(values) != {BATTERY_MV}
 
