@@ -1,7 +1,8 @@
 """Shared test settings: the conformance corpus, Hypothesis, and the `slow`/`hardware` markers.
 
-* Hypothesis runs without its per-example deadline (a deadline is a timed assertion: it
-  fails on a loaded machine, not on a wrong answer); example counts bound the run time.
+* Hypothesis runs without its per-example deadline and without the "too slow" health check
+  (both are timed assertions: they fail on a loaded machine, not on a wrong answer); example
+  counts bound the run time.
 * ``slow`` marks tests that must run in real time (a process on a pseudo-terminal, the
   whole job end to end). They run by default, so ``python -m pytest`` is the full suite;
   ``-m "not slow"`` leaves them out for a quick local loop.
@@ -15,12 +16,12 @@ import os
 from pathlib import Path
 
 import pytest
-from hypothesis import settings
+from hypothesis import HealthCheck, settings
 
 ROOT = Path(__file__).resolve().parent.parent
 CORPUS = Path(os.environ.get("CPLUS_CORPUS", ROOT / "tests" / "corpus"))
 
-settings.register_profile("cplus", deadline=None)
+settings.register_profile("cplus", deadline=None, suppress_health_check=[HealthCheck.too_slow])
 settings.load_profile("cplus")
 
 
