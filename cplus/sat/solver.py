@@ -69,6 +69,20 @@ class _Native:
         self._assumptions = assumptions
         return bool(self._solve(self.handle, assumptions, main))
 
+    def solve_limited(self, assumptions: list[int], propagations: int) -> bool | None:
+        budget = getattr(self._mod, self._prefix + "_pbudget", None)
+        if budget is None:                          # CaDiCaL has no propagation budget
+            return self.solve(assumptions)
+        budget(self.handle, max(1, propagations))
+        main = int(threading.current_thread() is threading.main_thread())
+        self._assumptions = assumptions
+        ok = getattr(self._mod, self._prefix + "_solve_lim")(self.handle, assumptions, main, 0)
+        return None if ok is None else bool(ok)
+
+    def propagations(self) -> int:
+        stats = getattr(self._mod, self._prefix + "_acc_stats", None)
+        return int(stats(self.handle).get("propagations", 0)) if stats else 0
+
     def get_model(self) -> list[int]:
         return self._model(self.handle) or []
 
@@ -98,6 +112,20 @@ class _Generic:
 
     def solve(self, assumptions: list[int]) -> bool:
         return bool(self._s.solve(assumptions=assumptions))
+
+    def solve_limited(self, assumptions: list[int], propagations: int) -> bool | None:
+        try:
+            self._s.prop_budget(max(1, propagations))
+        except NotImplementedError:
+            return self.solve(assumptions)
+        ok = self._s.solve_limited(assumptions=assumptions)
+        return None if ok is None else bool(ok)
+
+    def propagations(self) -> int:
+        try:
+            return int((self._s.accum_stats() or {}).get("propagations", 0))
+        except NotImplementedError:
+            return 0
 
     def get_model(self) -> list[int]:
         return self._s.get_model() or []
@@ -148,6 +176,27 @@ class SatSolver:
             raise
         self._model = self._b.get_model() if ok else None
         return ok
+
+    def solve_limited(self, assumptions: list[int], propagations: int) -> bool | None:
+        """:meth:`solve`, giving up after about ``propagations`` unit propagations (None: no
+        answer yet). Propagations measure the solver's work the way time does, but a budget of
+        them gives the same answer on a loaded machine. (A backend without such a budget,
+        CaDiCaL, solves without one.)"""
+        assert self._b is not None
+        try:
+            ok = self._b.solve_limited(list(assumptions), propagations)
+        except Exception as exc:   # pysolvers reports Ctrl-C as its own error
+            if _interrupted(exc):
+                raise KeyboardInterrupt from None
+            raise
+        self._model = self._b.get_model() if ok else None
+        return ok
+
+    @property
+    def propagations(self) -> int:
+        """Unit propagations so far, over every call (what :meth:`solve_limited` budgets)."""
+        assert self._b is not None
+        return self._b.propagations()
 
     def value(self, var: int) -> bool:
         """Truth value of a variable in the last model (unassigned counts as false)."""
