@@ -21,7 +21,7 @@ from hypothesis import HealthCheck, settings
 ROOT = Path(__file__).resolve().parent.parent
 CORPUS = Path(os.environ.get("CPLUS_CORPUS", ROOT / "tests" / "corpus"))
 
-settings.register_profile("cplus", suppress_health_check=[HealthCheck.too_slow])
+settings.register_profile("cplus", deadline=None, suppress_health_check=[HealthCheck.too_slow])
 settings.load_profile("cplus")
 
 
