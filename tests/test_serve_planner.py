@@ -62,7 +62,7 @@ action = st.sampled_from([f"move({o})" for o in OFFICES] + [f"pickup({i})" for i
                          + [f"deliver({i})" for i in (1, 2, 3)])
 
 
-@settings(deadline=None, max_examples=30)
+@settings(max_examples=30)
 @given(requests=st.lists(st.tuples(office, office), min_size=0, max_size=3),
        moves=st.lists(action, max_size=8))
 def test_the_standing_planner_finds_plans_as_short_as_a_fresh_search(mailbot, requests, moves):
@@ -145,7 +145,7 @@ def test_a_run_grounds_once_and_encodes_each_step_once(mailbot, monkeypatch):
     assert calls["horizons"] == 3
 
 
-@settings(deadline=None, max_examples=25)
+@settings(max_examples=25)
 @given(budget=st.integers(min_value=0, max_value=60_000),
        requests=st.lists(st.tuples(office, office), min_size=2, max_size=3))
 def test_whatever_the_budget_the_plan_is_the_shortest_or_closes_the_oldest_goal(mailbot, budget, requests):

@@ -109,6 +109,7 @@ def client_python() -> list[str]:
     return ["/usr/bin/python3"] if Path("/usr/bin/python3").exists() else [sys.executable]
 
 
+@pytest.mark.slow
 @needs_ros
 def test_an_actionlib_client_sends_hears_cancels_and_gets_results(roscore, tmp_path):
     log = tmp_path / "run.jsonl"

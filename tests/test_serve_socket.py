@@ -151,6 +151,7 @@ def test_listen_addresses_are_loopback_only():
             parse_listen(bad)
 
 
+@pytest.mark.slow
 def test_the_command_serves_a_socket_until_sigterm(tmp_path):
     log = tmp_path / "run.jsonl"
     env = dict(os.environ, PYTHONUNBUFFERED="1")

@@ -126,7 +126,7 @@ SEGMENTS = st.lists(st.tuples(st.sampled_from([0.0, -0.0, 0.03, 0.08, -0.2, 0.5,
                     min_size=1, max_size=8)
 
 
-@settings(deadline=None, max_examples=60)
+@settings(max_examples=60)
 @given(PARAMS, SEGMENTS)
 def test_the_motor_step_is_the_reference_bit_for_bit(params, segments):
     fast, ref = MotorPhysics(params), ReferenceMotor(params)
@@ -145,7 +145,7 @@ COMMANDS = st.lists(st.tuples(
     min_size=1, max_size=6)
 
 
-@settings(deadline=None, max_examples=60)
+@settings(max_examples=60)
 @given(COMMANDS)
 def test_the_output_port_step_is_the_reference(commands):
     fast, ref = OutputPort(0), ReferencePort(0, None)
@@ -179,7 +179,7 @@ class ReferenceDisplay(Display):
             x += FONT_WIDTH
 
 
-@settings(deadline=None, max_examples=100)
+@settings(max_examples=100)
 @given(st.lists(st.tuples(st.integers(-10, 110), st.sampled_from([-1, 0, 7, 8, 20, 56, 63, 64]),
                           st.binary(max_size=20)), max_size=12))
 def test_the_screen_draws_as_the_reference(calls):
@@ -198,7 +198,7 @@ INPUT_EVENTS = st.lists(st.tuples(
     st.integers(1, 60)), max_size=10)
 
 
-@settings(deadline=None, max_examples=60)
+@settings(max_examples=60)
 @given(INPUT_EVENTS)
 def test_the_input_module_skips_only_ports_it_would_leave_alone(events):
     fast, ref = [InputPort() for _ in range(4)], [InputPort() for _ in range(4)]

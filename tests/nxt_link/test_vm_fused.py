@@ -235,7 +235,7 @@ def test_a_zero_of_another_sign_is_another_state(rxe):
     assert detector.check(vm, 5100, 1_000_000) == 0
 
 
-@settings(deadline=None, max_examples=300)
+@settings(max_examples=300)
 @given(st.sampled_from([TC.UBYTE, TC.SBYTE, TC.UWORD, TC.SWORD, TC.ULONG, TC.SLONG]),
        st.one_of(st.integers(-2**40, 2**40), st.sampled_from(
            [0, -1, 0x7F, 0x80, 0xFF, 0x100, 0x7FFF, 0x8000, 0xFFFF, 0x10000, 0x7FFFFFFF,

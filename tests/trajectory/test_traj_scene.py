@@ -100,7 +100,7 @@ class TestCollisionExternal:
         assert c(4.9, 1.2, 5.1, 1.2)
         assert c(5.0, 1.0, 5, 1)
 
-    @settings(max_examples=300, deadline=None)
+    @settings(max_examples=300)
     @given(st.integers(-3, 15), st.integers(-3, 9), st.integers(-3, 15), st.integers(-3, 9))
     def test_table_agrees_with_shapely(self, x1: int, y1: int, x2: int, y2: int) -> None:
         scene = SCENE
@@ -112,7 +112,7 @@ class TestCollisionExternal:
     def test_externals(self, payload_scene: Scene) -> None:
         assert payload_scene.externals()["collision"](4, 0, 6, 0) is True
 
-    @settings(max_examples=200, deadline=None)
+    @settings(max_examples=200)
     @given(st.integers(0, 12), st.integers(-1, 7), st.integers(0, 12), st.integers(-1, 7),
            st.sampled_from([int, float, np.int64, np.float64]))
     def test_a_grid_point_is_a_grid_point_whatever_its_number_type(self, x1: int, y1: int, x2: int, y2: int,
@@ -132,7 +132,7 @@ class TestCollisionExternal:
 
 
 class TestWorkspace:
-    @settings(max_examples=60, deadline=None)
+    @settings(max_examples=60)
     @given(st.lists(st.tuples(st.integers(-3, 14), st.integers(-3, 9), st.sampled_from([0.3, 0.5, 1.0, 2.5]),
                               st.sampled_from([0.3, 0.5, 1.0, 2.5])), max_size=25),
            st.lists(st.lists(st.tuples(st.integers(-4, 16), st.integers(-4, 10)), min_size=1, max_size=4),
