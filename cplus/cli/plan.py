@@ -110,18 +110,20 @@ def _plan_domain(args: argparse.Namespace) -> int:
         raise QueryError("this file has no queries; use '--query states' to list its states",
                          file_loc(args.file))
     queries = [query(domain, lab, args.file) for lab in labels]
-    t1 = time.perf_counter()
-    theory = domain.theory
-    t2 = time.perf_counter()
-    warn(domain.diagnostics)
-    if args.stats:
-        print(f"% {args.file}: loaded in {t1 - t0:.3f} s; grounded {theory.rule_count} rules over "
-              f"{len(theory.atoms)} atoms in {t2 - t1:.3f} s", file=sys.stderr)
+    loaded = f"% {args.file}: loaded in {time.perf_counter() - t0:.3f} s; "
     code = EXIT_OK
     docs = []
     for q in queries:
         if len(queries) > 1 and not args.json:
             print(f"% query {q.label}")
+        t1 = time.perf_counter()
+        theory = domain.theory_for(q)     # only what the query's initial state can reach
+        warn(domain.diagnostics)
+        if args.stats:
+            pruned = f", {len(theory.dead)} fluent values unreachable" if theory.initial is not None else ""
+            print(f"{loaded or '% '}grounded {theory.rule_count} rules over {len(theory.atoms)} atoms{pruned} in "
+                  f"{time.perf_counter() - t1:.3f} s", file=sys.stderr)
+            loaded = ""
         every_state = q.label == "states" and q.loc is None   # the built-in query, not a file's
         wanted = args.n if args.n is not None else 0 if every_state else 1
         result = domain.solve(q.label, wanted, args.solver or DEFAULT_SOLVER, args.max_horizon,

@@ -126,6 +126,9 @@ class ClauseBuilder:
 
     # ------------------------------------------------------------------ cardinality
     def exactly_one(self, lits: list[int]) -> None:
+        if not lits:          # none to choose from: no model
+            self.add(False)
+            return
         self.add_clause(list(lits))
         self.at_most_one(lits)  # type: ignore[arg-type]
 
@@ -183,6 +186,8 @@ CONFLICT = [[1], [-1]]
 def _simplify_python(clauses: list[list[int]], keep: int | None) -> list[list[int]]:
     value: dict[int, bool] = {}
     for c in clauses:
+        if not c:
+            return CONFLICT
         if len(c) == 1:
             lit = c[0]
             if value.get(abs(lit), lit > 0) != (lit > 0):

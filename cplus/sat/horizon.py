@@ -19,6 +19,7 @@ from cplus import ir
 from cplus.errors import GroundingError, Location
 from cplus.ground.compile import Ctx, bind, compile_formula
 from cplus.ground.pf import PF, mk_and
+from cplus.ground.restrict import fixed_at_zero, has_step_var
 from cplus.ground.theory import GroundTheory
 from cplus.limits import MAX_SOLVER_VARS, clause_bytes, count, memory_budget, too_large
 from cplus.program import QuerySpec
@@ -56,7 +57,7 @@ class Horizon:
         t0 = time.perf_counter()
         self.theory = theory
         if templates is None:
-            templates = build_templates(theory, unreachable(theory, fixed) if fixed else set())
+            templates = build_templates(theory, _dead(theory, fixed))
         self.layout, self.t_rigid, self.t_init, self.t_trans = templates
         self.template_s = time.perf_counter() - t0
         self.solver = solver_factory(solver)
@@ -174,6 +175,15 @@ class Horizon:
             self.builder.add(self._at(g, t))
 
 
+def _dead(theory: GroundTheory, fixed: set[int] | None) -> frozenset[int] | set[int]:
+    """The fluent values to leave out of the templates, given the atoms fixed at step 0."""
+    if theory.initial is not None:      # ground for one initial state: it must be this one
+        if fixed is None or theory.initial != frozenset(fixed):
+            raise ValueError("this theory was ground for another initial state (see GroundTheory.initial)")
+        return theory.dead
+    return unreachable(theory, fixed) if fixed else set()
+
+
 class QuerySession:
     """Answer one query: horizons in ascending order, then models at the first good one."""
 
@@ -188,7 +198,7 @@ class QuerySession:
         self.ctx = Ctx(self.sig, self.atoms, self._mklit)
         self.items = []
         for formula, loc in query.items:
-            dynamic = ir.mentions(formula, (ir.MaxStepT,)) or _has_step_var(formula)
+            dynamic = ir.mentions(formula, (ir.MaxStepT,)) or has_step_var(formula)
             self.items.append([formula, loc, compile_formula(formula, self.ctx), dynamic, False])
         self.horizon = Horizon(theory, solver, solver_factory, templates,
                                None if templates is not None else self._fixed_at_zero())
@@ -201,23 +211,7 @@ class QuerySession:
 
     # ------------------------------------------------------------------ query items
     def _fixed_at_zero(self) -> set[int]:
-        """Positive atoms the query's permanent items force at step 0 (other literals are
-        read as true, which only weakens the items: what the weakened items force, the
-        items force)."""
-        def mklit(aid: int, t: object) -> PF:
-            return aid if t == 0 and not self.atoms.gc_of[abs(aid)].decl.kind == "rigid" else True  # type: ignore[union-attr]
-        ctx = Ctx(self.sig, self.atoms, mklit)
-        fixed: set[int] = set()
-        for formula, _ in self.query.items:
-            if ir.mentions(formula, (ir.MaxStepT,)) or _has_step_var(formula):
-                continue
-            try:
-                pf = _ground_formula(self.sig, formula, ctx, self.query.lo)
-            except Exception:   # the real grounding of the item reports it
-                continue
-            items = pf[1] if type(pf) is tuple and pf[0] == "&" else (pf,)
-            fixed.update(g for g in items if type(g) is int and g > 0)
-        return fixed
+        return fixed_at_zero(self.sig, self.atoms, self.query)
 
     def _mklit(self, aid: int, t: object) -> PF:
         a = aid if aid > 0 else -aid
@@ -335,31 +329,3 @@ class QuerySession:
                 out.extend(h.var(aid, t) for t in range(last + 1))
             self._projection = out  # type: ignore[assignment]
         return self._projection  # type: ignore[return-value]
-
-
-def _ground_formula(sig, formula: ir.Formula, ctx: Ctx, maxstep: int) -> PF:
-    fn = compile_formula(formula, ctx)
-    parts: list[PF] = []
-    bind(sig, ir.free_vars(formula), [], lambda env: parts.append(fn(env, None)), {"$maxstep": maxstep})
-    return mk_and(parts)
-
-
-def _has_step_var(f) -> bool:
-    from cplus.signature import StepSort
-    return any(isinstance(v.sort, StepSort) for v in ir.free_vars(f).values()) or _quant_step(f)
-
-
-def _quant_step(f) -> bool:
-    from cplus.signature import StepSort
-    if isinstance(f, ir.Quant):
-        return isinstance(f.var.sort, StepSort) or _quant_step(f.body)
-    if isinstance(f, (ir.And, ir.Or)):
-        return any(_quant_step(x) for x in f.items)
-    if isinstance(f, ir.Not):
-        return _quant_step(f.arg)
-    if isinstance(f, (ir.Imp, ir.Iff)):
-        return _quant_step(f.left) or _quant_step(f.right)
-    if isinstance(f, ir.StampF):
-        return _quant_step(f.body)
-    return False
-

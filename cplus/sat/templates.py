@@ -204,7 +204,8 @@ def _complete_atoms(b: _Builder, gcs: list[GroundConst], slot: int, heads: dict,
             b.cb.complete(t, heads.get(t, ()), free)
             b.cb.complete(-t, heads.get(-t, ()), free)
         else:
-            ts = [layout.tid_atom(aid, slot) for aid in atoms.atoms(gc)]
+            dead = layout.dead    # false at every step (their unit clauses are written once)
+            ts = [layout.tid_atom(aid, slot) for aid in atoms.atoms(gc) if aid not in dead]
             for t in ts:
                 b.cb.complete(t, heads.get(t, ()), free)
             b.cb.exactly_one(ts)
@@ -260,7 +261,8 @@ def _table_completion(b: _Builder, gc: GroundConst, slot: int, heads: dict) -> b
                         _nonempty(cb), b._new, cb.at_most_one):  # type: ignore[arg-type]
         return False
     if not gc.boolean:
-        cb.exactly_one(head_tids)
+        dead = layout.dead
+        cb.exactly_one([t for (aid, _), t in zip(lits, head_tids) if aid not in dead])
     return True
 
 
@@ -372,7 +374,7 @@ def _initial(layout: Layout) -> Template:
 def _transition(layout: Layout) -> Template:
     th = layout.theory
     b = _Builder(layout, "transition")
-    _dead_units(b, (0, 1))
+    _dead_units(b, (1,))     # at slot 0 they come from the step before (or the initial template)
     actions = [gc for gc in th.sig.ground if gc.decl.is_action and gc.decl.kind != "additiveAction"]
     _complete_atoms(b, actions, 0, _heads(th, layout, th.rules["action"]))
     heads = _heads(th, layout, th.rules["static"], shift=True)
