@@ -6,7 +6,6 @@ until collision-free (:func:`cplus.robot.refine`) and may be exported as traject
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 import time
 
@@ -26,6 +25,7 @@ from cplus.cli.common import (
     positive_int,
     query,
     robot_exit_code,
+    scene_beside,
 )
 
 __all__ = ["build_parser", "main", "add_common", "add_robot_options"]
@@ -81,7 +81,6 @@ ROBOT_OPTIONS = ("no_refine", "max_iterations", "nogoods", "eager", "trajectory"
 
 def main(args: argparse.Namespace) -> int:
     from cplus.load import STDIN
-    from cplus.robot.task import scene_beside
     scene_path = args.scene or (None if args.file == STDIN else scene_beside(args.file))
     if scene_path is not None:
         args.n = 1 if args.n is None else args.n
@@ -145,6 +144,8 @@ def _plan_domain(args: argparse.Namespace) -> int:
                 print(f"% no solution up to maxstep {args.max_horizon} (--max-horizon)", file=sys.stderr)
             code = max(code, EXIT_LIMIT)
     if args.json:
+        import json
+
         from cplus.output import PLAN_FORMAT
         json.dump({"format": PLAN_FORMAT, "file": args.file, "results": [
             {k: v for k, v in d.items() if k not in ("format", "file")} for d in docs]}, sys.stdout, indent=1)
@@ -213,6 +214,7 @@ def _plan_robot_task(args: argparse.Namespace, scene_path: str) -> int:
             print(f"% {result.reason}", file=sys.stderr)
         code = max(code, robot_exit_code(result.status))
     if args.json:
+        import json
         json.dump({"format": PLAN_FORMAT, "file": args.file, "results": [r.to_json(label) for label, r in results]},
                   sys.stdout, indent=1)
         sys.stdout.write("\n")
