@@ -102,6 +102,9 @@ class Horizon:
         off.extend(range(b0, b0 + L.N))
         off.extend(range(b1, b1 + L.N))
         off.extend(range(aux, aux + n_aux))
+        for part, slot in tpl.extra:
+            b = b1 if slot == 1 else b0
+            self._instantiate(part, b, b)
         if len(tpl.clauses) < _VECTORIZE_FROM or "numpy" not in sys.modules:
             # literal x of the template is entry x + top of a signed table: one C-level lookup
             # per literal, and the solver reads the map object itself (no list per clause)
@@ -134,14 +137,12 @@ class Horizon:
 
     def _check_size(self, m: int, loc: Location | None) -> None:
         steps = m - self.m
-        tpl = self.t_trans
-        if tpl._literals is None:
-            tpl._literals = sum(len(c) for c in tpl.clauses)
-        per_var = self.layout.N + tpl.top - self.layout.base_top
-        need = steps * (clause_bytes(len(tpl.clauses), tpl._literals) + 64 * per_var)
+        n, literals, aux = self.t_trans.size(self.layout.base_top)
+        per_var = self.layout.N + aux
+        need = steps * (clause_bytes(n, literals) + 64 * per_var)
         if need > memory_budget():
-            raise GroundingError(too_large(f"maxstep {count(m)} means {count(steps * len(tpl.clauses))} clauses "
-                                           f"({count(len(tpl.clauses))} per step)", need), loc)
+            raise GroundingError(too_large(f"maxstep {count(m)} means {count(steps * n)} clauses "
+                                           f"({count(n)} per step)", need), loc)
         if self.top + steps * per_var > MAX_SOLVER_VARS:
             raise GroundingError(f"maxstep {count(m)} means {count(self.top + steps * per_var)} solver variables, "
                                  f"more than the solver's limit of {count(MAX_SOLVER_VARS)}", loc)
