@@ -353,11 +353,18 @@ def _cube(layout: Layout, body: PF, gc: GroundConst, slot: int) -> dict | None:
 
 
 def _constraints(b: _Builder, bodies: list[PF], shift: bool = False) -> None:
+    """``not body`` for every constraint, once: a law over two variables of the same sort
+    (``nonexecutable move(D)=L & move(D1)=L1 where D \\= D1``) grounds each pair twice."""
     from cplus.ground.pf import neg
     dead = b.layout.dead
+    seen: set = set()
     for body in bodies:
         if dead and _needs_dead(dead, body):
             continue
+        key = frozenset(body[1]) if type(body) is tuple and body[0] == "&" else body
+        if key in seen:
+            continue
+        seen.add(key)
         if shift:
             body = _shift_static(body)
         b.cb.add(neg(_to_tids(b.layout, body)))
