@@ -119,7 +119,7 @@ class Domain:
               max_horizon: int | None = None) -> Iterator[History]:
         """Every history at the shortest maxstep with one, lazily."""
         query = self.query(label)
-        session = QuerySession(self.theory_for(query), query, solver, max_horizon)
+        session = QuerySession(self.theory_for(query), query, solver, max_horizon, commit=True)
         find_horizon(session)
         if session.found is not None:
             yield from iter_histories(session)

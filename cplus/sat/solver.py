@@ -63,11 +63,25 @@ class _Native:
         self.add_clause = functools.partial(getattr(pysolvers, prefix + "_add_cl"), self.handle)
         self._solve = getattr(pysolvers, prefix + "_solve")
         self._model = getattr(pysolvers, prefix + "_model")
+        self._pbudget = getattr(pysolvers, prefix + "_pbudget", None)
+        self._solve_lim = getattr(pysolvers, prefix + "_solve_lim", None)
+        self._stats = getattr(pysolvers, prefix + "_acc_stats", None)
+
+    def propagations(self) -> int:
+        return int(self._stats(self.handle).get("propagations", 0)) if self._stats else 0
 
     def solve(self, assumptions: list[int]) -> bool:
         main = int(threading.current_thread() is threading.main_thread())
         self._assumptions = assumptions
         return bool(self._solve(self.handle, assumptions, main))
+
+    def solve_limited(self, assumptions: list[int], propagations: int) -> bool | None:
+        if self._pbudget is None or self._solve_lim is None:
+            return self.solve(assumptions)
+        main = int(threading.current_thread() is threading.main_thread())
+        self._assumptions = assumptions
+        self._pbudget(self.handle, propagations)
+        return self._solve_lim(self.handle, assumptions, main, 0)
 
     def get_model(self) -> list[int]:
         return self._model(self.handle) or []
@@ -98,6 +112,12 @@ class _Generic:
 
     def solve(self, assumptions: list[int]) -> bool:
         return bool(self._s.solve(assumptions=assumptions))
+
+    def solve_limited(self, assumptions: list[int], propagations: int) -> bool | None:
+        return self.solve(assumptions)
+
+    def propagations(self) -> int:
+        return 0
 
     def get_model(self) -> list[int]:
         return self._s.get_model() or []
@@ -148,6 +168,24 @@ class SatSolver:
             raise
         self._model = self._b.get_model() if ok else None
         return ok
+
+    def solve_limited(self, assumptions: list[int], propagations: int) -> bool | None:
+        """:meth:`solve`, but give up (None) after about ``propagations`` unit propagations;
+        a backend that cannot be limited (CaDiCaL) solves to the end."""
+        assert self._b is not None
+        try:
+            ok = self._b.solve_limited(list(assumptions), propagations)
+        except Exception as exc:
+            if _interrupted(exc):
+                raise KeyboardInterrupt from None
+            raise
+        self._model = self._b.get_model() if ok else None
+        return None if ok is None else bool(ok)
+
+    def propagations(self) -> int:
+        """Unit propagations so far (0 when the backend does not count them)."""
+        assert self._b is not None
+        return self._b.propagations()
 
     def value(self, var: int) -> bool:
         """Truth value of a variable in the last model (unassigned counts as false)."""
