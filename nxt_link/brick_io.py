@@ -49,6 +49,9 @@ LCD_WIDTH = 100
 FONT_WIDTH = 6
 _RESETS = UPDATE_RESET_COUNT | UPDATE_RESET_BLOCK_COUNT | UPDATE_RESET_ROTATION_COUNT
 _APPLY = UPDATE_MODE | UPDATE_TACHO_LIMIT
+_READ_ONLY = frozenset((OutputField.TACHO_COUNT, OutputField.BLOCK_TACHO_COUNT,
+                        OutputField.ROTATION_COUNT, OutputField.ACTUAL_SPEED,
+                        OutputField.OVERLOAD))
 ERR_INVALID_PORT = -16
 ERR_COMM_CHAN_NOT_READY = -32
 
@@ -76,8 +79,8 @@ class Display:
         for ch in text:
             if x + FONT_WIDTH >= LCD_WIDTH:
                 break
-            for col in [c for c in cells if x - FONT_WIDTH < c < x + FONT_WIDTH]:
-                del cells[col]
+            for col in range(x - FONT_WIDTH + 1, x + FONT_WIDTH):  # the cells it overlaps
+                cells.pop(col, None)
             cells[x] = chr(ch) if 32 <= ch < 127 else "?"
             x += FONT_WIDTH
 
@@ -110,6 +113,8 @@ class FirmwareIO:
     def __init__(self, fw: Firmware, seed: int | None = None) -> None:
         self._fw = fw
         self._out = [_OutputMap() for _ in fw.outputs]
+        #: some port's update flags are set: the output module has work this millisecond
+        self.outputs_written = False
         self.display = Display()
         self.sound_flags = 0
         self.sound_state_value = 0
@@ -120,6 +125,7 @@ class FirmwareIO:
     def reset(self) -> None:
         """Program start and end: pending writes dropped, screen given back."""
         self._out = [_OutputMap() for _ in self._fw.outputs]
+        self.outputs_written = False
         self.display = Display()
         self.semaphores = [0, 0]
 
@@ -166,9 +172,8 @@ class FirmwareIO:
         m = self._out[port]
         if field_id == OutputField.FLAGS:
             m.flags = value
-        elif field_id in (OutputField.TACHO_COUNT, OutputField.BLOCK_TACHO_COUNT,
-                          OutputField.ROTATION_COUNT, OutputField.ACTUAL_SPEED,
-                          OutputField.OVERLOAD):
+            self.outputs_written = True
+        elif field_id in _READ_ONLY:
             return  # read-only fields: the module overwrites them every millisecond
         else:
             m.written[field_id] = value
@@ -182,9 +187,11 @@ class FirmwareIO:
                           OutputField.TURN_RATIO: turn_ratio, OutputField.RUN_STATE: run_state,
                           OutputField.TACHO_LIMIT: tacho_limit})
         m.flags = flags
+        self.outputs_written = True
 
     def apply_output_updates(self) -> None:
         """The output module's turn (``cOutputCtrl``): apply what the flags ask."""
+        self.outputs_written = False
         for port, m in zip(self._fw.outputs, self._out):
             flags = m.flags
             if not flags:

@@ -251,22 +251,26 @@ class BrickEmulator:
     def advance_to(self, t_ms: float) -> None:
         """Run the brick up to simulated time ``t_ms`` (1 ms firmware steps)."""
         fw = self.firmware
+        inbound = self._inbound
         self._process_due()
         while fw.now_ms + 1 <= t_ms:
             fw.tick()
-            self._process_due()
+            if inbound and inbound[0][0] <= fw.now_ms:
+                self._process_due()
 
     def run_until_output(self, limit_ms: float) -> bool:
         """Advance until a frame is deliverable or ``limit_ms``; True if one is."""
         fw = self.firmware
+        inbound, outbound = self._inbound, self._outbound
         self._process_due()
         while True:
-            if self._outbound and self._outbound[0][0] <= fw.now_ms:
+            if outbound and outbound[0][0] <= fw.now_ms:
                 return True
             if fw.now_ms + 1 > limit_ms or not self.link_up:
                 return False
             fw.tick()
-            self._process_due()
+            if inbound and inbound[0][0] <= fw.now_ms:
+                self._process_due()
 
     # -- link: PC -> brick ---------------------------------------------------------
 

@@ -38,14 +38,14 @@ from typing import Protocol
 from nxt_link import telegram as tg
 from nxt_link.brick_io import FirmwareIO
 from nxt_link.errors import TelegramError
-from nxt_link.input_module import InputPort
+from nxt_link.input_module import InputPort, step_ports
 from nxt_link.motor_model import MotorParams
 from nxt_link.output_module import RESET_NONE, OutputPort
 from nxt_link.telegram import Opcode, OutputMode, RegulationMode, RunState
 from nxt_link.vm import flash as fl
 from nxt_link.vm.errors import RxeError, VMError
 from nxt_link.vm.iomap import InputField
-from nxt_link.vm.machine import DEFAULT_INSTRUCTIONS_PER_MS
+from nxt_link.vm.machine import DEFAULT_INSTRUCTIONS_PER_MS, VM
 from nxt_link.vm.program import VMProgram
 from nxt_link.vm.rxe import load_rxe
 
@@ -92,6 +92,11 @@ class FirmwareParams:
             millisecond slice (the brick's CPU speed; an estimate). ``None``:
             every slice runs until all tasks wait (an infinitely fast brick, as
             the Python models assume).
+        vm_fused: the interpreter runs straight-line code as fused blocks
+            (False: one instruction at a time; the same results, slower).
+        vm_skip_busy_waits: the interpreter counts the cycles of a provable
+            busy-wait without running them (False: runs them; the same results,
+            slower).
     """
 
     name: str = "NXT"
@@ -103,6 +108,8 @@ class FirmwareParams:
     firmware_version: tuple[int, int] = (1, 31)
     protocol_version: tuple[int, int] = (1, 124)
     vm_instructions_per_ms: int | None = DEFAULT_INSTRUCTIONS_PER_MS
+    vm_fused: bool = True
+    vm_skip_busy_waits: bool = True
 
 
 class ProgramHost(Protocol):
@@ -198,6 +205,8 @@ class Firmware:
         self.environments: list[Environment] = []
         self.host = _Host(self)
         self._program_handle: int | None = None
+        #: the running program's interpreter (None: a Python model or nothing runs)
+        self._vm: VM | None = None
 
     def attach(self, environment: Environment) -> None:
         """Run ``environment`` every millisecond from now on (after the outputs)."""
@@ -232,7 +241,10 @@ class Firmware:
                 return
             self._program_handle = self.flash.hold(name)
             program = VMProgram(exe, self.io, start_tick=self.now_ms,
-                                instructions_per_ms=self.params.vm_instructions_per_ms)
+                                instructions_per_ms=self.params.vm_instructions_per_ms,
+                                fused=self.params.vm_fused,
+                                skip_busy_waits=self.params.vm_skip_busy_waits)
+            self._vm = program.vm
         elif name in self.programs:
             program = self.programs[name]()
             log.info("%s: no compiled %s in flash: running its Python model",
@@ -256,6 +268,7 @@ class Firmware:
     def _deactivate(self) -> None:
         log.info("program %s stopped at %d ms", self.program_name, self.now_ms)
         self.program = None
+        self._vm = None
         self.program_name = None
         if self._program_handle is not None:
             self.flash.close(self._program_handle)
@@ -270,28 +283,35 @@ class Firmware:
 
     def tick(self) -> None:
         """Advance one millisecond: inputs, program start/stop, program slice, outputs."""
-        self.now_ms += 1
-        for inp in self.inputs:
-            inp.step()
+        self.now_ms = now = self.now_ms + 1
+        step_ports(self.inputs)
         if self._pending_stop:
             self._pending_stop = False
             if self.program is not None:
                 self._deactivate()
-        if self._pending_start is not None and self.now_ms >= self._pending_start[1]:
+        if self._pending_start is not None and now >= self._pending_start[1]:
             name = self._pending_start[0]
             self._pending_start = None
             self._activate(name)
-        if self.program is not None:
+        program = self.program
+        if program is not None:
+            vm = self._vm
             try:
-                self.program.step(self.host)
+                if vm is not None:
+                    running = vm.run_slice(now)
+                else:
+                    program.step(self.host)
+                    running = True
             except VMError as exc:
                 self._program_failed(f"program {self.program_name} aborted: {exc}")
                 self._deactivate()
             else:
-                if isinstance(self.program, VMProgram) and self.program.finished:
+                if not running:
                     log.info("program %s ended", self.program_name)
                     self._deactivate()
-        self.io.apply_output_updates()
+        io = self.io
+        if io.outputs_written:
+            io.apply_output_updates()
         for out in self.outputs:
             out.step()
         for env in self.environments:

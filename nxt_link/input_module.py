@@ -38,7 +38,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 __all__ = ["InputPort", "SensorType", "SensorMode", "light_percent_to_raw", "TOUCH_RAW_PRESSED",
-           "TOUCH_RAW_RELEASED"]
+           "TOUCH_RAW_RELEASED", "step_ports"]
 
 AD_MAX = 1023
 _THRESHOLD_FALSE = AD_MAX * 45 // 100
@@ -266,6 +266,17 @@ class InputPort:
                 self.scaled = _s16(self.scaled - 1)
                 self._last_angle = sample
             self._samples = 0
+
+
+def step_ports(ports: list[InputPort]) -> None:
+    """One millisecond of the input module for every port: :meth:`InputPort.step`, skipped
+    for a port it would leave as it is (no analog sensor, no type change or invalid data
+    pending)."""
+    for p in ports:
+        t = p.sensor_type
+        if t == p._old_type and not p._invalid_timer and not p.invalid and t not in _ANALOG:
+            continue
+        p.step()
 
 
 def _s16(v: int) -> int:

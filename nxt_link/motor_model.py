@@ -105,23 +105,25 @@ class MotorPhysics:
     def speed_deg_s(self) -> float:
         return self.speed_rad_s * _DEG
 
-    def _encoder_angle(self) -> float:
-        return self.output_deg if self.params.encoder_after_backlash else self.motor_deg
-
     def step(self, duty: float, driven: bool, dt_s: float = 0.001) -> int:
         """Advance by ``dt_s``; return the encoder counts crossed (signed).
 
         Args:
             duty: -1..1, applied PWM duty (ignored when not ``driven``).
             driven: the H-bridge drives the winding (MOTORON); False = coast.
+
+        Runs three times per simulated millisecond, so it is written out in one
+        function, with a shortcut for a motor at rest that nothing drives (its
+        angles, play and encoder count were settled by the previous step).
         """
-        p = self.params
         w = self.speed_rad_s
-        if self.blocked:
-            self._finish(0.0, 0.0, dt_s)
-            return self._count()
+        if w == 0.0 and (not driven or duty == 0.0) or self.blocked:
+            self.speed_rad_s = 0.0
+            return 0
+        p = self.params
         if driven:
-            duty = max(-1.0, min(1.0, duty))
+            if not -1.0 <= duty <= 1.0:
+                duty = max(-1.0, min(1.0, duty))
             a = self._k_drive * duty * p.supply_v
             b = self._b_drive
         else:
@@ -134,37 +136,33 @@ class MotorPhysics:
             direction = 1.0 if a > 0 else -1.0
         else:
             direction = 0.0
-        if w == 0.0:
-            net = abs(a) - p.load_nm
-            if direction == 0.0 or net <= p.static_nm:
-                w_new = 0.0
-                self._finish(0.0, 0.0, dt_s)
-                return self._count()
-        f = direction * (p.coulomb_nm + p.load_nm)
-        j = p.inertia_kg_m2
-        if b > 1e-12:
-            w_inf = (a - f) / b
-            w_new = w_inf + (w - w_inf) * math.exp(-b * dt_s / j)
+        w_new = 0.0
+        if w != 0.0 or (direction != 0.0 and abs(a) - p.load_nm > p.static_nm):
+            f = direction * (p.coulomb_nm + p.load_nm)
+            j = p.inertia_kg_m2
+            if b > 1e-12:
+                w_inf = (a - f) / b
+                w_new = w_inf + (w - w_inf) * math.exp(-b * dt_s / j)
+            else:
+                w_new = w + (a - f) * dt_s / j
+            if direction != 0.0 and w_new * direction < 0.0:
+                w_new = 0.0  # friction stops the motor; it does not reverse it
+            w_max = self._w_max
+            if not -w_max <= w_new <= w_max:
+                w_new = max(-w_max, min(w_max, w_new))
         else:
-            w_new = w + (a - f) * dt_s / j
-        if direction != 0.0 and w_new * direction < 0.0:
-            w_new = 0.0  # friction stops the motor; it does not reverse it
-        w_new = max(-self._w_max, min(self._w_max, w_new))
-        self._finish(w, w_new, dt_s)
-        return self._count()
-
-    def _finish(self, w_old: float, w_new: float, dt_s: float) -> None:
+            w = 0.0  # at rest, held by static friction
+        # the angles (trapezoidal), the play, then the encoder
         self.speed_rad_s = w_new
-        self.motor_deg += 0.5 * (w_old + w_new) * dt_s * _DEG
-        gap = self.motor_deg - self.output_deg
-        b = self.params.backlash_deg
-        if gap > b:
-            self.output_deg = self.motor_deg - b
-        elif gap < -b:
-            self.output_deg = self.motor_deg + b
-
-    def _count(self) -> int:
-        total = math.floor(self._encoder_angle() + 0.5)
+        self.motor_deg = motor = self.motor_deg + 0.5 * (w + w_new) * dt_s * _DEG
+        out = self.output_deg
+        gap = motor - out
+        play = p.backlash_deg
+        if gap > play:
+            self.output_deg = out = motor - play
+        elif gap < -play:
+            self.output_deg = out = motor + play
+        total = math.floor((out if p.encoder_after_backlash else motor) + 0.5)
         delta = total - self._encoder_total
         self._encoder_total = total
         return delta

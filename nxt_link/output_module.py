@@ -115,10 +115,11 @@ class OutputPort:
             self._reg_ms = 0
             self._reg_duty = float(power)
         self.power = power
-        self.mode = mode & 0x07
-        self.regulation_mode = regulation_mode
+        # plain ints: enum flag arithmetic would cost microseconds on the 1 ms path
+        self.mode = int(mode) & 0x07
+        self.regulation_mode = int(regulation_mode)
         self.turn_ratio = turn_ratio
-        self.run_state = run_state
+        self.run_state = int(run_state)
         self.tacho_limit = tacho_limit
         if tacho_limit == 0:
             self._target = None
@@ -164,30 +165,38 @@ class OutputPort:
 
     def step(self) -> None:
         """Advance the port by 1 ms: drive the motor, count, apply the tacho limit."""
-        if self.run_state == _IDLE:
+        run_state = self.run_state
+        mode = self.mode
+        if run_state == _IDLE:
             # released: the applied duty decays by 1 %/ms, then the motor coasts
-            if self._duty_pct > 0:
-                self._duty_pct = max(0.0, self._duty_pct - 1.0)
-            elif self._duty_pct < 0:
-                self._duty_pct = min(0.0, self._duty_pct + 1.0)
-            driven = self._duty_pct != 0.0 and bool(self.mode & _MOTORON)
-        elif not self.mode & _MOTORON:
-            self._duty_pct = 0.0
+            duty = self._duty_pct
+            if duty > 0:
+                self._duty_pct = duty = max(0.0, duty - 1.0)
+            elif duty < 0:
+                self._duty_pct = duty = min(0.0, duty + 1.0)
+            driven = duty != 0.0 and bool(mode & _MOTORON)
+        elif not mode & _MOTORON:
+            self._duty_pct = duty = 0.0
             driven = False
         else:
-            self._duty_pct = self._commanded_duty()
+            if run_state == _RUNNING and not mode & _REGULATED:
+                duty = float(self.power)  # _commanded_duty's plain case
+            else:
+                duty = self._commanded_duty()
+            self._duty_pct = duty
             driven = True
-        counts = self.motor.step(self._duty_pct / 100.0, driven)
+        counts = self.motor.step(duty / 100.0, driven)
         if counts:
             self.tacho_count += counts
             self.block_tacho_count += counts
             self.rotation_count += counts
-        self._reg_counts += counts
+            self._reg_counts += counts
         self._reg_ms += 1
-        if (self._target is not None and self.run_state == _RUNNING
+        target = self._target
+        if (target is not None and self.run_state == _RUNNING
                 and self.mode & _MOTORON):
             direction = 1 if self.power > 0 else -1
-            if direction * (self.tacho_count - self._target) >= 0:
+            if direction * (self.tacho_count - target) >= 0:
                 # limit reached: power cut, the motor coasts past the target
                 self.run_state = _IDLE
                 self._duty_pct = 0.0

@@ -49,6 +49,7 @@ def test_streams_carry_ports_tick_setpoints_and_limits(traj_file):
         assert s.limits_deg == tuple((m.min_deg, m.max_deg) for m in robot.motors)
 
 
+@pytest.mark.slow
 def test_execute_on_emulated_bricks_writes_log_report_and_plot(traj_file, tmp_path, capsys):
     log_path, plot_path = tmp_path / "exec.json", tmp_path / "fig5.png"
     code = execute_main([str(traj_file), "--log", str(log_path), "--plot", str(plot_path), *FAST])
@@ -69,6 +70,7 @@ def test_execute_on_emulated_bricks_writes_log_report_and_plot(traj_file, tmp_pa
     assert all(r.max_grid < 0.2 for r in report.robots)
 
 
+@pytest.mark.slow
 def test_execute_on_given_ports(traj_file, tmp_path, capsys):
     servers = [nxt_link.PtyBrickServer(nxt_link.BrickEmulator(nxt_link.EmulatorConfig(
         name=n, link=nxt_link.LinkParams.instant(), stale_frame_ms=2500)), time_scale=10)
@@ -298,6 +300,7 @@ def test_cplus_run_refuses_an_out_that_is_a_file(tmp_path, capsys):
     assert "--out" in capsys.readouterr().err
 
 
+@pytest.mark.slow
 def test_cplus_run_is_fast_by_default_and_names_every_file(tmp_path, capsys):
     out = tmp_path / "out"
     code = run_main([str(ROOT / "domains/payload/payload.cp"), "--out", str(out), "--step-time",

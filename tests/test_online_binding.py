@@ -103,7 +103,7 @@ def test_readings_map_to_values(domain):
     assert night.crossed(None, 10) and night.crossed(30, 10) and not night.crossed(10, 5) and not night.crossed(25, 30)
 
 
-@settings(max_examples=50, deadline=None)
+@settings(max_examples=50)
 @given(st.lists(st.integers(-100, 200), min_size=1, max_size=4, unique=True).map(sorted), st.integers(-500, 500))
 def test_thresholds_pick_the_interval_of_the_reading(thresholds, reading):
     d = Domain.from_text(":- constants lvl :: inertialFluent(0..9).\n:- query label :: g; maxstep :: 0; 0: lvl=0.")

@@ -170,6 +170,7 @@ def test_a_brick_that_cannot_be_opened_is_exit_7(delivery, tmp_path, capsys):
     assert [r["record"] for r in records(log)] == ["start", "end"]
 
 
+@pytest.mark.slow
 def test_the_delivery_domain_alone_runs_on_its_emulated_world(tmp_path, capsys):
     """`cplus online domains/delivery/delivery.cp`: the emulated brick in world.toml (ten times
     faster), a button press on the way and a re-plan, to the goal."""
@@ -187,6 +188,7 @@ def test_the_delivery_domain_alone_runs_on_its_emulated_world(tmp_path, capsys):
     assert [r["sensed"].get("atLandmark") for r in cycles if r["sensed"]] == [2, 3, 2, 1]
 
 
+@pytest.mark.slow
 def test_a_brick_given_by_its_port(tmp_path, capsys):
     """--brick robot=PTY: a brick served on a pseudo-terminal by another party (here, in the
     test; `cplus brick --world world.toml` does the same as a process)."""

@@ -285,7 +285,7 @@ def test_stop_ends_the_run_between_cycles(model):
     assert result.status is OnlineStatus.STOPPED and len(result.records) == 4
 
 
-@settings(max_examples=25, deadline=None)
+@settings(max_examples=25)
 @given(presses=st.sets(st.integers(0, 8), max_size=3), misses=st.sets(st.integers(0, 8), max_size=2))
 def test_the_estimate_tracks_the_simulated_world(model, presses, misses):
     """Whatever presses and misses happen, the loop's state is the simulated world's state at

@@ -107,6 +107,7 @@ def test_a_blocked_track_fails_the_follow(setup):
     assert result.message.startswith("follow failed at cycle 0: follow on brick robot: stuck")
 
 
+@pytest.mark.slow
 def test_a_brick_that_goes_away_is_lost(setup):
     """The emulated brick's pseudo-terminal disappears during cycle 2 (a robot switched off)."""
     model, binding = setup
@@ -123,6 +124,7 @@ def test_a_brick_that_goes_away_is_lost(setup):
     assert executed(result) == ["follow", "follow", "turn"] and result.records[-1].failure
 
 
+@pytest.mark.slow
 def test_the_emulated_robot_over_a_pty(setup):
     """The same loop through the serial path: the emulator on a pseudo-terminal, ten times
     faster than real time."""

@@ -229,6 +229,7 @@ def test_no_plan_in_a_closed_range(tmp_path, capsys):
     assert [x for x in out.splitlines() if x] == [f"No solution with maxstep {m}." for m in (2, 3, 4)]
 
 
+@pytest.mark.slow
 def test_cplus_run_the_whole_job_on_emulated_bricks(tmp_path, capsys):
     """Plan, refine, trajectory, execution on two emulated bricks (through their ptys),
     tracking report and pictures, all from one command."""

@@ -41,6 +41,12 @@ class TrajectoryError(Exception):
 
     ``message`` is the bare text; ``location`` (optional) says where in which file.
     ``str(err)`` is ``file:line:col: error: message`` when located, else ``error: message``.
+
+    >>> str(TrajectoryError("robot r3 is not in the scene"))
+    'error: robot r3 is not in the scene'
+    >>> err = SceneError("payload.length must be positive", Location("scene.toml", 12, 10))
+    >>> str(err), err.message
+    ('scene.toml:12:10: error: payload.length must be positive', 'payload.length must be positive')
     """
 
     def __init__(self, message: str, location: Location | None = None) -> None:

@@ -12,6 +12,25 @@ sample's joint value through the gear ratio, rounded (within one degree). The CS
 
 `trajectory_to_dict` / `trajectory_from_dict` and `to_csv_text` are pure; `save_json`,
 `save_csv` and `load_trajectory` add the file I/O.
+
+>>> from trajectory import StepState, build_trajectory, parse_scene
+>>> from trajectory.scene import EXAMPLE_SCENE
+>>> held = {"pl1": "r1", "pl2": "r2"}
+>>> states = [StepState({"r1": (1, 1), "r2": (1, 4)}, {"pl1": (1, 1), "pl2": (1, 4)}, held),
+...           StepState({"r1": (4, 1), "r2": (4, 4)}, {"pl1": (4, 1), "pl2": (4, 4)}, held)]
+>>> traj = build_trajectory(parse_scene(EXAMPLE_SCENE, "example.toml"), states, check=False,
+...                         points_per_step=2, step_time_s=0.2)
+>>> doc = trajectory_to_dict(traj)
+>>> doc["format"], doc["tick_ms"], doc["robots"][0]["samples"]["x"]
+('cplus.trajectory/1', 100, [1, 2.5, 4])
+>>> trajectory_from_dict(doc).robot("r1").setpoints_deg.tolist() == traj.robot("r1").setpoints_deg.tolist()
+True
+>>> print(to_csv_text(traj).splitlines()[0])
+robot,tick,t_s,step,x,y,s,theta_deg,A_deg,B_deg
+>>> trajectory_from_dict({"format": "cplus.trajectory/1"})
+Traceback (most recent call last):
+...
+trajectory.errors.TrajectoryFormatError: error: trajectory.json: tick_ms: missing
 """
 
 from __future__ import annotations

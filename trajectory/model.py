@@ -44,7 +44,13 @@ def frozen_array(values: npt.ArrayLike, dtype: type = float) -> npt.NDArray[Any]
 
 @dataclass(frozen=True, slots=True)
 class MotorChannel:
-    """One motor of one robot and how its degrees relate to its joint."""
+    """One motor of one robot and how its degrees relate to its joint.
+
+    >>> arm_motor = MotorChannel("C", "theta", deg_per_unit=5.0, offset_deg=0.0, zero_joint=20.0,
+    ...                          min_deg=-75, max_deg=775)
+    >>> float(arm_motor.motor_deg(30.0)), float(arm_motor.joint_value(50.0))   # 10 deg = 50 motor deg
+    (50.0, 30.0)
+    """
 
     port: str
     joint: str

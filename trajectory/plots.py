@@ -55,6 +55,10 @@ def swept_region_for_display(a1: Sequence[float], a2: Sequence[float], b1: Seque
 
     Made of the quadrilaterals between ``samples`` intermediate positions of the segment;
     the checker never uses it (its test is exact, see `geometry`).
+
+    >>> region = swept_region_for_display((0, 0), (0, 5), (4, 0), (4, 5))   # slid 4 to the right
+    >>> [round(v, 2) for v in region.bounds], round(region.area, 1)
+    ([-0.0, -0.0, 4.0, 5.0], 20.0)
     """
     pieces = []
     us = np.linspace(0.0, 1.0, samples + 1)

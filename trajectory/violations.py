@@ -34,6 +34,13 @@ class Violation:
     ``u`` in [0, 1] is when it starts within that motion (0 = at state ``step``) and
     ``point`` where. ``subject`` is ``"payload"``, a robot name or a payload-end name;
     ``obstacle`` names the obstacle hit, if any.
+
+    >>> v = Violation(2, ViolationKind.PAYLOAD_LENGTH, 0.25, (3.0, 4.0), "payload", "too short")
+    >>> v.time_s(step_time_s=2.0)   # a quarter into the motion from state 2 to 3
+    4.5
+    >>> w = Violation(2, ViolationKind.DETACHED, 0.25, (3.0, 4.0), "pl1", "dropped")
+    >>> [x.kind.value for x in sorted([v, w], key=lambda x: x.sort_key)]   # same time: by kind
+    ['detached', 'payload-length']
     """
 
     step: int

@@ -31,6 +31,15 @@ class Workspace:
     """Obstacles as an STRtree plus a prepared union; answers segment-versus-obstacle queries.
 
     Immutable after construction except for its caches, which never change an answer.
+
+    >>> from shapely.geometry import box
+    >>> ws = Workspace([box(2, 0, 3, 1)], grid=(0, 5, 0, 5))
+    >>> ws.collision(0, 0, 5, 0), ws.collision(0, 2, 5, 2)    # grid points: from the table
+    (True, False)
+    >>> ws.collision(2.5, 0.5, 2.5, 0.5), ws.collision(0.5, 1.5, 3.5, 1.01)   # others: exact
+    (True, False)
+    >>> ws.hits(box(2.5, 0.5, 4, 4)), ws.hits(box(4, 4, 5, 5))
+    ([0], [])
     """
 
     def __init__(self, polygons: Sequence[Polygon], grid: tuple[int, int, int, int]) -> None:

@@ -224,12 +224,16 @@ class Estimate:
 @dataclass
 class Plan:
     """A plan from a state: the agent's actions per step and the states it predicts
-    (``states[0]`` is the state planned from, ``states[i+1]`` the prediction after step i)."""
+    (``states[0]`` is the state planned from, ``states[i+1]`` the prediction after step i).
+
+    A ``partial`` plan reaches only part of the goal (a planner that serves goals one at a
+    time, :mod:`cplus.robot.standing`): when it has been carried out, the loop plans again."""
 
     steps: list[list[Act]]
     states: list[State]
     history: History
     seconds: float = 0.0
+    partial: bool = False
 
     @property
     def length(self) -> int:
@@ -243,7 +247,7 @@ class Plan:
         """The plan without its first step (what remains once that step was executed)."""
         h = self.history
         rest = History(h.maxstep - 1, h.rigid, h.states[1:], h.actions[1:])
-        return Plan(self.steps[1:], self.states[1:], rest, 0.0)
+        return Plan(self.steps[1:], self.states[1:], rest, 0.0, self.partial)
 
 
 class OnlineModel:

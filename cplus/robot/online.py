@@ -183,8 +183,9 @@ class EventSource(ABC):
 @dataclass
 class Replan:
     """Why the plan of a cycle was made: ``"start"``, ``"event"`` (an observed event changed
-    the state) or ``"diverged"`` (a sensed value or an inferred event did), with each fluent
-    whose estimated value differs from the prediction."""
+    the state), ``"diverged"`` (a sensed value or an inferred event did) or ``"partial"`` (the
+    last plan reached part of the goal, :attr:`Plan.partial`), with each fluent whose
+    estimated value differs from the prediction."""
 
     reason: str
     differ: dict[GroundConst, tuple[object, object]] = field(default_factory=dict)
@@ -474,6 +475,8 @@ class OnlineLoop:
             # monitor
             if predicted is not None and new == predicted:
                 plan, reason = plan.rest(), None
+                if plan.length == 0 and plan.partial:   # part of the goal reached: plan the rest
+                    plan, reason = None, Replan("partial")
             elif predicted is None and new == state:
                 reason = None               # an idle step that changed nothing
             else:

@@ -63,12 +63,6 @@ class _Native:
         self.add_clause = functools.partial(getattr(pysolvers, prefix + "_add_cl"), self.handle)
         self._solve = getattr(pysolvers, prefix + "_solve")
         self._model = getattr(pysolvers, prefix + "_model")
-        self._pbudget = getattr(pysolvers, prefix + "_pbudget", None)
-        self._solve_lim = getattr(pysolvers, prefix + "_solve_lim", None)
-        self._stats = getattr(pysolvers, prefix + "_acc_stats", None)
-
-    def propagations(self) -> int:
-        return int(self._stats(self.handle).get("propagations", 0)) if self._stats else 0
 
     def solve(self, assumptions: list[int]) -> bool:
         main = int(threading.current_thread() is threading.main_thread())
@@ -76,12 +70,18 @@ class _Native:
         return bool(self._solve(self.handle, assumptions, main))
 
     def solve_limited(self, assumptions: list[int], propagations: int) -> bool | None:
-        if self._pbudget is None or self._solve_lim is None:
+        budget = getattr(self._mod, self._prefix + "_pbudget", None)
+        if budget is None:                          # CaDiCaL has no propagation budget
             return self.solve(assumptions)
+        budget(self.handle, max(1, propagations))
         main = int(threading.current_thread() is threading.main_thread())
         self._assumptions = assumptions
-        self._pbudget(self.handle, propagations)
-        return self._solve_lim(self.handle, assumptions, main, 0)
+        ok = getattr(self._mod, self._prefix + "_solve_lim")(self.handle, assumptions, main, 0)
+        return None if ok is None else bool(ok)
+
+    def propagations(self) -> int:
+        stats = getattr(self._mod, self._prefix + "_acc_stats", None)
+        return int(stats(self.handle).get("propagations", 0)) if stats else 0
 
     def get_model(self) -> list[int]:
         return self._model(self.handle) or []
@@ -114,10 +114,18 @@ class _Generic:
         return bool(self._s.solve(assumptions=assumptions))
 
     def solve_limited(self, assumptions: list[int], propagations: int) -> bool | None:
-        return self.solve(assumptions)
+        try:
+            self._s.prop_budget(max(1, propagations))
+        except NotImplementedError:
+            return self.solve(assumptions)
+        ok = self._s.solve_limited(assumptions=assumptions)
+        return None if ok is None else bool(ok)
 
     def propagations(self) -> int:
-        return 0
+        try:
+            return int((self._s.accum_stats() or {}).get("propagations", 0))
+        except NotImplementedError:
+            return 0
 
     def get_model(self) -> list[int]:
         return self._s.get_model() or []
@@ -170,20 +178,23 @@ class SatSolver:
         return ok
 
     def solve_limited(self, assumptions: list[int], propagations: int) -> bool | None:
-        """:meth:`solve`, but give up (None) after about ``propagations`` unit propagations;
-        a backend that cannot be limited (CaDiCaL) solves to the end."""
+        """:meth:`solve`, giving up after about ``propagations`` unit propagations (None: no
+        answer yet). Propagations measure the solver's work the way time does, but a budget of
+        them gives the same answer on a loaded machine. (A backend without such a budget,
+        CaDiCaL, solves without one.)"""
         assert self._b is not None
         try:
             ok = self._b.solve_limited(list(assumptions), propagations)
-        except Exception as exc:
+        except Exception as exc:   # pysolvers reports Ctrl-C as its own error
             if _interrupted(exc):
                 raise KeyboardInterrupt from None
             raise
         self._model = self._b.get_model() if ok else None
-        return None if ok is None else bool(ok)
+        return ok
 
+    @property
     def propagations(self) -> int:
-        """Unit propagations so far (0 when the backend does not count them)."""
+        """Unit propagations so far, over every call (what :meth:`solve_limited` budgets)."""
         assert self._b is not None
         return self._b.propagations()
 

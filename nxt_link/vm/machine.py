@@ -10,15 +10,23 @@ fire counts drop and those reaching zero are queued), calls a subroutine
 (``subcall``: the callee is queued, the caller resumes at ``subret``), waits
 for a mutex or sleeps (``wait``). The program ends when both the run and the
 rest queue are empty (clumps blocked on a mutex do not keep it alive), or at
-``stop``.
+``stop``. A clump alone in the run queue is not stopped every 20 instructions
+(the rotation would give the CPU back to it; only ``release`` can queue another
+clump in the middle of a turn, so programs that use it always rotate), and a
+slice that provably goes round in circles is cut short (:mod:`nxt_link.vm.spin`).
 
-Instructions are compiled once, at load, into Python closures specialised on
-their operands' types (each returns the index of the next instruction), so a
-typical NXC statement costs a few hundred nanoseconds. Fatal errors the
-firmware would abort the program for — an unknown opcode or system call, an
-array index out of range, a jump outside the clump, running out of memory —
-raise :class:`~nxt_link.vm.errors.VMError` naming the opcode, the program
-counter and the clump; nothing is ever skipped silently.
+Instructions are compiled once, at load: into closures specialised on their
+operands' types (each returns the offset of the next instruction, or a
+negative event code), the common ones from source templates; straight-line
+runs of them are then fused into one generated function each
+(:mod:`nxt_link.vm.fuse`), so that a typical instruction costs a few tens of
+nanoseconds. None of this changes what a program does: instruction counts,
+turns and slices are the firmware's (tests compare the fused and the plain
+interpreter, millisecond by millisecond). Fatal errors the firmware would
+abort the program for — an unknown opcode or system call, an array index out
+of range, a jump outside the clump, running out of memory — raise
+:class:`~nxt_link.vm.errors.VMError` naming the opcode, the program counter
+and the clump; nothing is ever skipped silently.
 """
 from __future__ import annotations
 
@@ -29,6 +37,7 @@ from typing import Any
 
 from nxt_link.vm import poly
 from nxt_link.vm.errors import VMError
+from nxt_link.vm.fuse import Fuser, Step
 from nxt_link.vm.iomap import (
     INPUT_FIELD_TYPES,
     NO_OF_INPUTS,
@@ -47,6 +56,7 @@ from nxt_link.vm.rxe import (
     decode_clump,
     expected_size,
 )
+from nxt_link.vm.spin import SPIN_AFTER, SPIN_SOON, SpinDetector
 from nxt_link.vm.syscalls import SYSCALLS, SyscallError
 from nxt_link.vm.values import (
     INT_TYPES,
@@ -72,10 +82,19 @@ INSTRUCTIONS_PER_TURN = 20
 #: instructions the emulated ARM7 gets through in one millisecond slice (an estimate)
 DEFAULT_INSTRUCTIONS_PER_MS = 500
 NOT_A_DS_ID = 0xFFFF
+_NEVER = 1 << 62
 
 # events a closure signals by returning ~resume_index (a negative number)
 _DONE, _SUSPEND, _ROTATE, _STOP = 1, 2, 3, 4
 Op = Callable[[], int]
+# instructions that may not fall through to the next one (they end a fused block):
+# JMP, BRCMP, BRTST, STOP, FINCLUMP, FINCLUMPIMMED, ACQUIRE, SUBCALL, SUBRET, WAIT
+_LONG_ENDS = frozenset((0x25, 0x26, 0x27, 0x29, 0x2A, 0x2B, 0x2C, 0x2E, 0x2F, 0x34))
+_SHORT_ENDS = frozenset((1, 3))  # short ACQUIRE, SUBCALL
+# Python operators of the integer binops and the condition codes (for templates)
+_BINOP_SYMBOLS = {poly.OP_ADD: "+", poly.OP_SUB: "-", poly.OP_MUL: "*", poly.OP_AND: "&",
+                  poly.OP_OR: "|", poly.OP_XOR: "^"}
+_CC_SYMBOLS = {0: "<", 1: ">", 2: "<=", 3: ">=", 4: "==", 5: "!="}
 
 
 class _Fault(Exception):
@@ -101,10 +120,21 @@ class VM:
             until every clump waits (an infinitely fast CPU, for comparing the
             program with a model that takes no time), at most
             ``1_000_000`` instructions per slice.
+        fused: run straight-line code as fused blocks (:mod:`nxt_link.vm.fuse`);
+            False: one instruction at a time. The results are the same.
+        skip_busy_waits: count the whole cycles of a slice that provably goes
+            round in circles without running them (:mod:`nxt_link.vm.spin`);
+            the results are the same.
+
+    Attributes:
+        instructions: instructions the program has executed, as the brick counts
+            them (busy-wait cycles included).
+        skipped: how many of them were counted without being run.
     """
 
     def __init__(self, exe: Executable, io: BrickIO, *, start_tick: int = 0,
-                 instructions_per_ms: int | None = DEFAULT_INSTRUCTIONS_PER_MS) -> None:
+                 instructions_per_ms: int | None = DEFAULT_INSTRUCTIONS_PER_MS,
+                 fused: bool = True, skip_busy_waits: bool = True) -> None:
         self.exe = exe
         self.io = io
         self.types = exe.types
@@ -119,10 +149,19 @@ class VM:
         self._add_cluster_members()
         n = len(exe.clumps)
         self.fire = [c.fire_count for c in exe.clumps]
+        self._fire_counts = tuple(self.fire)
         self.pcs = [0] * n
         self.runq: list[int] = [c.index for c in exe.clumps if c.fire_count == 0]
         self.restq: list[int] = []
         self.awaken = [0] * n
+        self._next_wake = _NEVER  # earliest wake-up time in the rest queue
+        #: counts the instructions that changed something outside the VM's memory
+        self.io_epoch = 0
+        self._polled = False  # this slice read the tick, a port or a read-only syscall
+        self._spin = SpinDetector()
+        self._skip_busy_waits = skip_busy_waits and self.budget > SPIN_AFTER
+        self._spent = False  # the last slice used up its budget
+        self.skipped = 0
         self.instructions = 0
         self.finished = False
         self.error: VMError | None = None
@@ -136,7 +175,20 @@ class VM:
                 self._account(i, self.mem[i])
         self._event_pc = 0
         self._event = 0
-        self.ops: list[list[Op]] = [self._compile_clump(c.index) for c in exe.clumps]
+        self._fuser = Fuser({"m": self.mem, "vm": self, "wrap": wrap, "store": store,
+                             "s32": poly.s32, "int_of": int_of, "index_fault": _index_fault,
+                             "port_fault": _port_fault, "io_get": io.output_get,
+                             "io_set": io.output_set})
+        compiled = [self._compile_clump(c.index) for c in exe.clumps]
+        self.ops: list[list[Op]] = [ops for ops, _ in compiled]
+        self.fused = fused
+        # only RELEASE adds a clump to the run queue in the middle of a turn; without
+        # it, a clump alone in the queue stays alone until its turn ends with an event
+        self._solo_ok = not any(ins.opcode == (2 if ins.short else 0x2D)
+                                for c in exe.clumps for ins in decode_clump(exe.code, c))
+        fns, lens = self._fuser.build(compiled, blocks=fused)
+        #: per clump: block functions (or instructions) and lengths by offset, instructions
+        self._code = [(f, n, ops) for f, n, ops in zip(fns, lens, self.ops)]
 
     def _add_cluster_members(self) -> None:
         """Members of top-level clusters are addressable (they are top-level storage)."""
@@ -202,34 +254,71 @@ class VM:
             return False
         self.tick = tick
         rq = self.runq
-        if self.restq:
-            for c in list(self.restq):
-                if self.awaken[c] <= tick:
-                    self.restq.remove(c)
-                    rq.append(c)
+        restq = self.restq
+        if restq and tick >= self._next_wake:
+            self._wake(tick)
+        if not rq:
+            if restq:
+                return True  # every clump sleeps: nothing to run this millisecond
+            self.finished = True
+            return False
         budget = self.budget
         executed = 0
-        ops_all = self.ops
+        code = self._code
         pcs = self.pcs
+        solo_ok = self._solo_ok
+        spin_from = ((SPIN_SOON if self._spent else SPIN_AFTER) if self._skip_busy_waits
+                     else _NEVER)
+        if spin_from != _NEVER:
+            self._polled = False
+            self._spin.reset()
         try:
             while rq:
+                if executed >= spin_from and self._polled:
+                    skip = self._spin.check(self, executed, budget)
+                    if skip:  # whole cycles of a busy-wait: counted, not run
+                        executed += skip
+                        self.skipped += skip
+                        spin_from = _NEVER
                 c = rq[0]
-                ops = ops_all[c]
+                fns, lens, ops = code[c]
                 pc = pcs[c]
                 # the turn: 20 instructions, fewer when the slice is nearly used up; at
-                # least one even past the end of the slice (as after a clump switch)
+                # least one even past the end of the slice (as after a clump switch).
+                # A clump alone in the run queue runs on to the end of the slice: the
+                # turn boundaries would hand the CPU back to itself (except that a long
+                # slice comes back to them to look for a busy-wait)
                 k = budget - executed
-                k = INSTRUCTIONS_PER_TURN if k >= INSTRUCTIONS_PER_TURN else (k if k > 0 else 1)
+                if k < INSTRUCTIONS_PER_TURN:
+                    k = k if k > 0 else 1
+                elif not solo_ok or len(rq) > 1:
+                    k = INSTRUCTIONS_PER_TURN
+                elif executed >= spin_from:
+                    k = INSTRUCTIONS_PER_TURN if self._polled else min(k, SPIN_AFTER)
+                elif k > spin_from - executed:
+                    k = spin_from - executed
                 left = k
                 try:
-                    while left:
-                        nxt = ops[pc]()
-                        left -= 1
+                    while True:
+                        n = lens[pc]
+                        if n <= left:
+                            nxt = fns[pc]()
+                            left -= n
+                        else:  # a block longer than the rest of the turn: one instruction
+                            nxt = ops[pc]()
+                            left -= 1
                         if nxt < 0:
                             break
                         pc = nxt
+                        if not left:
+                            break
                 except _Fault as f:
-                    executed += k - left + 1
+                    ran = 1
+                    if lens[pc] <= left and lens[pc] > 1:
+                        where = self._fuser.locate(f.__traceback__)
+                        if where is not None:
+                            pc, ran = where
+                    executed += k - left + ran
                     self.finished = True
                     self.error = VMError(f.args[0], pc=self.exe.clumps[c].code_start + pc, clump=c)
                     raise self.error from None
@@ -242,11 +331,11 @@ class VM:
                         return True
                     continue
                 event = self._event
-                if event == _DONE:
-                    pcs[c] = 0
-                    self.fire[c] = self.exe.clumps[c].fire_count
-                elif event == _SUSPEND:
+                if event == _SUSPEND:
                     pcs[c] = ~nxt
+                elif event == _DONE:
+                    pcs[c] = 0
+                    self.fire[c] = self._fire_counts[c]
                 elif event == _ROTATE:
                     pcs[c] = ~nxt
                     if len(rq) > 1 and rq[0] == c:
@@ -254,12 +343,23 @@ class VM:
                 elif event == _STOP:
                     self.finished = True
                     return False
-            if not self.restq:
+            if not restq:
                 self.finished = True
                 return False
             return True
         finally:
             self.instructions += executed
+            self._spent = executed >= budget
+
+    def _wake(self, tick: int) -> None:
+        """Move the clumps whose wait is over to the run queue, in the rest queue's order."""
+        restq = self.restq
+        awaken = self.awaken
+        for c in list(restq):
+            if awaken[c] <= tick:
+                restq.remove(c)
+                self.runq.append(c)
+        self._next_wake = min((awaken[c] for c in restq), default=_NEVER)
 
     def _enqueue(self, c: int) -> None:
         if c in self.runq:
@@ -284,18 +384,27 @@ class VM:
 
     # -- compilation -------------------------------------------------------------------------
 
-    def _compile_clump(self, c: int) -> list[Op]:
+    def _compile_clump(self, c: int) -> tuple[list[Op], list[Step]]:
+        """The clump's closures by word offset, and its instructions in order."""
         clump = self.exe.clumps[c]
         length = clump.code_end - clump.code_start + 1
         ops: list[Op] = [_raiser("jump into the middle of an instruction")] * (length + 1)
         ops[length] = _raiser(f"ran past the end of clump {c}")
+        steps: list[Step] = []
         for ins in decode_clump(self.exe.code, clump):
             local = ins.pc - clump.code_start
+            ends = ins.opcode in (_SHORT_ENDS if ins.short else _LONG_ENDS)
+            targets: tuple[int, ...] = ()
+            if not ins.short and ins.opcode in (0x25, 0x26, 0x27) and ins.args:
+                targets = (local + _signed16(ins.args[0]),)
+            goto = targets[0] if not ins.short and ins.opcode == 0x25 and targets else None
             try:
                 ops[local] = self._compile(ins, local, length, c)
             except _Fault as f:
                 ops[local] = _raiser(f.args[0])
-        return ops
+                ends, goto = True, None
+            steps.append(Step(local, local + ins.words, ops[local], ends, targets, goto))
+        return ops, steps
 
     def _target(self, local: int, offset: int, length: int, name: str) -> int:
         t = local + _signed16(offset)
@@ -329,6 +438,15 @@ class VM:
         if tc == TC.FLOAT:
             return lambda: int_of(TC.FLOAT, m[i])
         return lambda: m[i]
+
+    def _int_src(self, i: int, name: str) -> str:
+        """:meth:`_int_reader` as an expression of a template."""
+        self._int_reader(i, name)
+        if i == NOT_A_DS_ID:
+            return "0"
+        if self.types[i].tc == TC.FLOAT:
+            return f"int_of({TC.FLOAT}, m[{i}])"
+        return f"m[{i}]"
 
     def _compile(self, ins: Instruction, local: int, length: int, c: int) -> Op:
         if ins.error:
@@ -364,8 +482,7 @@ class VM:
         if op == 0x1C:
             return self._set(a[0], a[1], nxt)
         if op == 0x25:
-            t = self._target(local, a[0], length, name)
-            return lambda: t
+            return self._fuser.template(f"return {self._target(local, a[0], length, name)}")
         if op == 0x27:
             return self._brtst(cc, self._target(local, a[0], length, name), a[1], nxt)
         if op == 0x26:
@@ -437,53 +554,25 @@ class VM:
         td, ta, tb = self.types[d], self.types[a], self.types[b]
         if td.tc in INT_TYPES and ta.tc in INT_TYPES and tb.tc in INT_TYPES:
             dt = td.tc
-            if op == poly.OP_ADD and dt == TC.SLONG:
-                def f() -> int:
-                    v = (m[a] + m[b]) & M32
-                    m[d] = v - 0x100000000 if v & 0x80000000 else v
-                    return nxt
-                return f
-            if op == poly.OP_SUB and dt == TC.SLONG:
-                def f() -> int:
-                    v = (m[a] - m[b]) & M32
-                    m[d] = v - 0x100000000 if v & 0x80000000 else v
-                    return nxt
-                return f
-            if op == poly.OP_MUL and dt == TC.SLONG:
-                def f() -> int:
-                    v = (m[a] * m[b]) & M32
-                    m[d] = v - 0x100000000 if v & 0x80000000 else v
-                    return nxt
-                return f
-            if op == poly.OP_AND and dt == TC.SLONG:
-                def f() -> int:
-                    v = (m[a] & m[b]) & M32
-                    m[d] = v - 0x100000000 if v & 0x80000000 else v
-                    return nxt
-                return f
-            if op in (poly.OP_ADD, poly.OP_SUB, poly.OP_MUL, poly.OP_AND, poly.OP_OR, poly.OP_XOR):
-                fn = {poly.OP_ADD: lambda x, y: x + y, poly.OP_SUB: lambda x, y: x - y,
-                      poly.OP_MUL: lambda x, y: x * y, poly.OP_AND: lambda x, y: x & y,
-                      poly.OP_OR: lambda x, y: x | y, poly.OP_XOR: lambda x, y: x ^ y}[op]
-
-                def f() -> int:
-                    m[d] = wrap(dt, fn(m[a], m[b]))
-                    return nxt
-                return f
+            sym = _BINOP_SYMBOLS.get(op)
+            if sym is not None and dt == TC.SLONG:
+                return self._fuser.template(
+                    f"v = (m[{a}] {sym} m[{b}]) & 0xFFFFFFFF\n"
+                    f"m[{d}] = v - 0x100000000 if v & 0x80000000 else v")
+            if sym is not None:
+                return self._fuser.template(_wrap_src(dt, f"m[{a}] {sym} m[{b}]", f"m[{d}]"))
             signed = ta.tc in SIGNED and tb.tc in SIGNED
             if op == poly.OP_DIV and signed and dt == TC.SLONG:
-                def f() -> int:
-                    y = m[b]
-                    if y == 0:
-                        m[d] = 0
-                    else:
-                        x = m[a]
-                        q = abs(x) // abs(y)
-                        if (x < 0) != (y < 0):
-                            q = -q
-                        m[d] = q - 0x100000000 if q >= 0x80000000 else q
-                    return nxt
-                return f
+                return self._fuser.template(
+                    f"y = m[{b}]\n"
+                    f"if y == 0:\n"
+                    f"    m[{d}] = 0\n"
+                    f"else:\n"
+                    f"    x = m[{a}]\n"
+                    f"    q = abs(x) // abs(y)\n"
+                    f"    if (x < 0) != (y < 0):\n"
+                    f"        q = -q\n"
+                    f"    m[{d}] = q - 0x100000000 if q >= 0x80000000 else q")
             tat, tbt = ta.tc, tb.tc
 
             def f() -> int:
@@ -504,42 +593,17 @@ class VM:
     def _cmp(self, cc: int, d: int, a: int, b: int, nxt: int) -> Op:
         for x in (d, a, b):
             self._arg(x, "CMP")
-        m = self.mem
         td, ta, tb = self.types[d], self.types[a], self.types[b]
         if td.tc in INT_TYPES and ta.tc in INT_TYPES and tb.tc in INT_TYPES:
-            dt = td.tc
-            unsigned = ta.tc in UNSIGNED or tb.tc in UNSIGNED
             # typed values compare as they are, except that an unsigned comparison
-            # reads a signed side as its 32-bit pattern
-            if unsigned:
-                def rd(x: int) -> int:
-                    return x & M32
-            else:
-                def rd(x: int) -> int:
-                    return x
-            cmpf = {0: lambda x, y: x < y, 1: lambda x, y: x > y, 2: lambda x, y: x <= y,
-                    3: lambda x, y: x >= y, 4: lambda x, y: x == y,
-                    5: lambda x, y: x != y}.get(cc, lambda x, y: False)
-            if not unsigned and cc == 4:
-                def f() -> int:
-                    m[d] = 1 if m[a] == m[b] else 0
-                    return nxt
-                return f
-            if not unsigned and cc == 0:
-                def f() -> int:
-                    m[d] = 1 if m[a] < m[b] else 0
-                    return nxt
-                return f
-            if not unsigned:
-                def f() -> int:
-                    m[d] = 1 if cmpf(m[a], m[b]) else 0
-                    return nxt
-                return f
-
-            def f() -> int:
-                m[d] = wrap(dt, 1 if cmpf(rd(m[a]), rd(m[b])) else 0)
-                return nxt
-            return f
+            # reads a signed side as its 32-bit pattern; 1 and 0 fit every type
+            sym = _CC_SYMBOLS.get(cc)
+            if sym is None:
+                return self._fuser.template(f"m[{d}] = 0")
+            if ta.tc in UNSIGNED or tb.tc in UNSIGNED:
+                return self._fuser.template(
+                    f"m[{d}] = 1 if (m[{a}] & 0xFFFFFFFF) {sym} (m[{b}] & 0xFFFFFFFF) else 0")
+            return self._fuser.template(f"m[{d}] = 1 if m[{a}] {sym} m[{b}] else 0")
         get_a, get_b = self._getter(a), self._getter(b)
         set_d = self._setter(d)
         agg = not ta.is_scalar and not tb.is_scalar and td.is_scalar
@@ -560,11 +624,21 @@ class VM:
         self._arg(s, name)
         m = self.mem
         td, ts = self.types[d], self.types[s]
-        if op == poly.OP_NOT and td.tc in INT_TYPES and ts.tc in INT_TYPES:
-            def f() -> int:
-                m[d] = 0 if m[s] & M32 else 1
-                return nxt
-            return f
+        if td.tc in INT_TYPES and ts.tc in INT_TYPES:
+            # poly.int_unop on a typed integer value, stored with a wrap
+            dt = td.tc
+            if op == poly.OP_NOT:
+                return self._fuser.template(f"m[{d}] = 0 if m[{s}] & 0xFFFFFFFF else 1")
+            if op == poly.OP_NEG:
+                return self._fuser.template(_wrap_src(dt, f"-s32(m[{s}])", f"m[{d}]"))
+            if op == poly.OP_ABS:
+                return self._fuser.template(_wrap_src(dt, f"abs(s32(m[{s}]))", f"m[{d}]"))
+            if op == poly.OP_TST:
+                sym = _CC_SYMBOLS.get(cc)
+                if sym is None:
+                    return self._fuser.template(f"m[{d}] = 0")
+                v = f"(m[{s}] & 0xFFFFFFFF)" if ts.tc in UNSIGNED else f"s32(m[{s}])"
+                return self._fuser.template(f"m[{d}] = 1 if {v} {sym} 0 else 0")
         if td.is_scalar and ts.is_scalar:
             def g() -> int:
                 m[d] = poly.poly_unop(op, cc, td, ts, m[s])
@@ -607,39 +681,20 @@ class VM:
         m = self.mem
         td, ts = self.types[d], self.types[s]
         if td.tc in INT_TYPES and ts.tc in INT_TYPES:
+            dt = td.tc
             if td.tc == ts.tc or (td.tc == TC.SLONG and ts.tc in (TC.UBYTE, TC.SBYTE, TC.UWORD,
                                                                    TC.SWORD)):
-                def f() -> int:
-                    m[d] = m[s]
-                    return nxt
-                return f
-            dt = td.tc
+                return self._fuser.template(f"m[{d}] = m[{s}]")
             if dt == TC.UBYTE:
-                def g() -> int:
-                    m[d] = m[s] & 0xFF
-                    return nxt
-                return g
+                return self._fuser.template(f"m[{d}] = m[{s}] & 0xFF")
             if dt == TC.ULONG:
-                def g() -> int:
-                    m[d] = m[s] & 0xFFFFFFFF
-                    return nxt
-                return g
+                return self._fuser.template(f"m[{d}] = m[{s}] & 0xFFFFFFFF")
             if dt == TC.SLONG:  # from a ulong
-                def g() -> int:
-                    v = m[s]
-                    m[d] = v - 0x100000000 if v & 0x80000000 else v
-                    return nxt
-                return g
-
-            def g() -> int:
-                m[d] = wrap(dt, m[s])
-                return nxt
-            return g
+                return self._fuser.template(
+                    f"v = m[{s}]\nm[{d}] = v - 0x100000000 if v & 0x80000000 else v")
+            return self._fuser.template(_wrap_src(dt, f"m[{s}]", f"m[{d}]"))
         if td.tc == TC.FLOAT and ts.tc == TC.FLOAT:
-            def h() -> int:
-                m[d] = m[s]
-                return nxt
-            return h
+            return self._fuser.template(f"m[{d}] = m[{s}]")
         if td.tc == TC.ARRAY and ts.tc == TC.ARRAY and td.string and ts.string:
             def k() -> int:
                 v = bytearray(m[s])
@@ -661,6 +716,8 @@ class VM:
         self._scalar_arg(d, "SET")
         m = self.mem
         v = store(self.types[d].tc, imm)
+        if isinstance(v, int):
+            return self._fuser.template(f"m[{d}] = {v}")
 
         def f() -> int:
             m[d] = v
@@ -670,13 +727,7 @@ class VM:
     def _arrsize(self, d: int, s: int, nxt: int) -> Op:
         self._scalar_arg(d, "ARRSIZE")
         self._array_arg(s, "ARRSIZE")
-        m = self.mem
-        dt = self.types[d].tc
-
-        def f() -> int:
-            m[d] = store(dt, len(m[s]))
-            return nxt
-        return f
+        return self._fuser.template(f"m[{d}] = store({self.types[d].tc}, len(m[{s}]))")
 
     def _array_arg(self, i: int, name: str, string: bool = False) -> DType:
         self._arg(i, name)
@@ -697,24 +748,19 @@ class VM:
         if td.tc in INT_TYPES and te.tc in INT_TYPES:
             dt = td.tc
             same = dt == te.tc or dt == TC.SLONG and te.tc != TC.ULONG
-
-            def f() -> int:
-                k = idx() & M32
-                arr = m[s]
-                if k >= len(arr):
-                    raise _Fault(f"INDEX: index {k} is outside the array at dataspace entry {s} "
-                                 f"({len(arr)} elements)")
-                m[d] = arr[k] if same else wrap(dt, arr[k])
-                return nxt
-            return f
+            return self._fuser.template(
+                f"k = {self._int_src(i, 'INDEX')} & 0xFFFFFFFF\n"
+                f"arr = m[{s}]\n"
+                f"if k >= len(arr):\n"
+                f"    index_fault(k, {s}, arr)\n"
+                + (f"m[{d}] = arr[k]" if same else _wrap_src(dt, "arr[k]", f"m[{d}]")))
         set_d = self._setter(d)
 
         def g() -> int:
             k = idx() & M32
             arr = m[s]
             if k >= len(arr):
-                raise _Fault(f"INDEX: index {k} is outside the array at dataspace entry {s} "
-                             f"({len(arr)} elements)")
+                _index_fault(k, s, arr)
             try:
                 set_d(poly.convert(td, te, copy_value(te, arr[k])))
             except poly.PolyError as exc:
@@ -736,6 +782,13 @@ class VM:
         if te.tc in INT_TYPES and tv.tc in INT_TYPES:
             et = te.tc
             same = et == tv.tc
+            if not copy:
+                return self._fuser.template(
+                    f"arr = m[{d}]\n"
+                    f"k = {self._int_src(i, 'REPLACE')} & 0xFFFFFFFF\n"
+                    f"if k < len(arr):\n"
+                    + (f"    arr[k] = m[{v}]" if same
+                       else _indent(_wrap_src(et, f"m[{v}]", "arr[k]"))))
 
             def f() -> int:
                 if copy:
@@ -1038,22 +1091,19 @@ class VM:
     # -- control flow ------------------------------------------------------------------------
 
     def _brtst(self, cc: int, target: int, s: int, nxt: int) -> Op:
-        m = self.mem
         if s == NOT_A_DS_ID:
             taken = cc in (4, 2, 3)
-            t = target if taken else nxt
-            return lambda: t
+            return self._fuser.template(f"return {target if taken else nxt}")
         self._scalar_arg(s, "BRTST")
         ts = self.types[s].tc
-        if ts in INT_TYPES and ts != TC.ULONG:
-            if cc == 4:
-                def f() -> int:
-                    return target if m[s] == 0 else nxt
-                return f
-            if cc == 5:
-                def f() -> int:
-                    return target if m[s] != 0 else nxt
-                return f
+        if ts in INT_TYPES:
+            # the value as a signed 32-bit integer against 0 (the typed value itself,
+            # except for an ulong)
+            sym = _CC_SYMBOLS.get(cc)
+            if sym is None:
+                return self._fuser.template(f"return {nxt}")
+            v = f"s32(m[{s}])" if ts == TC.ULONG else f"m[{s}]"
+            return self._fuser.template(f"return {target} if {v} {sym} 0 else {nxt}")
         rd = self._int_reader(s, "BRTST")
 
         def g() -> int:
@@ -1065,6 +1115,16 @@ class VM:
         self._arg(a, "BRCMP")
         self._arg(b, "BRCMP")
         ta, tb = self.types[a], self.types[b]
+        if ta.tc in INT_TYPES and tb.tc in INT_TYPES:
+            # poly.compare_int: unsigned as soon as one side is unsigned
+            sym = _CC_SYMBOLS.get(cc)
+            if sym is None:
+                return self._fuser.template(f"return {nxt}")
+            if ta.tc in UNSIGNED or tb.tc in UNSIGNED:
+                cond = f"(m[{a}] & 0xFFFFFFFF) {sym} (m[{b}] & 0xFFFFFFFF)"
+            else:
+                cond = f"m[{a}] {sym} m[{b}]"
+            return self._fuser.template(f"return {target} if {cond} else {nxt}")
         if ta.is_scalar and tb.is_scalar:
             ra, rb = self._int_reader(a, "BRCMP"), self._int_reader(b, "BRCMP")
             tat, tbt = ta.tc, tb.tc
@@ -1113,15 +1173,17 @@ class VM:
         self._scalar_arg(ret, name)
         m = self.mem
         rt = self.types[ret].tc
+        stored = [store(rt, k) for k in range(len(self.exe.clumps))]  # the caller's index
+        rq, restq = self.runq, self.restq
 
         def f() -> int:
-            caller = self.runq.pop(0)
-            m[ret] = store(rt, caller)
-            if callee in self.runq or callee in self.restq:
-                self.runq.insert(0, caller)
+            caller = rq.pop(0)
+            m[ret] = stored[caller]
+            if callee in rq or callee in restq:
+                rq.insert(0, caller)
                 raise _Fault(f"{name}: subroutine clump {callee} called while it is already "
                              f"running (recursion, or two tasks calling it at once)")
-            self.runq.append(callee)
+            rq.append(callee)
             self._event = _SUSPEND
             return ~nxt
         return f
@@ -1130,13 +1192,19 @@ class VM:
         self._scalar_arg(ret, "SUBRET")
         m = self.mem
 
+        float_ret = self.types[ret].tc == TC.FLOAT
+        clumps = len(self.exe.clumps)
+        rq = self.runq
+
         def f() -> int:
-            me = self.runq.pop(0)
-            caller = int_of(TC.UBYTE, m[ret]) & 0xFF
-            if caller >= len(self.exe.clumps):
-                self.runq.insert(0, me)
+            me = rq.pop(0)
+            caller = (int(m[ret]) if float_ret else m[ret]) & 0xFF
+            if caller >= clumps:
+                rq.insert(0, me)
                 raise _Fault(f"SUBRET: return to clump {caller}, which does not exist")
-            self._enqueue(caller)
+            if caller in rq:
+                self._enqueue(caller)  # the error
+            rq.append(caller)
             self._event = _DONE
             return -1
         return f
@@ -1189,13 +1257,8 @@ class VM:
 
     def _gettick(self, d: int, nxt: int) -> Op:
         self._scalar_arg(d, "GETTICK")
-        m = self.mem
-        dt = self.types[d].tc
-
-        def f() -> int:
-            m[d] = store(dt, self.tick & M32)
-            return nxt
-        return f
+        return self._fuser.template(f"m[{d}] = store({self.types[d].tc}, vm.tick & 0xFFFFFFFF)\n"
+                                    f"vm._polled = True")
 
     def _wait(self, d: int, s: int, nxt: int) -> Op:
         rd = self._int_reader(s, "WAIT")
@@ -1211,7 +1274,9 @@ class VM:
                 return ~nxt
             me = self.runq.pop(0)
             self.restq.append(me)
-            self.awaken[me] = self.tick + ms
+            wake = self.awaken[me] = self.tick + ms
+            if wake < self._next_wake:
+                self._next_wake = wake
             self._event = _SUSPEND
             return ~nxt
         return f
@@ -1231,6 +1296,7 @@ class VM:
             if p >= NO_OF_INPUTS:
                 raise _Fault(f"SETIN: input port {p} does not exist")
             io.input_set(p, field, wrap(ft, src()))
+            self.io_epoch += 1
             return nxt
         return f
 
@@ -1248,25 +1314,23 @@ class VM:
             if p >= NO_OF_INPUTS:
                 raise _Fault(f"GETIN: input port {p} does not exist")
             m[d] = store(dt, io.input_get(p, field))
+            self._polled = True
             return nxt
         return f
 
     def _getout(self, d: int, port: int, field: int, nxt: int) -> Op:
         self._scalar_arg(d, "GETOUT")
-        prt = self._int_reader(port, "GETOUT")
-        io = self.io
-        m = self.mem
+        prt = self._int_src(port, "GETOUT")
         dt = self.types[d].tc
         if field >= OutputField.COUNT:
             raise _Fault(f"GETOUT: output field {field} does not exist")
-
-        def f() -> int:
-            p = prt() & M32
-            if p >= NO_OF_OUTPUTS:
-                raise _Fault(f"GETOUT: output port {p} does not exist")
-            m[d] = store(dt, io.output_get(p, field))
-            return nxt
-        return f
+        value = f"io_get(p, {field})"
+        return self._fuser.template(
+            f"p = {prt} & 0xFFFFFFFF\n"
+            f"if p >= {NO_OF_OUTPUTS}:\n"
+            f"    port_fault('GETOUT: output', p)\n"
+            f"m[{d}] = " + (_wrap_expr(dt, value) if dt in INT_TYPES else f"store({dt}, {value})")
+            + "\nvm._polled = True")
 
     def _setout(self, port: int, rest: tuple[int, ...], nxt: int) -> Op:
         self._arg(port, "SETOUT")
@@ -1277,31 +1341,26 @@ class VM:
             fld, src = rest[k], rest[k + 1]
             if fld >= OutputField.COUNT:
                 raise _Fault(f"SETOUT: output field {fld} does not exist")
-            pairs.append((fld, self._int_reader(src, "SETOUT"), OUTPUT_FIELD_TYPES[fld]))
-        io = self.io
-        m = self.mem
+            ft = OUTPUT_FIELD_TYPES[fld]
+            value = self._int_src(src, "SETOUT")
+            # a value that always fits the field needs no wrap
+            st = self.types[src].tc if src != NOT_A_DS_ID else ft
+            pairs.append((fld, value if _fits(st, ft) else _wrap_expr(ft, value)))
+        sets = "".join(f"    io_set(p, {fld}, {value})\n" for fld, value in pairs)
         tp = self.types[port]
-        if tp.tc == TC.ARRAY:
-            assert tp.elem is not None
-            if not tp.elem.is_scalar:
-                raise _Fault(f"SETOUT: port list of {tp.elem.name}")
-            et = tp.elem.tc
-
-            def ports() -> list[int]:
-                return [int_of(et, v) & M32 for v in m[port]]
-        else:
-            rd = self._int_reader(port, "SETOUT")
-
-            def ports() -> list[int]:
-                return [rd() & M32]
-
-        def f() -> int:
-            for p in ports():
-                if p < NO_OF_OUTPUTS:
-                    for fld, get, ft in pairs:
-                        io.output_set(p, fld, wrap(ft, get()))
-            return nxt
-        return f
+        if tp.tc != TC.ARRAY:
+            return self._fuser.template(
+                f"p = {self._int_src(port, 'SETOUT')} & 0xFFFFFFFF\n"
+                f"if p < {NO_OF_OUTPUTS}:\n{sets}"
+                f"vm.io_epoch += 1")
+        assert tp.elem is not None
+        if not tp.elem.is_scalar:
+            raise _Fault(f"SETOUT: port list of {tp.elem.name}")
+        return self._fuser.template(
+            f"for p in m[{port}]:\n"
+            f"    p = int_of({tp.elem.tc}, p) & 0xFFFFFFFF\n"
+            f"    if p < {NO_OF_OUTPUTS}:\n" + _indent(sets.rstrip("\n")) + "\n"
+            "vm.io_epoch += 1")
 
     # -- system calls --------------------------------------------------------------------------
 
@@ -1321,14 +1380,71 @@ class VM:
         if len(args) < expected:
             raise _Fault(f"SYSCALL {name}: {len(args)} arguments, it takes {expected}")
         fn = impl.fn
+        if impl.reads_only:
+            def f() -> int:
+                try:
+                    fn(self, args)
+                except SyscallError as exc:
+                    raise _Fault(f"SYSCALL {name}: {exc}") from None
+                self._polled = True
+                return nxt
+            return f
 
-        def f() -> int:
+        def g() -> int:
             try:
                 fn(self, args)
             except SyscallError as exc:
                 raise _Fault(f"SYSCALL {name}: {exc}") from None
+            self.io_epoch += 1
             return nxt
-        return f
+        return g
+
+
+def _wrap_src(tc: int, expr: str, dest: str) -> str:
+    """Statements of a template storing ``wrap(tc, expr)`` into ``dest``."""
+    mask, sign = _WRAP_MASKS[tc]
+    if sign is None:
+        return f"{dest} = ({expr}) & {mask:#x}"
+    return f"v = ({expr}) & {mask:#x}\n{dest} = v - {2 * sign:#x} if v & {sign:#x} else v"
+
+
+def _wrap_expr(tc: int, expr: str) -> str:
+    """An expression of ``wrap(tc, expr)``."""
+    mask, sign = _WRAP_MASKS[tc]
+    if sign is None:
+        return f"(({expr}) & {mask:#x})"
+    return f"((({expr}) + {sign:#x} & {mask:#x}) - {sign:#x})"
+
+
+def _port_fault(what: str, p: int) -> None:
+    raise _Fault(f"{what} port {p} does not exist")
+
+
+def _indent(src: str) -> str:
+    return "\n".join("    " + line for line in src.split("\n"))
+
+
+#: wrap()'s mask and sign bit per integer type (None: unsigned)
+_WRAP_MASKS = {TC.UBYTE: (0xFF, None), TC.SBYTE: (0xFF, 0x80), TC.UWORD: (0xFFFF, None),
+               TC.SWORD: (0xFFFF, 0x8000), TC.ULONG: (M32, None),
+               TC.SLONG: (M32, 0x80000000)}
+
+_INT_RANGES = {TC.UBYTE: (0, 0xFF), TC.SBYTE: (-0x80, 0x7F), TC.UWORD: (0, 0xFFFF),
+               TC.SWORD: (-0x8000, 0x7FFF), TC.ULONG: (0, M32),
+               TC.SLONG: (-0x80000000, 0x7FFFFFFF)}
+
+
+def _fits(src: int, dst: int) -> bool:
+    """Every value of integer type ``src`` is a value of integer type ``dst``."""
+    if src not in _INT_RANGES or dst not in _INT_RANGES:
+        return False
+    (lo, hi), (dlo, dhi) = _INT_RANGES[src], _INT_RANGES[dst]
+    return dlo <= lo and hi <= dhi
+
+
+def _index_fault(k: int, s: int, arr: Any) -> None:
+    raise _Fault(f"INDEX: index {k} is outside the array at dataspace entry {s} "
+                 f"({len(arr)} elements)")
 
 
 def _raiser(message: str) -> Op:

@@ -26,9 +26,11 @@ class VMProgram:
     """One run of an executable on the interpreter."""
 
     def __init__(self, exe: Executable, io: BrickIO, *, start_tick: int,
-                 instructions_per_ms: int | None) -> None:
+                 instructions_per_ms: int | None, fused: bool = True,
+                 skip_busy_waits: bool = True) -> None:
         self.exe = exe
-        self.vm = VM(exe, io, start_tick=start_tick, instructions_per_ms=instructions_per_ms)
+        self.vm = VM(exe, io, start_tick=start_tick, instructions_per_ms=instructions_per_ms,
+                     fused=fused, skip_busy_waits=skip_busy_waits)
 
     @property
     def finished(self) -> bool:

@@ -37,8 +37,13 @@ class SyscallError(Exception):
 
 @dataclass(frozen=True)
 class Syscall:
+    """One system call: its implementation, its argument count, and whether it only
+    reads (changes nothing outside the program's memory: a poll, see
+    :mod:`nxt_link.vm.spin`)."""
+
     fn: Callable[[VM, list[int]], None]
     arity: int
+    reads_only: bool = False
 
 
 def _put(vm: VM, i: int, v: Any) -> None:
@@ -251,7 +256,10 @@ def _message_write(vm: VM, a: list[int]) -> None:
 
 
 def _message_read(vm: VM, a: list[int]) -> None:
-    status, data = vm.io.message_read(_int(vm, a[1]) & 0xFF, bool(_int(vm, a[2])))
+    remove = bool(_int(vm, a[2]))
+    status, data = vm.io.message_read(_int(vm, a[1]) & 0xFF, remove)
+    if status == 0 and remove:
+        vm.io_epoch += 1  # a message left the mailbox: not a mere poll
     if not vm.types[a[3]].string:
         raise SyscallError(f"argument {a[3]} is a {vm.types[a[3]].name}, a string is needed")
     vm.set(a[3], bytearray(data) if status == 0 and data else bytearray(b"\0"))
@@ -301,7 +309,7 @@ SYSCALLS: dict[int, Syscall] = {
     8: Syscall(_file_delete, 2),
     9: Syscall(_sound_play_file, 4),
     10: Syscall(_sound_play_tone, 5),
-    11: Syscall(_sound_get_state, 2),
+    11: Syscall(_sound_get_state, 2, reads_only=True),
     12: Syscall(_sound_set_state, 3),
     13: Syscall(_draw_text, 4),
     14: Syscall(_draw_shape, 3),
@@ -309,14 +317,14 @@ SYSCALLS: dict[int, Syscall] = {
     16: Syscall(_draw_shape, 4),
     17: Syscall(_draw_shape, 4),
     19: Syscall(_set_screen_mode, 2),
-    20: Syscall(_read_button, 5),
+    20: Syscall(_read_button, 5, reads_only=True),
     24: Syscall(_random, 1),
-    25: Syscall(_start_tick, 1),
+    25: Syscall(_start_tick, 1, reads_only=True),
     26: Syscall(_message_write, 3),
-    27: Syscall(_message_read, 4),
-    28: Syscall(_bt_check_status, 2),
-    31: Syscall(_keep_alive, 1),
-    40: Syscall(_read_sem, 2),
+    27: Syscall(_message_read, 4, reads_only=True),
+    28: Syscall(_bt_check_status, 2, reads_only=True),
+    31: Syscall(_keep_alive, 1, reads_only=True),
+    40: Syscall(_read_sem, 2, reads_only=True),
     41: Syscall(_write_sem, 4),
     46: Syscall(_set_sleep_timeout, 2),
     47: Syscall(_list_files, 3),

@@ -197,7 +197,7 @@ PIECES = [":-", "sorts", "objects", "constants", "variables", "query", "macros",
           "\n", " ", "true", "false", "none", "abs", "noconcurrency", "include", "show", "hide", "all"]
 
 
-@settings(max_examples=400, deadline=None)
+@settings(max_examples=400)
 @given(st.lists(st.sampled_from(PIECES), max_size=30), st.text(max_size=20))
 def test_nothing_but_project_errors_escape(pieces, noise):
     """Random token soup and random text: the front end answers or raises CPlusError."""

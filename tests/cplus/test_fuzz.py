@@ -136,7 +136,7 @@ def check_error(err: CPlusError) -> None:
 # ------------------------------------------------------------------ properties
 
 
-@settings(max_examples=300, deadline=None, suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large])
+@settings(max_examples=300, suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large])
 @given(programs)
 def test_generated_programs_load_or_fail_with_a_located_error(text):
     try:
@@ -176,7 +176,7 @@ SMALL = st.lists(st.one_of(
 ), min_size=1, max_size=4).map(lambda ss: PRELUDE + "\n".join(ss) + "\n:- query maxstep :: 0..1.\n")
 
 
-@settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@settings(max_examples=150, suppress_health_check=[HealthCheck.too_slow])
 @given(SMALL)
 def test_generated_laws_plan_or_fail_with_a_located_error(text):
     """Past the front end too: grounding and solving small domains (two objects, four numbers)."""
@@ -236,7 +236,7 @@ def _files(root) -> dict[str, str]:
     return out
 
 
-@settings(max_examples=200, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@settings(max_examples=200, suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture])
 @given(data=st.data())
 def test_generated_command_lines_keep_the_exit_code_table(tmp_path_factory, data):
     import contextlib
@@ -261,7 +261,7 @@ def test_generated_command_lines_keep_the_exit_code_table(tmp_path_factory, data
 
 # ------------------------------------------------------------------ in a box
 
-@settings(max_examples=8, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@settings(max_examples=8, suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture])
 @given(text=st.lists(st.one_of(statements(False), hostile_expressions(False).map(lambda e: f"caused p if {e}.")),
                      min_size=1, max_size=3).map(lambda ss: PRELUDE + "\n".join(ss) + "\n"))
 def test_generated_programs_as_processes_under_4_gb(tmp_path_factory, text):

@@ -76,7 +76,7 @@ def domains(draw):
             + "\n".join(laws) + f"\n:- query maxstep :: {m}; {fix}.\n")
 
 
-@settings(max_examples=60, deadline=None)
+@settings(max_examples=60)
 @given(domains())
 def test_pruning_never_changes_the_histories(text):
     n, m = counts(text)

@@ -1,18 +1,32 @@
-"""Model counts of small domains: hand-checked ones, and random ones against the oracle.
+"""The meaning of C+ domains: hand-checked counts, and the SETS of histories against an oracle.
 
-The planner (completion, CNF, incremental solver, history enumeration) must agree with a
-brute-force enumeration of the models of the causal theory (``cplus_oracle``).
+The planner (parser, grounder, completion, CNF, incremental solver, history enumeration)
+must give exactly the histories that ``cplus_oracle`` computes by brute force from the
+language reference, sharing none of the project's code: a catalogue of small domains, one
+per law form and constant kind, and random domains that mix them all (``cplus_random``).
 """
 from __future__ import annotations
 
 import pytest
-from cplus_oracle import models
-from hypothesis import HealthCheck, given, settings
+from cplus_oracle import (
+    FALSE,
+    TRUE,
+    Const,
+    Description,
+    Law,
+    atom,
+    conj,
+    cst,
+    first_histories,
+    histories,
+    neg,
+    obj,
+)
+from cplus_random import SORTS, SUBSORTS, VARIABLES, descriptions
+from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
 from cplus import Domain
-from cplus.planner import run_query
-from cplus.program import QuerySpec
 
 
 def count(text: str, label: str = "0") -> tuple[int | None, int]:
@@ -21,9 +35,18 @@ def count(text: str, label: str = "0") -> tuple[int | None, int]:
     return r.maxstep, len(r.histories)
 
 
-def planner_count(domain: Domain, m: int) -> int:
-    r = run_query(domain.theory, QuerySpec("all", m, m, (), None), solutions=0)
-    return len(r.histories)
+def key(h) -> tuple:
+    """A history as the oracle writes it: (constant text, printed value) per step."""
+    def cells(table):
+        return frozenset((gc.text, str(v)) for gc, v in table.items())
+    return cells(h.rigid), tuple(cells(s) for s in h.states), tuple(cells(a) for a in h.actions)
+
+
+def planner(text: str) -> tuple[int | None, set]:
+    r = Domain.from_text(text).solve(solutions=0)
+    found = {key(h) for h in r.histories}
+    assert len(found) == len(r.histories), "the planner printed a history twice"
+    return r.maxstep, found
 
 
 LAMP = """
@@ -100,20 +123,6 @@ def test_small_domains(text, expected):
     assert count(text) == expected
 
 
-def test_histories_are_distinct_even_with_auxiliary_variables():
-    """A disjunctive body gets a Tseitin variable; histories still count once."""
-    text = """
-:- constants p, q, r :: inertialFluent; a :: exogenousAction.
-caused r if p ++ q.
-default -r.
-a causes p.
-:- query maxstep :: 1.
-"""
-    d = Domain.from_text(text)
-    keys = [h.key() for h in d.solve(solutions=0).histories]
-    assert len(keys) == len(set(keys)) == len(models(d.theory, 1))
-
-
 def test_a_constant_inside_a_head_argument():
     """`caused g(f)` causes g(v) for the value v of f (C.8: the constant moves to the body)."""
     text = """
@@ -128,6 +137,7 @@ default -g(X).
 
 
 def test_negative_values_and_nested_constants():
+    """g(f)=2 fixes one of the three g's, whichever f names: 3 values of f x 3 x 3 others."""
     text = """
 :- sorts node. :- objects 1..3 :: node. :- variables X, Y :: node.
 :- constants f :: node; g(node) :: node.
@@ -135,76 +145,190 @@ exogenous f. exogenous g(X).
 constraint g(f) = 2.
 :- query maxstep :: 0.
 """
-    d = Domain.from_text(text)
-    assert len(d.solve(solutions=0).histories) == len(models(d.theory, 0)) == 3 * 9
+    assert len(Domain.from_text(text).solve(solutions=0).histories) == 3 * 9
+
+
+# --------------------------------------------------------------------------- the catalogue
+
+X, Y, Z, Q, N = (("v", v) for v in "XYZQN")
+LIT, FLIP = atom("lit"), atom("flip")
+
+
+def D(consts, laws, query=(), **kw) -> Description:   # noqa: N802 - reads like a declaration
+    return Description(sorts=dict(SORTS), subsorts=dict(SUBSORTS), variables=dict(VARIABLES),
+                       consts=list(consts), laws=list(laws), query=list(query), **kw)
+
+
+F = Const("f", "inertialFluent")
+G = Const("g", "inertialFluent")
+FX = Const("fx", "inertialFluent", arg="s")
+A = Const("a", "exogenousAction")
+B = Const("b", "exogenousAction")
+AX = Const("ax", "exogenousAction", arg="s")
+V = Const("v", "inertialFluent", (0, 1, 2), "0..2")
+
+CATALOGUE = {
+    "simpleFluent pendulum (default after)": (D(
+        [Const("s", "simpleFluent"), Const("h", "exogenousAction")],
+        [Law("default", atom("s"), after=neg(atom("s"))), Law("default", neg(atom("s")), after=atom("s")),
+         Law("causes", atom("s"), action=atom("h"), cond=atom("s")),
+         Law("causes", neg(atom("s")), action=atom("h"), cond=neg(atom("s")))]), 2),
+    "simpleFluent with inertial law": (D(
+        [Const("s", "simpleFluent"), A], [Law("inertial", cst("s")), Law("causes", atom("s"), action=atom("a"))]), 2),
+    "sdFluent: static caused and default": (D(
+        [F, Const("q", "sdFluent"), A],
+        [Law("caused", atom("q"), cond=atom("f")), Law("default", neg(atom("q"))),
+         Law("causes", atom("f"), action=atom("a"))]), 1),
+    "sdFluent in a dynamic body, may cause": (D(
+        [F, G, Const("q", "sdFluent"), A],
+        [Law("caused", atom("q"), cond=("or", atom("f"), atom("g"))), Law("default", neg(atom("q"))),
+         Law("may_cause", atom("g"), action=atom("a"), cond=atom("q"))]), 2),
+    "multi-valued inertial fluent, arithmetic head and where": (D(
+        [V, A],
+        [Law("caused", ("eq", cst("v"), ("+", N, obj(1))), after=conj(("eq", cst("v"), N), atom("a")),
+             where=("cmp", "<", N, obj(2)))]), 2),
+    "out-of-domain head value acts as caused false (C.7)": (D(
+        [V, A],
+        [Law("caused", ("eq", cst("v"), ("+", N, obj(1))), after=conj(("eq", cst("v"), N), atom("a")))]), 2),
+    "symbolic values with none (star sort), nested constant f(loc)": (D(
+        [Const("loc", "inertialFluent", ("k1", "k2", "none"), "s*"), Const("seen", "sdFluent", arg="s"),
+         Const("go", "exogenousAction", arg="s")],
+        [Law("causes", ("eq", cst("loc"), X), action=atom("go", X)),
+         Law("nonexecutable", action=conj(atom("go", X), atom("go", Y)), where=("cmp", "@<", X, Y)),
+         Law("caused", atom("seen", X), cond=("eq", cst("loc"), X)), Law("default", neg(atom("seen", X))),
+         Law("constraint", ("or", ("eq", cst("loc"), obj("none")), ("eq", cst("seen", cst("loc")), obj("true"))))],
+        [(0, ("eq", cst("loc"), obj("none")))]), 2),
+    "additive fluent: increments, decrements, sum out of domain": (D(
+        [Const("n", "additiveFluent", (0, 1, 2, 3), "0..3"), A, B, Const("c", "exogenousAction")],
+        [Law("increments", cst("n"), action=atom("a"), amount=2), Law("decrements", cst("n"), action=atom("b"),
+                                                                         amount=1),
+         Law("increments", cst("n"), action=atom("c"), amount=1, cond=atom("a"))],
+        [(0, ("eq", cst("n"), obj(1)))], max_additive=2), 1),
+    "additive: a contribution beyond maxAdditive is impossible, conflicting amounts": (D(
+        [Const("n", "additiveFluent", (0, 1, 2, 3, 4), "0..4"), A, B],
+        [Law("increments", cst("n"), action=atom("a"), amount=3),
+         Law("increments", cst("n"), action=atom("b"), amount=1),
+         Law("increments", cst("n"), action=atom("b"), amount=2, cond=atom("a"))],
+        [(0, ("eq", cst("n"), obj(0)))], max_additive=2), 1),
+    "additive action summing two actions' contributions": (D(
+        [Const("cost", "additiveAction", (0, 1, 2, 3), "0..3"), AX, F],
+        [Law("increments", cst("cost"), action=atom("ax", X), amount=2, where=("cmp", "=", X, obj("k1"))),
+         Law("increments", cst("cost"), action=atom("ax", X), amount=1, where=("cmp", "=", X, obj("k2"))),
+         Law("causes", atom("f"), action=("eq", cst("cost"), obj(3)))],
+        max_additive=3), 1),
+    "rigid constants: c :: D, rigid(D) with default and rigid laws": (D(
+        [Const("r", "rigid", (0, 1), "0..1"), Const("rb", "rigid"), F, A],
+        [Law("exogenous", cst("r")), Law("default", neg(atom("rb"))), Law("caused", atom("rb"), cond=("eq", cst("r"), obj(1))),
+         Law("causes", atom("f"), action=atom("a"), cond=atom("rb"))]), 1),
+    "rigid fact and rigid constraint": (D(
+        [Const("r", "rigid", (0, 1), "0..1"), Const("rb", "rigid"), F],
+        [Law("exogenous", cst("r")), Law("fact", atom("rb")),
+         Law("constraint", ("imp", atom("rb"), ("eq", cst("r"), obj(1))))]), 0),
+    "plain action: default and caused": (D(
+        [F, Const("act", "action"), A],
+        [Law("default", neg(atom("act"))), Law("caused", atom("act"), cond=conj(atom("a"), atom("f"))),
+         Law("causes", neg(atom("f")), action=atom("act"))]), 2),
+    "action head of causes": (D(
+        [F, A, Const("act", "action")],
+        [Law("default", neg(atom("act"))), Law("causes", atom("act"), action=atom("a")),
+         Law("causes", atom("f"), action=atom("act"))]), 1),
+    "non-Boolean exogenous action": (D(
+        [V, Const("e", "exogenousAction", (0, 1), "0..1")],
+        [Law("caused", ("eq", cst("v"), obj(1)), after=("eq", cst("e"), obj(1)))]), 1),
+    "attribute of a parameterised action": (D(
+        [FX, AX, Const("amt", "attribute", (1, 2), "1..2", arg="s", parent="ax")],
+        [Law("causes", atom("fx", X), action=atom("ax", X), cond=("eq", cst("amt", X), obj(2)))],
+        [(0, neg(atom("fx", obj("k1"))))]), 1),
+    "declared abAction caused by a law, unless": (D(
+        [F, A, B, Const("ab", "abAction")],
+        [Law("causes", atom("f"), action=atom("a"), unless=cst("ab")), Law("caused", atom("ab"), cond=atom("b"))]), 1),
+    "unless in a dynamic law: auto abAction with an argument": (D(
+        [FX, AX, B],
+        [Law("causes", atom("fx", X), action=atom("ax", X), unless=cst("ab1", X)),
+         Law("caused", atom("ab1", X), cond=conj(atom("b"), atom("fx", X)))]), 1),
+    "unless in a static law: auto abnormality fluent": (D(
+        [F, G, Const("q", "sdFluent")],
+        [Law("caused", atom("q"), cond=atom("f"), unless=cst("ab2")), Law("default", neg(atom("q"))),
+         Law("caused", atom("ab2"), cond=atom("g"))]), 0),
+    "unless in a rigid law: auto rigid abnormality": (D(
+        [Const("rb", "rigid"), Const("rc", "rigid"), F],
+        [Law("exogenous", cst("rc")), Law("default", atom("rb")),
+         Law("caused", neg(atom("rb")), cond=atom("rc"), unless=cst("ab3"))]), 0),
+    "unless in an action law and in increments": (D(
+        [Const("n", "additiveFluent", (0, 1, 2), "0..2"), A, B, Const("act", "action")],
+        [Law("default", neg(atom("act"))), Law("caused", atom("act"), cond=atom("a"), unless=cst("ab4")),
+         Law("increments", cst("n"), action=atom("a"), amount=1, unless=cst("ab5")),
+         Law("caused", atom("ab5"), cond=atom("b"))],
+        [(0, ("eq", cst("n"), obj(0)))], max_additive=2), 1),
+    "noconcurrency: Boolean actions only, attributes and non-Boolean exempt": (D(
+        [F, A, B, Const("amt", "attribute", (1, 2), "1..2", parent="a"),
+         Const("e", "exogenousAction", (0, 1), "0..1")],
+        [], [(0, atom("f"))], noconcurrency=True), 1),
+    "nonexecutable and always": (D(
+        [F, A, B],
+        [Law("nonexecutable", action=atom("a"), cond=atom("f")), Law("always", ("imp", atom("b"), atom("a"))),
+         Law("causes", atom("f"), action=atom("a"))]), 2),
+    "constraint, constraint after, fact": (D(
+        [F, G, Const("q", "sdFluent"), A],
+        [Law("constraint", ("or", atom("f"), atom("g"))), Law("constraint", atom("g"), after=atom("a")),
+         Law("fact", neg(atom("q"))), Law("causes", neg(atom("f")), action=atom("a"))]), 2),
+    "never and impossible (Cplus2ASP), also with after": (D(
+        [F, G, A],
+        [Law("never", conj(atom("f"), atom("g"))), Law("impossible", neg(atom("f")), after=atom("a"))]), 1),
+    "rigid law on a fluent, possibly caused": (D(
+        [Const("s", "simpleFluent"), A],
+        [Law("rigid", cst("s")), Law("possibly", atom("s"), after=atom("s")),
+         Law("possibly", neg(atom("s")), after=conj(neg(atom("s")), neg(atom("a"))))]), 2),
+    "exogenous with a condition": (D(
+        [F, Const("act", "action")],
+        [Law("exogenous", cst("act"), cond=atom("f")), Law("default", neg(atom("act"))),
+         Law("causes", neg(atom("f")), action=atom("act"))]), 2),
+    "quantifiers, subsorts and where": (D(
+        [FX, AX, Const("all_on", "sdFluent")],
+        [Law("caused", atom("all_on"), cond=("q", "all", "Q", atom("fx", Q))), Law("default", neg(atom("all_on"))),
+         Law("causes", atom("fx", Z), action=atom("ax", Z)),
+         Law("nonexecutable", action=conj(atom("ax", X), atom("ax", Y)), where=("cmp", "\\=", X, Y))],
+        [(0, ("q", "ex", "Q", neg(atom("fx", Q))))]), 1),
+    "comparisons and arithmetic between constants": (D(
+        [V, Const("w", "inertialFluent", (0, 1, 2), "0..2"), A],
+        [Law("constraint", ("cmp", "=<", cst("v"), cst("w"))),
+         Law("caused", ("eq", cst("w"), obj(2)), after=conj(atom("a"), ("cmp", "=", ("+", cst("v"), obj(1)),
+                                                                        cst("w"))))]), 1),
+    "query: action items, maxstep items, connectives": (D(
+        [F, G, A, B],
+        [Law("causes", atom("f"), action=atom("a")), Law("causes", ("eq", cst("g"), obj("false")), action=atom("b"))],
+        [(0, neg(atom("a"))), (1, ("iff", atom("b"), atom("a"))), ("maxstep", ("imp", atom("g"), atom("f"))),
+         (0, ("or", TRUE, FALSE))]), 2),
+}
+
+
+@pytest.mark.parametrize("name", CATALOGUE)
+def test_catalogue_agrees_with_the_oracle(name):
+    """One domain per law form and constant kind: the same non-empty set of histories."""
+    desc, m = CATALOGUE[name]
+    expected = histories(desc, m)
+    assert expected, "a catalogue entry must have histories, or it shows nothing"
+    assert planner(desc.text(m)) == (m, expected), desc.text(m)
+
+
+def test_histories_are_distinct_even_with_auxiliary_variables():
+    """A disjunctive body gets a Tseitin variable; each history still comes once."""
+    desc = D([F, G, Const("r", "sdFluent"), A],
+             [Law("caused", atom("r"), cond=("or", atom("f"), atom("g"))), Law("default", neg(atom("r"))),
+              Law("causes", atom("f"), action=atom("a"))])
+    assert planner(desc.text(1)) == (1, histories(desc, 1))
 
 
 # --------------------------------------------------------------------------- random domains
 
-FLUENT_KINDS = ["inertialFluent", "simpleFluent", "sdFluent"]
-ACTION_KINDS = ["exogenousAction", "action"]
 
-
-@st.composite
-def domains(draw):
-    nf = draw(st.integers(1, 3))
-    na = draw(st.integers(1, 2))
-    fl = [f"f{i}" for i in range(nf)]
-    ac = [f"a{i}" for i in range(na)]
-    kinds = {f: draw(st.sampled_from(FLUENT_KINDS)) for f in fl}
-    dyn = [f for f in fl if kinds[f] != "sdFluent"] or None   # heads of laws with 'after'
-    decls = [f"{f} :: {kinds[f]}" for f in fl]
-    decls += [f"{a} :: {draw(st.sampled_from(ACTION_KINDS))}" for a in ac]
-    multi = draw(st.booleans())          # a three-valued inertial fluent v
-    if multi:
-        decls.append("v :: inertialFluent(0..2)")
-
-    def lit(names, head=False):
-        if multi and names is not ac and draw(st.integers(0, 3)) == 0:
-            atom = f"v={draw(st.integers(0, 2))}"
-            return atom if head or draw(st.booleans()) else f"-({atom})"
-        n = draw(st.sampled_from(names))
-        return n if draw(st.booleans()) else "-" + n
-
-    def formula(names, depth=0):
-        if depth >= 2 or draw(st.integers(0, 2)) == 0:
-            return lit(names)
-        op = draw(st.sampled_from(["&", "++", "->>"]))
-        return f"({formula(names, depth + 1)} {op} {formula(names, depth + 1)})"
-
-    laws = []
-    for _ in range(draw(st.integers(1, 6))):
-        kind = draw(st.integers(0, 9))
-        if dyn is None and kind in (1, 2, 5, 9):
-            kind = 0
-        if kind == 0:
-            laws.append(f"caused {lit(fl, True)} if {formula(fl)}.")
-        elif kind == 1:
-            laws.append(f"caused {lit(dyn, True)} if {formula(fl)} after {formula(fl + ac)}.")
-        elif kind == 2:
-            laws.append(f"{draw(st.sampled_from(ac))} causes {lit(dyn, True)} if {formula(fl)}.")
-        elif kind == 3:
-            laws.append(f"nonexecutable {draw(st.sampled_from(ac))} if {formula(fl)}.")
-        elif kind == 4:
-            laws.append(f"default {lit(fl, True)}.")
-        elif kind == 5:
-            laws.append(f"default {lit(dyn, True)} after {formula(fl + ac)}.")
-        elif kind == 6:
-            laws.append(f"constraint {formula(fl)}.")
-        elif kind == 7:
-            laws.append(f"always {formula(fl + ac)}.")
-        elif kind == 8:
-            laws.append(f"caused {lit(ac)} if {formula(fl + ac)}.")
-        else:
-            laws.append(f"{draw(st.sampled_from(ac))} may cause {lit(dyn, True)}.")
-    for a in ac:
-        if draw(st.booleans()):
-            laws.append(f"default -{a}.")
-    return ":- constants " + "; ".join(decls) + ".\n" + "\n".join(laws) + "\n"
-
-
-@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
-@given(domains(), st.integers(0, 2))
-def test_planner_agrees_with_the_oracle_on_random_domains(text, m):
-    d = Domain.from_text(text)
-    assert planner_count(d, m) == len(models(d.theory, m)), text
+@settings(max_examples=200)
+@given(descriptions(), st.booleans())
+def test_planner_agrees_with_the_oracle_on_random_domains(drawn, ranged):
+    """Exactly the oracle's histories, at the first maxstep of the range that has one."""
+    desc, m = drawn
+    lo = 0 if ranged else m
+    text = desc.text(m, lo if ranged else None)
+    expected = first_histories(desc, lo, m)
+    assume(len(expected[1]) <= 600)      # bounds the run time; about 1 domain in 250 is larger
+    assert planner(text) == expected, text

@@ -45,7 +45,7 @@ def expected_rows(domains, values, strong, weak):
     return rows
 
 
-@settings(max_examples=150, deadline=None)
+@settings(max_examples=150)
 @given(tables(), st.booleans())
 def test_models_are_the_rows_of_the_table(spec, large):
     """Both builders: lists (small tables) and numpy arrays (large ones)."""

@@ -54,7 +54,7 @@ def ground(text: str, vectorized: bool):
     return th.rules, th.constraints, [d.render() for d in prog.diagnostics.items]
 
 
-@settings(max_examples=200, deadline=None)
+@settings(max_examples=200)
 @given(laws())
 def test_arrays_ground_exactly_like_the_closures(text):
     try:

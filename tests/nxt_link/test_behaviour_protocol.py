@@ -2,7 +2,7 @@
 from __future__ import annotations
 
 import pytest
-from hypothesis import given, settings
+from hypothesis import given
 from hypothesis import strategies as st
 
 from nxt_link import behaviour_protocol as bp
@@ -39,7 +39,6 @@ responses = st.one_of(
 )
 
 
-@settings(deadline=None)
 @given(requests)
 def test_requests_round_trip_within_a_mailbox_message(req):
     data = bp.encode_request(req)
@@ -47,7 +46,6 @@ def test_requests_round_trip_within_a_mailbox_message(req):
     assert bp.decode_request(data) == req
 
 
-@settings(deadline=None)
 @given(responses)
 def test_responses_round_trip_within_a_mailbox_message(resp):
     data = bp.encode_response(resp)
@@ -55,7 +53,6 @@ def test_responses_round_trip_within_a_mailbox_message(resp):
     assert bp.decode_response(data) == resp
 
 
-@settings(deadline=None)
 @given(st.one_of(requests.map(bp.encode_request), responses.map(bp.encode_response)),
        st.data())
 def test_any_single_byte_damage_is_detected(data, draw):

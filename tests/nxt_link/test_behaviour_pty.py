@@ -18,6 +18,8 @@ from nxt_link.emulator import BrickEmulator, EmulatorConfig, FaultParams, LinkPa
 from nxt_link.pty_server import PtyBrickServer
 from nxt_link.serial_transport import SerialTransport
 
+pytestmark = pytest.mark.slow   # processes and ptys, in real time
+
 ROOT = Path(__file__).resolve().parents[2]
 WORLD = ROOT / "domains" / "delivery" / "world.toml"
 POLICY = RetryPolicy(reply_timeout_s=0.25, retries=3, quiet_s=0.02, reconnect_timeout_s=3.0)

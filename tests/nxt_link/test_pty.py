@@ -19,7 +19,9 @@ from nxt_link.serial_transport import SerialTransport
 from nxt_link.session import SessionTiming
 
 ROOT = Path(__file__).resolve().parents[2]
-POLICY = RetryPolicy(reply_timeout_s=0.25, retries=3, quiet_s=0.02, reconnect_timeout_s=3.0)
+# A reply later than 0.25 s (a dropped frame, or a busy machine) only costs a retry: with ten
+# of them neither twelve per cent of dropped frames nor a loaded machine ends the session.
+POLICY = RetryPolicy(reply_timeout_s=0.25, retries=10, quiet_s=0.02, reconnect_timeout_s=3.0)
 OPTIONS = ExecutionOptions(timing=SessionTiming(ack_timeout_s=0.3, poll_gap_s=0.002,
                                                 query_interval_s=0.05, max_silent_s=8.0),
                            start_delay_s=0.3)

@@ -22,6 +22,8 @@ from nxt_link.serial_transport import SerialTransport
 from nxt_link.session import SessionTiming
 from nxt_link.vm import compile_nxc
 
+pytestmark = pytest.mark.slow   # processes and ptys, in real time
+
 ROOT = Path(__file__).resolve().parents[2]
 
 
@@ -45,7 +47,7 @@ def test_nxt_python_uploads_lists_reads_back_starts_and_deletes(pty_server, tmp_
         with pytest.raises(nxt.error.FileExistsError):
             brick.open_file("calls.rxe", "wb", 10)
         brick.start_program("calls.rxe")
-        deadline = time.monotonic() + 5
+        deadline = time.monotonic() + 60   # a guard against hanging, not a measure
         while time.monotonic() < deadline and not server.emulator.firmware.mailboxes[10]:
             time.sleep(0.05)
         assert brick.get_current_program_name() == "calls.rxe"

@@ -35,14 +35,14 @@ def test_bad_files_are_refused_with_a_clear_error(data, text):
     assert text in str(info.value)
 
 
-@settings(deadline=None, max_examples=200)
+@settings(max_examples=200)
 @given(st.integers(min_value=0, max_value=len(FOLLOWER) - 1))
 def test_every_truncation_is_refused(n):
     with pytest.raises(RxeError):
         load_rxe(FOLLOWER[:n])
 
 
-@settings(deadline=None, max_examples=300)
+@settings(max_examples=300)
 @given(st.integers(min_value=0, max_value=1200), st.integers(min_value=1, max_value=255))
 def test_damaged_headers_and_tables_never_crash_the_loader(pos, xor):
     data = bytearray(FOLLOWER)

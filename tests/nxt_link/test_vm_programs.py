@@ -12,12 +12,13 @@ import struct
 from pathlib import Path
 
 import pytest
-from vmtools import NXC_DIR, results, run_program
+from vmtools import NXC_DIR, results, run_program, templates_program
 
 from nxt_link.firmware import Firmware, FirmwareParams
 from nxt_link.vm import compile_nxc, decode_clump, disassemble, load_rxe
 
-PROGRAMS = ("vm_arith", "vm_float", "vm_arrays", "vm_strings", "vm_calls", "vm_tasks", "vm_io")
+PROGRAMS = ("vm_arith", "vm_float", "vm_arrays", "vm_strings", "vm_calls", "vm_tasks", "vm_io",
+            "vm_types")
 
 
 @pytest.fixture(scope="module")
@@ -37,6 +38,29 @@ def test_integer_arithmetic_wraps_like_the_brick(rxe):
         "1 1 720 22",  # signed and unsigned comparison, shifts
     ]
     assert results(fw, 2) == ["338350 2004310016"]  # sum of squares, 15! mod 2^32 as a long
+
+
+def test_integer_types_against_each_other(rxe):
+    # moves, arithmetic, comparisons and branches between every width and signedness on
+    # edge values, folded into checksums (the values the interpreter gave one instruction
+    # at a time, before any instruction was compiled from a template)
+    for ipms in (None, 7):
+        fw = run_program(rxe["vm_types"], ipms=ipms, ms=5000)
+        assert fw.program_errors == []
+        assert results(fw, 0) == ["48514654", "1236387425"]
+
+
+def test_every_inline_instruction_between_every_pair_of_types(tmp_path: Path):
+    # NBC assembly, so that every type combination really occurs (nbc's own code generator
+    # converts through temporaries); the checksums are what the interpreter gave one
+    # instruction at a time, before any instruction was compiled from a template
+    src = tmp_path / "vm_templates.nxc"
+    src.write_text(templates_program())
+    rxe = compile_nxc(src).rxe
+    for ipms in (None, 500):
+        fw = run_program(rxe, ipms=ipms, ms=2000)
+        assert fw.program_errors == []
+        assert results(fw, 0) == ["-1574789430", "-1464737080"]
 
 
 def test_float_arithmetic_is_float32(rxe):
@@ -177,6 +201,21 @@ def test_unknown_and_unsupported_system_calls_are_errors(rxe, sid, text):
 def test_disassembly_lists_every_clump(rxe):
     lines = disassemble(load_rxe(rxe["vm_calls"]))
     assert any("SUBCALL" in line for line in lines) and any("SYSCALL" in line for line in lines)
+
+
+def test_a_subroutine_called_by_two_tasks_at_once_is_an_error(tmp_path: Path):
+    src = tmp_path / "twice.nxc"
+    src.write_text("void f() { Wait(10); }\ntask t1() { f(); }\ntask t2() { Wait(2); f(); }\n"
+                   "task main() { Precedes(t1, t2); }\n")
+    rxe = compile_nxc(src).rxe
+    for fused in (True, False):
+        fw = Firmware(FirmwareParams(vm_fused=fused), flash_files={"t.rxe": rxe})
+        fw.start_program_now("t.rxe")
+        for _ in range(50):
+            fw.tick()
+        (error,) = fw.program_errors
+        assert "SUBCALL: subroutine clump" in error and "called while it is already running" in error
+        assert fw.program is None
 
 
 def test_running_out_of_memory_is_an_error(tmp_path: Path):

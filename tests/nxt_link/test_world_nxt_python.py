@@ -19,6 +19,8 @@ from nxt_link.emulator import BrickEmulator, EmulatorConfig, LinkParams
 from nxt_link.input_module import SensorMode, SensorType
 from nxt_link.pty_server import PtyBrickServer
 
+pytestmark = pytest.mark.slow   # nxt-python over a pty, in real time
+
 
 def serve(program_running: bool):
     emu = BrickEmulator(EmulatorConfig(name="robot", world=delivery_world(seed=9),
@@ -45,7 +47,7 @@ def bare_robot():
     yield from serve(False)
 
 
-def wait_for(predicate, timeout_s: float = 5.0) -> bool:
+def wait_for(predicate, timeout_s: float = 60.0) -> bool:
     """Poll (a bound against hanging, not a timing assertion)."""
     end = time.monotonic() + timeout_s
     while time.monotonic() < end:

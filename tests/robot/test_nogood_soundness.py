@@ -44,7 +44,7 @@ def exhaustive(task: RobotTask, hi: int):
 
 @pytest.mark.parametrize("eager", [None, True, False])
 @given(obstacles=st.lists(squares(), min_size=1, max_size=3))
-@settings(max_examples=8, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@settings(max_examples=8, suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture])
 def test_learned_nogoods_never_exclude_a_collision_free_plan(tmp_path, eager, obstacles):
     scene = tmp_path / "scene.toml"
     scene.write_text(tiny_scene(obstacles))

@@ -11,6 +11,7 @@ from hypothesis import strategies as st
 from traj_helpers import CLEAN_PAYLOAD_PLAN, FIRST_PAYLOAD_PLAN, plan
 
 from trajectory import (
+    BranchChoice,
     JointLimitError,
     PlanViolationError,
     Scene,
@@ -22,6 +23,7 @@ from trajectory import (
     parse_scene,
 )
 from trajectory.build import interpolate_path
+from trajectory.kinematics import choices_at
 from trajectory.scene import EXAMPLE_SCENE
 
 
@@ -154,18 +156,23 @@ class TestBranches:
         with pytest.raises(TrajectoryError, match="step_time_s must be a positive number"):
             build_trajectory(scene, states, step_time_s=float("nan"))
 
-    @settings(max_examples=60, deadline=None)
-    @given(st.lists(st.tuples(st.integers(-2, 10), st.integers(0, 2), st.integers(-2, 10),
-                              st.integers(2, 4)), min_size=1, max_size=5),
-           st.sampled_from([1, 2, 5, 8]))
+    # In EXAMPLE_SCENE (rails at y = -1 and y = 5 along x, arms 3 long, s in [-4, 10]) branch
+    # +1 holds r1 anywhere in x 0..8, y 0..2 and r2 anywhere in x 0..8, y 2..4 within the joint
+    # limits, and these regions are convex: every plan inside them can be followed.
+    _reachable = st.lists(st.tuples(st.integers(0, 8), st.integers(0, 2), st.integers(0, 8), st.integers(2, 4)),
+                          min_size=1, max_size=5)
+
+    @settings(max_examples=60)
+    @given(_reachable, st.sampled_from([1, 2, 5, 8]))
     def test_any_reachable_plan_round_trips_through_fk(self, steps, pps) -> None:
-        """Random plans inside the arms' reach (no checks): FK(joints) = interpolated samples."""
+        """Random plans inside the arms' reach (no checks) are never refused, and
+        FK(joints) = the interpolated samples, through every state of the plan."""
         scene = parse_scene(EXAMPLE_SCENE, "e.toml")
         states = plan(*[((a, b), (c, d)) for a, b, c, d in steps])
-        try:
-            traj = build_trajectory(scene, states, check=False, points_per_step=pps, step_time_s=0.04 * pps)
-        except (UnreachableError, JointLimitError):
-            return  # a refusal is an answer, never NaN
+        for state in states:
+            for name, (x, y) in state.robots.items():
+                assert BranchChoice(1) in choices_at(scene.robot(name).arm, x, y)
+        traj = build_trajectory(scene, states, check=False, points_per_step=pps, step_time_s=0.04 * pps)
         for r in traj.robots:
             assert not np.isnan(r.s).any() and not np.isnan(r.theta_deg).any()
             x, y = r.forward(r.s, np.radians(r.theta_deg))
@@ -173,3 +180,24 @@ class TestBranches:
             at_steps = r.path[::pps]
             expected = [st.robots[r.name] for st in states]
             np.testing.assert_allclose(at_steps, expected, atol=1e-12)
+
+    # Points no arm can hold: beyond reach (4 from the rail), or on the rail itself, where
+    # theta would be 0 or 180 degrees, outside r1's [5, 175] and r2's [-175, -5].
+    _BEYOND = {"r1": 3, "r2": 1}
+    _ON_RAIL = {"r1": -1, "r2": 5}
+
+    @settings(max_examples=60)
+    @given(_reachable, st.data())
+    def test_a_point_no_arm_can_hold_is_refused_naming_robot_and_step(self, steps, data) -> None:
+        scene = parse_scene(EXAMPLE_SCENE, "e.toml")
+        pairs = [[(a, b), (c, d)] for a, b, c, d in steps]
+        k = data.draw(st.integers(0, len(pairs) - 1), label="step")
+        j = data.draw(st.integers(0, 1), label="robot")
+        robot = ("r1", "r2")[j]
+        beyond = data.draw(st.booleans(), label="beyond reach")
+        pairs[k][j] = (data.draw(st.integers(0, 8)), (self._BEYOND if beyond else self._ON_RAIL)[robot])
+        error = UnreachableError if beyond else JointLimitError
+        where = "at step 0" if k == 0 else f"from step {k - 1} to {k}"
+        with pytest.raises(error, match=rf"robot {robot} cannot .*{where}"):
+            build_trajectory(scene, plan(*[tuple(p) for p in pairs]), check=False, points_per_step=2,
+                             step_time_s=0.2)

@@ -96,7 +96,7 @@ def test_a_setpoint_rounded_the_other_way_is_accepted(data) -> None:
     trajectory_from_dict(edited(data, edit), "t.json")
 
 
-@settings(deadline=None, max_examples=60)
+@settings(max_examples=60)
 @given(robot=st.integers(0, 1), tick=st.integers(0, 45), motor=st.integers(0, 2),
        delta=st.integers(2, 5000) | st.integers(-5000, -2))
 def test_any_setpoint_edited_by_more_than_a_degree_is_refused(data, robot, tick, motor, delta) -> None:

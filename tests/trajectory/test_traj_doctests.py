@@ -1,4 +1,8 @@
-"""The examples in the trajectory package's docstrings run and give what they show."""
+"""The examples in the trajectory package's docstrings run and give what they show.
+
+Every module has at least one example, so a module whose examples were lost (or never
+collected) fails here instead of passing with nothing checked.
+"""
 
 from __future__ import annotations
 
@@ -21,4 +25,5 @@ def test_every_module_is_listed() -> None:
 def test_doctests(name: str) -> None:
     module = importlib.import_module(name)
     result = doctest.testmod(module, optionflags=doctest.ELLIPSIS)
+    assert result.attempted > 0, f"{name} has no docstring examples"
     assert result.failed == 0

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from fractions import Fraction
 
 import numpy as np
 import pytest
@@ -10,6 +11,7 @@ import shapely
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from shapely.geometry import Polygon, box
+from traj_helpers import first_exit, real_roots
 
 from trajectory.geometry import (
     Quadratic,
@@ -73,21 +75,28 @@ class TestQuadratics:
     def test_out_of_band_at_start(self) -> None:
         assert first_exit_from_band(Quadratic(0, 0, 30), 23, 27) == 0.0
 
-    @settings(max_examples=200, deadline=None)
+    @settings(max_examples=300)
     @given(*[st.tuples(st.integers(-6, 6), st.integers(-6, 6)) for _ in range(4)],
            st.integers(1, 40))
-    def test_band_exit_against_sampling(self, a1, a2, b1, b2, tol) -> None:
+    def test_band_exit_against_an_exact_reference(self, a1, a2, b1, b2, tol) -> None:
+        """The reported u is the first time the squared length leaves [25 - tol, 25 + tol]:
+        the reference solves the integer quadratic and classifies each interval exactly
+        (rational arithmetic), so an early, late, missed or spurious exit fails."""
         q = payload_length_sq(a1, a2, b1, b2)
         low, high = 25 - tol, 25 + tol
+        d0 = (a2[0] - a1[0], a2[1] - a1[1])
+        dd = (b2[0] - b1[0] - d0[0], b2[1] - b1[1] - d0[1])
+        qa, qb, qc = dd[0] ** 2 + dd[1] ** 2, 2 * (d0[0] * dd[0] + d0[1] * dd[1]), d0[0] ** 2 + d0[1] ** 2
+
+        def inside(u: float) -> bool:
+            x = Fraction(u)
+            return low <= qa * x * x + qb * x + qc <= high
+        expected = first_exit(real_roots(qa, qb, qc - low) + real_roots(qa, qb, qc - high), inside)
         u = first_exit_from_band(q, low, high)
-        us = np.linspace(0, 1, 2001)
-        values = np.array([q(x) for x in us])
-        outside = (values < low - 1e-6) | (values > high + 1e-6)
-        if u is None:
-            assert not outside.any()
+        if expected is None:
+            assert u is None
         else:
-            assert not outside[us < u - 1e-9].any()
-            assert low - 1e-6 <= q(u) <= high + 1e-6 or u == 0.0
+            assert u is not None and u == pytest.approx(expected, abs=1e-9)
 
 
 class TestSweptPayload:
@@ -169,9 +178,12 @@ class TestSweptPayload:
 
     _coord = st.integers(-4, 4).map(float)
     _pt = st.tuples(_coord, _coord)
+    # Subnormal coordinates (below 2.2e-308) are left out: GEOS loses them (a box whose edge
+    # is at y = 2e-313 is hit at u = 0.55 instead of 0.5); no scene is drawn at that scale.
+    _corner = st.floats(-3, 3, allow_subnormal=False)
 
-    @settings(max_examples=300, deadline=None)
-    @given(_pt, _pt, _pt, _pt, st.tuples(st.floats(-3, 3), st.floats(-3, 3)),
+    @settings(max_examples=300)
+    @given(_pt, _pt, _pt, _pt, st.tuples(_corner, _corner),
            st.floats(0.2, 2.0), st.floats(0.2, 2.0))
     def test_against_dense_sampling(self, a1, a2, b1, b2, corner, w, h) -> None:
         """Exact contact vs 400 sampled positions: never later, never missed, never spurious."""

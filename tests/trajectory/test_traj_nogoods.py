@@ -144,7 +144,7 @@ def _in_grid(scene, *points) -> bool:
 
 
 @given(motion=payload_motions())
-@settings(max_examples=40, deadline=None)
+@settings(max_examples=40)
 def test_every_member_of_a_widened_payload_box_fails(payload_scene, motion):
     a1, a2, b1, b2 = motion
     if not _in_grid(payload_scene, *motion):
@@ -182,7 +182,7 @@ def test_causes_over_several_motions_or_holders_are_not_widened(example_scene):
 
 
 @given(motion=payload_motions())
-@settings(max_examples=60, deadline=None)
+@settings(max_examples=60)
 def test_the_vectorised_payload_test_never_says_fail_when_the_checker_does_not(payload_scene, motion):
     a1, a2, b1, b2 = (np.array([p], dtype=float) for p in motion)
     shrunk = [o.polygon.buffer(-1e-6, join_style="mitre") for o in payload_scene.obstacles]

@@ -99,7 +99,7 @@ class TestCollisionExternal:
         assert c(4.9, 1.2, 5.1, 1.2)
         assert c(5.0, 1.0, 5, 1)
 
-    @settings(max_examples=300, deadline=None)
+    @settings(max_examples=300)
     @given(st.integers(-3, 15), st.integers(-3, 9), st.integers(-3, 15), st.integers(-3, 9))
     def test_table_agrees_with_shapely(self, x1: int, y1: int, x2: int, y2: int) -> None:
         scene = SCENE

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -37,3 +38,70 @@ FIRST_PAYLOAD_PLAN = [
     ((0, 0), (0, 5)), ((0, 0), (0, 5)), ((1, 1), (1, 6)), ((2, 2), (2, 7)), ((6, 2), (3, 6)),
     ((7, 1), (4, 5)), ((8, 0), (5, 4)), ((9, 0), (6, 4)), ((10, 0), (9, 5)), ((10, 0), (10, 5)),
 ]
+
+
+# ---------------------------------------------------------------------------------------------
+# An exact reference for "where does a motion first leave a feasible set" (test oracle).
+
+
+def first_exit(breaks: Sequence[float], feasible) -> float | None:
+    """The first u in [0, 1] where ``feasible(u)`` stops holding, given every u where it can
+    change (the roots of the boundaries): infeasible at 0, or the start of the first interval
+    between breaks whose midpoint is infeasible; None if it holds all the way."""
+    if not feasible(0.0):
+        return 0.0
+    cuts = sorted({0.0, 1.0, *(u for u in breaks if 0.0 < u < 1.0)})
+    for a, b in zip(cuts, cuts[1:]):
+        if not feasible((a + b) / 2):
+            return a
+    return None
+
+
+def real_roots(a: float, b: float, c: float) -> list[float]:
+    """The real roots of a u^2 + b u + c (any degree down to a constant)."""
+    if a == 0.0:
+        return [-c / b] if b != 0.0 else []
+    disc = b * b - 4 * a * c
+    if disc < 0:
+        return []
+    r = math.sqrt(disc)
+    return [(-b - r) / (2 * a), (-b + r) / (2 * a)]
+
+
+def arm_holds(arm, choice, x: float, y: float, tol: float = 1e-9) -> bool:
+    """Inverse kinematics written out: reach, theta on the branch (lifted by its turns) and s
+    within their limits at (x, y)."""
+    (ox, oy), (dx, dy), length = arm.rail_origin, arm.rail_dir, arm.length
+    along = (x - ox) * dx + (y - oy) * dy
+    across = -(x - ox) * dy + (y - oy) * dx
+    if abs(across) > length + tol:
+        return False
+    a = math.asin(max(-1.0, min(1.0, across / length)))
+    theta = (a if choice.branch == 1 else math.pi - a) + 2 * math.pi * choice.turns
+    s = along - choice.branch * math.sqrt(max(length * length - across * across, 0.0))
+    (lo, hi), (s_lo, s_hi) = arm.theta_limits_rad, arm.s_limits
+    return lo - tol <= theta <= hi + tol and s_lo - tol <= s <= s_hi + tol
+
+
+def segment_exit_reference(arm, p0: Point, p1: Point, choice) -> float | None:
+    """Where the straight motion p0 -> p1 first leaves what the arm can hold on ``choice``:
+    across(u) is linear, so reach and theta limits are crossed where it equals +-l or
+    l sin(limit); s = S where (along(u) - S)^2 + across(u)^2 = l^2."""
+    (ox, oy), (dx, dy), length = arm.rail_origin, arm.rail_dir, arm.length
+
+    def frame(p: Point) -> tuple[float, float]:
+        return (p[0] - ox) * dx + (p[1] - oy) * dy, -(p[0] - ox) * dy + (p[1] - oy) * dx
+    (al0, ac0), (al1, ac1) = frame(p0), frame(p1)
+    alpha, beta = al1 - al0, ac1 - ac0
+    breaks: list[float] = []
+    if beta != 0.0:
+        for target in (-length, length, *(length * math.sin(t) for t in arm.theta_limits_rad)):
+            breaks.append((target - ac0) / beta)
+    for bound in arm.s_limits:
+        c0 = al0 - bound
+        breaks += real_roots(alpha * alpha + beta * beta, 2 * (alpha * c0 + beta * ac0),
+                             c0 * c0 + ac0 * ac0 - length * length)
+
+    def feasible(u: float) -> bool:
+        return arm_holds(arm, choice, p0[0] + u * (p1[0] - p0[0]), p0[1] + u * (p1[1] - p0[1]))
+    return first_exit(breaks, feasible)

@@ -1,0 +1,146 @@
+"""A C+ domain served: the online loop kept running on a standing goal, fed by request channels.
+
+ROSoClingo keeps a planner running while goal requests and cancellations arrive; here that is
+the online loop of :mod:`cplus.robot.online` with three parts added, and nothing else:
+
+* a :class:`~cplus.robot.goals.GoalBoard`: clients' requests and cancellations become events
+  of the domain (:mod:`cplus.robot.vocabulary`, ``requests.toml``), and each goal follows the
+  actionlib states as the estimated state closes it;
+* a :class:`~cplus.robot.standing.StandingModel`: one solver for the run, the shortest plan
+  within a budget, the oldest goal first beyond it;
+* the channels: a script (:class:`~cplus.robot.channels.RequestScript`), a JSON-lines socket
+  (:class:`~cplus.robot.channels.SocketChannel`), ROS actionlib (:mod:`cplus.robot.ros_bridge`).
+
+The goal is a query of the domain whose step-0 conditions are where the robot starts and whose
+``maxstep`` conditions say that nothing is pending. The run waits when nothing is to be done,
+and ends when it is stopped (:meth:`Server.stop`), or when every channel has finished (a
+script that has delivered everything, with every goal final), or badly, as an online run
+does (no plan, the world contradicted the model, a robot lost). Goals still open then are
+aborted.
+
+Python API::
+
+    from cplus.api import Domain
+    from cplus.robot.reactive import Server
+    from cplus.robot.vocabulary import load_requests
+
+    domain = Domain.load("domains/mailbot/mailbot.cp")
+    server = Server(domain, load_requests("domains/mailbot/requests.toml", domain))
+    goal = server.board.submit("deliver(office3,office2)")     # from any thread
+    host, port = server.listen("127.0.0.1", 0)                 # JSON lines
+    result = server.run()                                      # until server.stop()
+"""
+from __future__ import annotations
+
+from collections.abc import Callable, Iterable
+from typing import TextIO
+
+from cplus.robot.channels import RequestScript, SocketChannel
+from cplus.robot.estimation import Roles, user_actions
+from cplus.robot.goals import Goal, GoalBoard
+from cplus.robot.online import Executor, JsonLinesLog, Observer, OnlineLoop, RunResult
+from cplus.robot.standing import DEFAULT_BUDGET, StandingModel
+from cplus.robot.vocabulary import RequestsError, RequestVocabulary
+from cplus.sat.solver import DEFAULT_SOLVER
+from nxt_link.clock import MONOTONIC, Clock
+
+__all__ = ["Server", "ServeLog", "serve_roles"]
+
+
+def serve_roles(domain, vocabulary: RequestVocabulary, binding=None) -> Roles:
+    """Which actions the robot does: with a binding file, what it says (the request events
+    must be events from source ``input`` there); without one, every action but the events
+    of requests and cancellations."""
+    events = vocabulary.event_constants()
+    if binding is None:
+        return Roles(frozenset(gc for gc in user_actions(domain) if gc not in events), frozenset(events))
+    roles = binding.roles()
+    for gc in sorted(events, key=lambda g: g.id):
+        e = binding.events.get(gc)
+        if e is None or e.source != "input":
+            where = e.location if e is not None else None
+            raise RequestsError(f"{gc.text} is an event of the requests in {vocabulary.path}, so {binding.path} must "
+                                f"bind it with source = \"input\" ([events.{gc.decl.name}])", where)
+    return roles
+
+
+class ServeLog(JsonLinesLog):
+    """The ``cplus.online/1`` log of a server: each cycle's line also lists the goals (those
+    open, and those that changed since the last line), and the end record every goal."""
+
+    def __init__(self, stream: TextIO, board: GoalBoard, extra=None) -> None:
+        super().__init__(stream, extra, annotate=lambda record, line: line.update(goals=board.log_goals()))
+        self.board = board
+
+    def on_end(self, result: RunResult) -> None:
+        line = result.to_json()
+        line["goals"] = [g.to_json() for g in self.board.goals.values()]
+        self._write(line)
+
+
+class Server:
+    """A domain served to clients.
+
+    Args:
+        domain: the C+ domain (:class:`cplus.api.Domain`).
+        vocabulary: its requests (:func:`~cplus.robot.vocabulary.load_requests`).
+        goal: the query label of the standing goal (default: the domain's first query).
+        binding: a ``robot.toml`` (:class:`~cplus.robot.binding.RobotBinding`), for the roles.
+        executor: the robot, or a function that makes it from the server's model (default: a
+            simulated robot whose actions take ``action_time`` seconds).
+        budget: unit propagations for the shortest plan per re-plan (None: always the shortest).
+        horizon: steps the planner encodes when the server starts (more are added when a plan
+            needs them; default 20).
+        observers: more observers of the loop (progress lines, the log).
+    """
+
+    def __init__(self, domain, vocabulary: RequestVocabulary, *, goal: str | None = None, binding=None,
+                 executor: Executor | Callable[[StandingModel], Executor] | None = None, action_time: float = 0.0, budget: int | None = DEFAULT_BUDGET,
+                 max_horizon: int | None = None, horizon: int | None = None, solver: str | None = None,
+                 clock: Clock = MONOTONIC,
+                 observers: Iterable[Observer] = (), idle_poll_s: float = 0.05) -> None:
+        self.domain = domain
+        self.vocabulary = vocabulary
+        self.board = GoalBoard(vocabulary)
+        label = goal or domain.labels[0]
+        self.model = StandingModel(domain, label, serve_roles(domain, vocabulary, binding), max_horizon=max_horizon,
+                                   budget=budget, agenda=self.board.agenda, solver=solver or DEFAULT_SOLVER,
+                                   horizon=horizon)
+        if executor is None:
+            from cplus.robot.executors import SimulatedExecutor
+            executor = SimulatedExecutor(self.model, default_s=action_time, clock=clock)
+        elif not isinstance(executor, Executor):
+            executor = executor(self.model)
+        self.executor: Executor = executor
+        self.channels: list = []
+        self.loop = OnlineLoop(self.model, executor, [self.board], [self.board, *observers], when_done="wait",
+                               clock=clock, idle_poll_s=idle_poll_s)
+
+    def add_script(self, script: RequestScript) -> None:
+        script.attach(self.board)
+
+    def listen(self, host: str = "127.0.0.1", port: int = 0) -> tuple[str, int]:
+        """Take requests on a JSON-lines socket (loopback); returns the address it listens on."""
+        channel = SocketChannel(self.board, host, port)
+        address = channel.start()
+        self.channels.append(channel)
+        return address
+
+    def add_channel(self, channel) -> None:
+        """A channel started elsewhere (ROS): closed when the run ends."""
+        self.channels.append(channel)
+
+    def submit(self, request: str) -> Goal:
+        return self.board.submit(request, origin="api")
+
+    def run(self) -> RunResult:
+        """Serve until stopped or until every channel has finished; then close the channels."""
+        try:
+            return self.loop.run()
+        finally:
+            for channel in self.channels:
+                channel.close()
+
+    def stop(self) -> None:
+        """End the run between two cycles (thread-safe; from a signal handler too)."""
+        self.loop.stop()

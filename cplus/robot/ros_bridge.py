@@ -1,0 +1,211 @@
+"""ROS actionlib for ``cplus serve --ros``: an action server of goal requests (optional extra).
+
+Nothing else in the project imports this module or ROS. It needs ROS 1 (Debian's
+``ros-core python3-rospy python3-actionlib python3-genpy python3-genmsg
+python3-actionlib-msgs``) and a running ``roscore`` named by ``ROS_MASTER_URI``. Debian
+installs rospy for its own Python 3 in ``/usr/lib/python3/dist-packages``; when rospy cannot
+be imported otherwise, that directory is *appended* to ``sys.path`` here, and only here (so
+the project's own packages keep their versions, and a plain install never sees ROS).
+
+The action type is the project's ``cplus_msgs/Serve`` (``ros/cplus_msgs/action/Serve.action``
+beside this module), generated at run time with genpy, so no catkin build is needed:
+
+* goal: ``string request``, in the domain's terms (``deliver(office3,office2)``);
+* feedback, once per cycle while the goal is in progress: the server's goal ``id``, the
+  ``cycle``, the actions ``executed`` and the ``plan`` that remains (one step per string);
+* result: ``id``, ``status`` (succeeded, preempted, recalled, aborted, rejected), ``reason``,
+  the ``cycle`` it took effect and the ``done_cycle``.
+
+An ``actionlib.ActionServer`` (several goals at once, as the server serves several requests)
+under the namespace ``--ros-name`` (default ``/cplus_serve``): any actionlib client works
+(``actionlib.SimpleActionClient(ns, ServeAction)``), and so do ROS's command-line tools once
+the message package is on ``PYTHONPATH`` (:data:`MSG_PATH`)::
+
+    export PYTHONPATH=$(python -c 'import cplus.robot.ros_bridge as r; print(r.MSG_PATH)')
+    rostopic pub -1 /cplus_serve/goal cplus_msgs/ServeActionGoal '{goal: {request: "deliver(office3,office2)"}}'
+    rostopic echo /cplus_serve/feedback
+    rostopic pub -1 /cplus_serve/cancel actionlib_msgs/GoalID '{id: ""}'    # every goal
+
+The states of a goal here are actionlib's: a request the domain cannot express is REJECTED
+with the reason as the status text; a pending goal becomes ACTIVE when the loop takes it; a
+cancellation is PREEMPTING until the cancellation's events have done their work (a package on
+board goes back to its origin), then PREEMPTED (RECALLED when it was still pending).
+"""
+from __future__ import annotations
+
+import os
+import sys
+import threading
+from dataclasses import dataclass
+from typing import Any
+
+from cplus.robot.goals import Feedback, Goal, GoalBoard, GoalStatus, GoalWatcher
+
+__all__ = ["DEBIAN_DIST", "INSTALL_HINT", "MSG_PATH", "ActionChannel", "RosSetup", "RosUnavailable", "import_ros"]
+
+DEBIAN_DIST = "/usr/lib/python3/dist-packages"
+MSG_PATH = os.path.join(os.path.dirname(os.path.abspath(__file__)), "ros")
+"""The directory that holds the ``cplus_msgs`` package (for ``PYTHONPATH``)."""
+INSTALL_HINT = ("apt-get install ros-core python3-rospy python3-actionlib python3-genpy python3-genmsg "
+                "python3-actionlib-msgs")
+
+
+class RosUnavailable(RuntimeError):
+    """ROS cannot be used: not installed, or no master to talk to. The message says what to do."""
+
+
+def import_ros() -> dict[str, Any]:
+    """Import rospy, actionlib, rosgraph and the action's messages, reaching Debian's
+    ``dist-packages`` if need be. Raises :class:`RosUnavailable`."""
+    missing = ""
+    try:
+        return _modules()
+    except ImportError as exc:
+        missing = exc.name or str(exc)
+    if os.path.isdir(DEBIAN_DIST) and DEBIAN_DIST not in sys.path:
+        sys.path.append(DEBIAN_DIST)
+        try:
+            return _modules()
+        except ImportError as exc:
+            missing = exc.name or str(exc)
+    raise RosUnavailable(f"--ros needs ROS 1 for Python {sys.version_info.major}.{sys.version_info.minor} "
+                         f"(cannot import {missing}): {INSTALL_HINT}")
+
+
+def _modules() -> dict[str, Any]:
+    import actionlib
+    import actionlib_msgs.msg
+    import rosgraph
+    import rospy
+    if MSG_PATH not in sys.path:
+        sys.path.append(MSG_PATH)
+    import cplus_msgs.msg
+    return {"rospy": rospy, "actionlib": actionlib, "rosgraph": rosgraph, "GoalStatus": actionlib_msgs.msg.GoalStatus,
+            "msgs": cplus_msgs.msg}
+
+
+@dataclass
+class RosSetup:
+    """ROS, imported and with a master that answers."""
+
+    modules: dict[str, Any]
+    master_uri: str
+
+    @classmethod
+    def check(cls) -> RosSetup:
+        """Import ROS and find the master at ``ROS_MASTER_URI``. Raises :class:`RosUnavailable`."""
+        modules = import_ros()
+        uri = os.environ.get("ROS_MASTER_URI")
+        if not uri:
+            raise RosUnavailable("--ros: ROS_MASTER_URI is not set; start roscore (roscore -p 11311) and set "
+                                 "ROS_MASTER_URI=http://127.0.0.1:11311 (and ROS_HOSTNAME=127.0.0.1)")
+        try:
+            online = modules["rosgraph"].Master("/cplus_serve").is_online()
+        except Exception:  # noqa: BLE001 - a malformed URI, a refused connection: the same answer
+            online = False
+        if not online:
+            raise RosUnavailable(f"--ros: no ROS master answers at {uri}: start roscore (roscore -p PORT) or fix "
+                                 "ROS_MASTER_URI")
+        return cls(modules, uri)
+
+
+class _RosGoal(GoalWatcher):
+    """One actionlib goal handle, told what happens to the server's goal."""
+
+    def __init__(self, channel: ActionChannel, handle) -> None:
+        self.channel = channel
+        self.handle = handle
+
+    def _result(self, goal: Goal, status: GoalStatus):
+        msgs = self.channel.msgs
+        return msgs.ServeResult(id=goal.id, status=status.value, reason=goal.reason, cycle=goal.cycle or 0,
+                                done_cycle=goal.done_cycle or 0)
+
+    def status(self, goal: Goal, status: GoalStatus) -> None:
+        h = self.handle
+        S = self.channel.GoalStatus
+        now = h.get_goal_status().status
+        text = goal.reason
+        if status is GoalStatus.ACTIVE:
+            h.set_accepted(f"goal {goal.id}, slot {goal.slot}")
+        elif status is GoalStatus.PREEMPTING:
+            if now in (S.PENDING, S.ACTIVE):
+                h.set_cancel_requested()
+        elif status is GoalStatus.SUCCEEDED:
+            h.set_succeeded(self._result(goal, status), f"goal {goal.id} done at cycle {goal.done_cycle}")
+        elif status in (GoalStatus.PREEMPTED, GoalStatus.RECALLED):
+            h.set_canceled(self._result(goal, status), text or "cancelled")
+        elif status is GoalStatus.REJECTED:
+            h.set_rejected(self._result(goal, status), text)
+        elif status is GoalStatus.ABORTED:
+            if now in (S.PENDING, S.RECALLING):     # actionlib aborts active goals only
+                h.set_rejected(self._result(goal, status), text)
+            else:
+                h.set_aborted(self._result(goal, status), text)
+
+    def feedback(self, goal: Goal, feedback: Feedback) -> None:
+        msgs = self.channel.msgs
+        self.handle.publish_feedback(msgs.ServeFeedback(
+            id=goal.id, cycle=feedback.cycle, executed=list(feedback.executed),
+            plan=[", ".join(step) for step in feedback.plan]))
+
+
+class ActionChannel:
+    """An actionlib action server that feeds a :class:`GoalBoard`.
+
+    Args:
+        board: the server's goals.
+        name: the action namespace (``cplus_serve``: topics ``/cplus_serve/goal``, ...).
+        setup: ROS, checked (:meth:`RosSetup.check`).
+        node: the ROS node name (anonymous, so that two servers may run).
+    """
+
+    action_type = "cplus_msgs/Serve"
+
+    def __init__(self, board: GoalBoard, name: str, setup: RosSetup, node: str = "cplus_serve") -> None:
+        self.board = board
+        self.namespace = "/" + name.strip("/")
+        self.setup = setup
+        self.node = node
+        m = setup.modules
+        self.rospy = m["rospy"]
+        self.actionlib = m["actionlib"]
+        self.GoalStatus = m["GoalStatus"]
+        self.msgs = m["msgs"]
+        self._ids: dict[str, int] = {}
+        self._lock = threading.Lock()
+        self._server = None
+        self._open = False
+
+    def start(self) -> None:
+        """Register the node with the master and start the action server."""
+        rospy = self.rospy
+        if not rospy.core.is_initialized():
+            rospy.init_node(self.node, anonymous=True, disable_signals=True)
+        server = self.actionlib.ActionServer(self.namespace, self.msgs.ServeAction, self._on_goal, self._on_cancel,
+                                             auto_start=False)
+        server.start()
+        self._server = server
+        self.board.open_channel()
+        self._open = True
+
+    def _on_goal(self, handle) -> None:
+        ros_id = handle.get_goal_id().id
+        request = handle.get_goal().request
+        goal = self.board.submit(request, _RosGoal(self, handle), f"ros {ros_id}")
+        with self._lock:
+            self._ids[ros_id] = goal.id
+
+    def _on_cancel(self, handle) -> None:
+        with self._lock:
+            gid = self._ids.get(handle.get_goal_id().id)
+        if gid is not None:
+            self.board.cancel(gid, "ros")
+
+    def close(self) -> None:
+        """Stop taking goals (the run ended: open goals were aborted) and leave ROS."""
+        if self._open:
+            self._open = False
+            self.board.close_channel()
+            self.rospy.sleep(0.3)             # let the last results reach the clients
+            self.rospy.signal_shutdown("cplus serve stopped")

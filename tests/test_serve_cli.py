@@ -1,0 +1,135 @@
+"""``cplus serve`` from the command line: the paper's scenario from a script with its log, and
+bad inputs (one line or a located error, exit 2, never a traceback)."""
+from __future__ import annotations
+
+import json
+import os
+import re
+import socket
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from cplus.cli import main
+
+ROOT = Path(__file__).resolve().parent.parent
+MAILBOT = ROOT / "domains" / "mailbot"
+DOMAIN = str(MAILBOT / "mailbot.cp")
+
+
+def test_the_papers_scenario_from_a_script(tmp_path, capsys):
+    log = tmp_path / "run.jsonl"
+    code = main(["serve", DOMAIN, "--script", str(MAILBOT / "table1.jsonl"), "--action-time", "0", "--log", str(log)])
+    err = capsys.readouterr().err
+    assert code == 0
+    assert "cplus serve: goal 1 deliver(office3,office2): active (slot 1)" in err
+    assert "cplus serve: goal 1 deliver(office3,office2): preempted" in err
+    assert "cplus serve: goal 2 deliver(office3,office4): succeeded" in err
+    assert "goal_reached: goal 'serve' holds at cycle 7 and no more events will come" in err
+    assert err.count("cycle 3 [") == 1            # an idle cycle is shown once
+    lines = [json.loads(x) for x in log.read_text().splitlines()]
+    assert lines[0]["accepts"] == "deliver(office,office)" and lines[0]["requests"].endswith("requests.toml")
+    cycles = [x for x in lines if x["record"] == "cycle"]
+    assert [x["executed"] for x in cycles] == [[], ["move(office2)"], ["move(office3)"], [], ["pickup(2)"],
+                                               ["move(office4)"], ["deliver(2)"], []]
+    assert cycles[1]["plan"] == [["move(office2)"], ["move(office3)"], ["pickup(1)"], ["move(office2)"],
+                                 ["deliver(1)"]]
+    assert cycles[3]["plan"] == [] and cycles[3]["events"] == ["cancel(1)"]
+    assert cycles[4]["plan"] == [["pickup(2)"], ["move(office4)"], ["deliver(2)"]]
+    assert [(g["id"], g["status"]) for g in lines[-1]["goals"]] == [(1, "preempted"), (2, "succeeded")]
+
+
+def run_bad(args, capsys) -> str:
+    code = main(["serve", *args])
+    err = capsys.readouterr().err
+    assert code == 2, err
+    assert "Traceback" not in err
+    return err
+
+
+def test_bad_options_and_files_are_one_line_errors(tmp_path, capsys):
+    assert run_bad([DOMAIN, "--listen", "0.0.0.0:7070"], capsys) == (
+        "cplus serve: error: --listen: 0.0.0.0 is not a loopback address: the socket has no authentication, so it "
+        "listens on 127.0.0.1 or ::1 only\n")
+    assert run_bad([DOMAIN, "--listen", "7070"], capsys).startswith("cplus serve: error: --listen: expected HOST:PORT")
+    assert run_bad([DOMAIN, "--brick", "robot=/dev/null"], capsys) == (
+        "cplus serve: error: --brick needs --robot (the binding file that names the bricks)\n")
+    lone = tmp_path / "lone.cp"
+    lone.write_text((MAILBOT / "mailbot.cp").read_text().replace("'core.cp'", repr(str(MAILBOT / "core.cp"))))
+    assert "no requests.toml beside" in run_bad([str(lone), "--script", str(MAILBOT / "table1.jsonl")], capsys)
+    err = run_bad([DOMAIN, "--goal", "nosuch", "--script", str(MAILBOT / "table1.jsonl")], capsys)
+    assert err.startswith(f"{DOMAIN}:1:1: error:") and "nosuch" in err
+    bad = tmp_path / "bad.jsonl"
+    bad.write_text('{"cycle": 1, "request": "deliver(office3,office2)"}\n{"cycle": 2, "cancel": "one"}\n')
+    assert run_bad([DOMAIN, "--script", str(bad)], capsys).startswith(
+        f"{bad}:2:1: error: \"cancel\" must be a goal id")
+    requests = tmp_path / "requests.toml"
+    requests.write_text((MAILBOT / "requests.toml").read_text().replace('"package"', '"parcel"'))
+    assert run_bad([DOMAIN, "--requests", str(requests), "--script", str(bad)], capsys).startswith(
+        f"{requests}:5:1: error: unknown sort 'parcel'")
+    assert run_bad([DOMAIN, "--script", str(tmp_path / "none.jsonl")], capsys).startswith(
+        "error: cannot read script")
+    assert "expected seconds >= 0" in run_bad([DOMAIN, "--action-time", "-1"], capsys)
+
+
+def test_an_address_in_use_is_an_error(capsys):
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        s.listen()
+        port = s.getsockname()[1]
+        err = run_bad([DOMAIN, "--listen", f"127.0.0.1:{port}"], capsys)
+    assert err.startswith(f"cplus serve: error: cannot listen on 127.0.0.1:{port}: ")
+
+
+def cli(args, env=None, timeout=120) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-m", "cplus", "serve", *args], capture_output=True, text=True,
+                          timeout=timeout, env=env)
+
+
+def test_ros_absent_is_a_clear_message(tmp_path):
+    fake = tmp_path / "noros"
+    fake.mkdir()
+    (fake / "rospy.py").write_text("raise ImportError('no ROS here', name='rospy')\n")
+    env = dict(os.environ, PYTHONPATH=str(fake), ROS_MASTER_URI="http://127.0.0.1:9")
+    r = cli([DOMAIN, "--ros"], env)
+    assert r.returncode == 2 and r.stdout == ""
+    assert r.stderr.startswith("cplus serve: error: --ros needs ROS 1 for Python 3.")
+    assert "(cannot import rospy): apt-get install ros-core python3-rospy python3-actionlib" in r.stderr
+
+
+def test_ros_without_a_master_is_a_clear_message():
+    if not Path("/usr/lib/python3/dist-packages/rospy").is_dir():
+        pytest.skip("ROS 1 is not installed (.ci/run installs it)")
+    with socket.socket() as s:                  # a port where nothing listens
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    env = dict(os.environ, ROS_MASTER_URI=f"http://127.0.0.1:{port}", ROS_HOSTNAME="127.0.0.1")
+    r = cli([DOMAIN, "--ros"], env)
+    assert r.returncode == 2
+    assert r.stderr == (f"cplus serve: error: --ros: no ROS master answers at http://127.0.0.1:{port}: start roscore "
+                        "(roscore -p PORT) or fix ROS_MASTER_URI\n")
+    env.pop("ROS_MASTER_URI")
+    r = cli([DOMAIN, "--ros"], env)
+    assert r.returncode == 2 and "ROS_MASTER_URI is not set" in r.stderr
+
+
+def test_nothing_imports_ros_but_the_bridge():
+    """ROS is an optional extra: no module of the project imports rospy or the bridge, except
+    the bridge itself and the command's --ros path."""
+    imports = re.compile(r"^\s*(from\s+(\S+)\s+import\s+(.+)|import\s+(.+))$", re.M)
+    offenders = []
+    for path in (ROOT / "cplus").rglob("*.py"):
+        rel = path.relative_to(ROOT).as_posix()
+        if rel.startswith("cplus/robot/ros/") or rel == "cplus/robot/ros_bridge.py":
+            continue
+        for m in imports.finditer(path.read_text()):
+            names = " ".join(x for x in m.groups()[1:] if x)
+            if re.search(r"\b(rospy|actionlib|genpy|genmsg|rosgraph|ros_bridge|cplus_msgs)\b", names):
+                offenders.append((rel, m.group(0).strip()))
+    assert offenders == [("cplus/cli/serve.py", "from cplus.robot import ros_bridge")] * 2
+    r = subprocess.run([sys.executable, "-c", "import sys, cplus.cli.serve, cplus.robot.reactive; "
+                        "print(sorted(m for m in sys.modules if m.split('.')[0] in ('rospy', 'actionlib', 'genpy')))"],
+                       capture_output=True, text=True, timeout=60)
+    assert r.stdout.strip() == "[]"

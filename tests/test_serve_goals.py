@@ -1,0 +1,316 @@
+"""Goals of a server on the mail robot (domains/mailbot), from scripts, on a simulated robot
+and simulated time: ROSoClingo's Table I, cancellations before and after the pickup, the
+capacity, two requests interleaved, requests the domain cannot express, goals waiting for a
+slot and recalled, goals aborted when the run stops, and the log."""
+from __future__ import annotations
+
+import io
+import json
+import threading
+from pathlib import Path
+
+import pytest
+
+from cplus.api import Domain
+from cplus.robot.channels import ScriptError, parse_script
+from cplus.robot.goals import GoalStatus, GoalWatcher
+from cplus.robot.online import OnlineStatus
+from cplus.robot.reactive import ServeLog, Server
+from cplus.robot.vocabulary import Rejected, RequestsError, load_requests, parse_requests
+from nxt_link.clock import VirtualClock
+
+MAILBOT = Path(__file__).resolve().parent.parent / "domains" / "mailbot"
+
+
+@pytest.fixture(scope="module")
+def domain():
+    return Domain.load(str(MAILBOT / "mailbot.cp"))
+
+
+def vocabulary(d):
+    return load_requests(str(MAILBOT / "requests.toml"), d)
+
+
+def serve(d, lines: list[dict], **kw):
+    """Run a server on a script until it is done; return the result, the server and the log."""
+    text = "".join(json.dumps(x) + "\n" for x in lines)
+    server = Server(d, vocabulary(d), clock=VirtualClock(), **kw)
+    out = io.StringIO()
+    server.loop.observers.append(ServeLog(out, server.board))
+    server.add_script(parse_script(text, "script.jsonl"))
+    result = server.run()
+    return result, server, [json.loads(x) for x in out.getvalue().splitlines()]
+
+
+def executed(result) -> list[list[str]]:
+    return [[a.text for a in r.executed] for r in result.records]
+
+
+def status(server) -> dict[int, str]:
+    return {g.id: g.status.value for g in server.board.goals.values()}
+
+
+# ROSoClingo's Table I: the plans returned for varying requests, as steps 1.. of the history
+TABLE_I = {
+    1: {1: "move(office2)", 2: "move(office3)", 3: "pickup(1)", 4: "move(office2)", 5: "deliver(1)"},
+    2: {1: "move(office2)", 2: "move(office3)"},
+    3: {1: "move(office2)", 2: "move(office3)", 4: "pickup(2)", 5: "move(office4)", 6: "deliver(2)"},
+}
+
+
+def test_the_papers_scenario_gives_the_plans_of_table_1(domain):
+    script = (MAILBOT / "table1.jsonl").read_text()
+    server = Server(domain, vocabulary(domain), clock=VirtualClock())
+    server.add_script(parse_script(script, "table1.jsonl"))
+    result = server.run()
+    assert result.status is OnlineStatus.GOAL_REACHED
+    plans = []
+    for r in result.records:
+        if r.replanned is not None and r.events:
+            history = {k: x[0] for k, x in enumerate(executed(result)[:r.cycle]) if x}
+            history.update({r.cycle + i: s[0] for i, s in enumerate(r.plan.texts())})
+            plans.append(history)
+    assert plans == [TABLE_I[1], TABLE_I[2], TABLE_I[3]]
+    # cycle 3 waits at office3 (plan 2 is empty); the second request's pickup is at cycle 4
+    assert executed(result)[3] == [] and result.records[3].state.value("at") == "office3"
+    assert status(server) == {1: "preempted", 2: "succeeded"}
+    g1, g2 = server.board.goals[1], server.board.goals[2]
+    assert (g1.slot, g1.cycle, g1.done_cycle) == (1, 1, 3) and (g2.slot, g2.cycle, g2.done_cycle) == (2, 4, 7)
+
+
+def test_a_cancellation_before_the_pickup_drops_the_request(domain):
+    result, server, _ = serve(domain, [{"cycle": 1, "request": "deliver(office3,office4)"}, {"cycle": 2, "cancel": 1}])
+    assert status(server) == {1: "preempted"}
+    assert executed(result) == [[], ["move(office2)"], []]
+    assert server.board.goals[1].done_cycle == 2
+    assert result.state.value("at") == "office2" and result.state.value("phase(1)") == "idle"
+
+
+def test_a_cancellation_after_the_pickup_brings_the_package_back_to_its_origin(domain):
+    result, server, _ = serve(domain, [{"cycle": 1, "request": "deliver(office2,office4)"}, {"cycle": 4, "cancel": 1}])
+    assert executed(result) == [[], ["move(office2)"], ["pickup(1)"], ["move(office3)"],
+                                ["move(office2)"], ["deliver(1)"], []]
+    r4 = result.records[4]
+    assert r4.events == ["cancel(1)"] and r4.state.value("dest(1)") == "office2"
+    # preempting while it travels back, preempted once it is delivered at office2
+    assert status(server) == {1: "preempted"} and server.board.goals[1].done_cycle == 6
+    assert result.records[5].state.value("at") == "office2"
+
+
+def test_a_cancellation_that_comes_with_the_delivery_is_too_late(domain):
+    # deliver(1) is executed at cycle 3; the cancellation arrives with the transition it ends
+    result, server, _ = serve(domain, [{"cycle": 1, "request": "deliver(office1,office2)"}, {"cycle": 4, "cancel": 1}])
+    assert executed(result)[1:4] == [["pickup(1)"], ["move(office2)"], ["deliver(1)"]]
+    assert status(server) == {1: "succeeded"} and server.board.goals[1].cancel_cycle == 4
+
+
+def test_the_robot_carries_at_most_three_packages(domain):
+    def run(capacity: int):
+        text = (MAILBOT / "mailbot.cp").read_text().replace("slots -> 3;", "slots -> 4;")
+        text = text.replace("capacity -> 3;", f"capacity -> {capacity};")
+        d = Domain.from_text(text, str(MAILBOT / "mailbot4.cp"))
+        return serve(d, [{"cycle": 1, "request": "deliver(office2,office4)"} for _ in range(4)], budget=None)
+    result, server, _ = run(3)
+    assert result.status is OnlineStatus.GOAL_REACHED and set(status(server).values()) == {"succeeded"}
+    assert max(r.state.value("load") for r in result.records) <= 3
+    acts = [x[0] for x in executed(result) if x]
+    # four packages from office2 to office4: two trips, 15 actions (with room for four: one trip, 11)
+    assert len(acts) == 15 and acts.count("move(office4)") == 2
+    result, server, _ = run(4)
+    assert sum(1 for x in executed(result) if x) == 11 and max(r.state.value("load") for r in result.records) == 4
+
+
+def test_two_requests_interleave_in_one_plan(domain):
+    result, server, log = serve(domain, [{"cycle": 1, "request": "deliver(office1,office4)"},
+                                         {"cycle": 3, "request": "deliver(office2,office3)"}])
+    assert status(server) == {1: "succeeded", 2: "succeeded"}
+    r3 = result.records[3]
+    assert r3.replanned.reason == "event" and r3.state.value("at") == "office2"
+    # the plan made at cycle 3 picks package 2 up on the way and delivers it first
+    assert r3.plan.texts() == [["pickup(2)"], ["move(office3)"], ["deliver(2)"], ["move(office4)"], ["deliver(1)"]]
+    assert executed(result) == [[], ["pickup(1)"], ["move(office2)"], ["pickup(2)"], ["move(office3)"],
+                                ["deliver(2)"], ["move(office4)"], ["deliver(1)"], []]
+    assert max(r.state.value("load") for r in result.records) == 2
+
+
+def test_requests_the_domain_cannot_express_are_rejected_and_the_server_goes_on(domain):
+    result, server, log = serve(domain, [
+        {"cycle": 1, "request": "deliver(office3"},
+        {"cycle": 1, "request": "deliver(office9,office2)"},
+        {"cycle": 1, "request": "fetch(office1)"},
+        {"cycle": 1, "request": "deliver(office1)"},
+        {"cycle": 2, "request": "deliver(office1,office2)"}])
+    assert status(server) == {1: "rejected", 2: "rejected", 3: "rejected", 4: "rejected", 5: "succeeded"}
+    reasons = [server.board.goals[i].reason for i in (1, 2, 3, 4)]
+    assert reasons == ["cannot read 'deliver(office3' as a request such as deliver(office,office)",
+                       "office9 is not an office (office1, office2, office3, office4)",
+                       "unknown request 'fetch'; this domain accepts deliver(office,office)",
+                       "deliver takes 2 arguments (deliver(office,office)), not 1"]
+    assert server.board.goals[5].slot == 1            # rejected requests take no slot
+    goals = {g["id"]: g for line in log if line["record"] == "cycle" for g in line["goals"]}
+    assert goals[2] == {"id": 2, "request": "deliver(office9,office2)", "status": "rejected",
+                        "reason": "office9 is not an office (office1, office2, office3, office4)"}
+
+
+def test_a_request_waits_for_a_free_slot_and_can_be_recalled_meanwhile(domain):
+    lines = [{"cycle": 1, "request": "deliver(office4,office1)"} for _ in range(5)] + [{"cycle": 2, "cancel": 5}]
+    result, server, _ = serve(domain, lines)
+    goals = server.board.goals
+    assert status(server) == {1: "succeeded", 2: "succeeded", 3: "succeeded", 4: "succeeded", 5: "recalled"}
+    first = min((goals[i] for i in (1, 2, 3)), key=lambda g: g.done_cycle)
+    # the fourth takes the first slot freed, at the next cycle; the fifth never had one
+    assert [goals[i].slot for i in (1, 2, 3)] == [1, 2, 3] and goals[4].slot == first.slot
+    assert goals[4].cycle == first.done_cycle + 1 and goals[5].slot is None
+    assert result.status is OnlineStatus.GOAL_REACHED
+
+
+def test_slots_are_given_round_robin(domain):
+    result, server, _ = serve(domain, [{"cycle": c, "request": "deliver(office1,office2)"} for c in (1, 8, 15, 22)])
+    assert [g.slot for g in server.board.goals.values()] == [1, 2, 3, 1]
+
+
+class Statuses(GoalWatcher):
+    def __init__(self) -> None:
+        self.seen: list[tuple[int, str]] = []
+        self.feedback_cycles: list[int] = []
+        self.changed = threading.Event()
+
+    def status(self, goal, status) -> None:
+        self.seen.append((goal.id, status.value))
+        self.changed.set()
+
+    def feedback(self, goal, feedback) -> None:
+        self.feedback_cycles.append(feedback.cycle)
+
+
+def test_stopping_the_server_aborts_the_goals_in_flight(domain):
+    server = Server(domain, vocabulary(domain), action_time=0.01)
+    server.board.open_channel()                       # a live client: the run waits for requests
+    watcher = Statuses()
+    done = threading.Event()
+    result_box = []
+    thread = threading.Thread(target=lambda: (result_box.append(server.run()), done.set()))
+    thread.start()
+    goal = server.board.submit("deliver(office4,office1)", watcher)
+    while not watcher.feedback_cycles:
+        watcher.changed.wait(0.05)
+    server.stop()
+    thread.join(10)
+    assert result_box[0].status is OnlineStatus.STOPPED
+    assert goal.status is GoalStatus.ABORTED and "the server stopped (stopped:" in goal.reason
+    assert watcher.seen[:2] == [(1, "pending"), (1, "active")] and watcher.seen[-1] == (1, "aborted")
+    late = server.board.submit("deliver(office1,office2)")
+    assert late.status is GoalStatus.REJECTED and late.reason.startswith("the server stopped")
+
+
+def test_watchers_hear_each_change_in_order_with_feedback_per_cycle(domain):
+    watcher = Statuses()
+    server = Server(domain, vocabulary(domain), clock=VirtualClock())
+    server.board.watch(watcher)
+    server.board.submit("deliver(office2,office1)")
+    server.run()
+    assert watcher.seen == [(1, "pending"), (1, "active"), (1, "succeeded")]
+    assert watcher.feedback_cycles == [1, 2, 3, 4]
+
+
+def test_the_log_is_the_online_log_with_goals(domain):
+    result, server, log = serve(domain, [{"cycle": 1, "request": "deliver(office3,office2)"}, {"cycle": 3, "cancel": 1}])
+    assert [x["record"] for x in log] == ["start"] + ["cycle"] * len(result.records) + ["end"]
+    assert log[0]["format"] == "cplus.online/1" and "cancel(1)" in log[0]["observed"]
+    assert "move(office2)" in log[0]["agent"] and "request(1,office3)" not in log[0]["agent"]
+    for line in log[1:-1]:
+        assert {"cycle", "state", "executed", "events", "sensed", "plan", "replanned", "goals"} <= set(line)
+    assert log[2]["goals"] == [{"id": 1, "request": "deliver(office3,office2)", "status": "active", "slot": 1,
+                                "cycle": 1, "reaction_ms": log[2]["goals"][0]["reaction_ms"]}]
+    assert log[3]["goals"][0]["status"] == "active"
+    assert log[4]["cycle"] == 3 and log[4]["goals"][0]["status"] == "preempted" and log[4]["goals"][0]["done_cycle"] == 3
+    assert log[-1]["status"] == "goal_reached" and [g["status"] for g in log[-1]["goals"]] == ["preempted"]
+    # a cycle line lists the goals still open and those that changed since the line before
+    result, server, log = serve(domain, [{"cycle": 1, "request": "deliver(office1,office2)"},
+                                         {"cycle": 6, "request": "deliver(office1,office2)"}])
+    assert [[g["id"] for g in x["goals"]] for x in log[1:-1]] == [[], [1], [1], [1], [1], [], [2], [2], [2], [2], [2]]
+    assert log[5]["goals"][0]["status"] == "succeeded" and log[-2]["goals"][0]["status"] == "succeeded"
+
+
+# ---------------------------------------------------------------------------------- inputs
+def test_script_errors_are_located():
+    cases = {
+        '{"cycle": 1, "request": "deliver(a,b)"}\n{"cycle": 0, "request": "x"}\n':
+            'script.jsonl:2:1: error: "cycle" must be an integer >= 1',
+        '{"cycle": 1, "request": "x"\n': "script.jsonl:1:28: error: not JSON: Expecting ',' delimiter",
+        '{"cycle": 1, "request": "x", "cancel": 1}\n': "script.jsonl:1:1: error: a line has exactly one of",
+        '{"cycle": 1, "cancel": 2}\n{"cycle": 2, "request": "x"}\n':
+            "script.jsonl:1:1: error: cancels goal 2, but only 0 requests arrive by cycle 1",
+        '{"cycle": 1, "requests": "x"}\n': "script.jsonl:1:1: error: unknown field 'requests'",
+        '[1, 2]\n': "script.jsonl:1:1: error: each line is a JSON object",
+        '{"cycle": 1, "request": 3}\n': 'script.jsonl:1:1: error: "request" must be a string',
+    }
+    for text, message in cases.items():
+        with pytest.raises(ScriptError) as e:
+            parse_script(text, "script.jsonl")
+        assert e.value.render().startswith(message), (text, e.value.render())
+
+
+REQUESTS = '''format = "cplus.requests/1"
+slots = "package"
+open = "pending($slot)"
+cancel = ["cancel($slot)"]
+[requests]
+deliver = ["request($slot,$1)", "address($slot,$2)"]
+'''
+
+
+def test_requests_file_errors_are_located(domain):
+    cases = [
+        (("slots = \"package\"", "slots = \"parcel\""), "requests.toml:2:1: error: unknown sort 'parcel'"),
+        (("open = \"pending($slot)\"", "open = \"load\""), "requests.toml:3:1: error: load must be a Boolean fluent "
+                                                          "(true while the goal is open), not an inertialFluent of 0, 1"),
+        (("open = \"pending($slot)\"", "open = \"phase($slot)\""), "requests.toml:3:1: error: phase must be a Boolean"),
+        (("\"cancel($slot)\"", "\"cancel($1)\""), "requests.toml:4:11: error: $1: only $slot may appear here"),
+        (("\"address($slot,$2)\"", "\"adress($slot,$2)\""), "requests.toml:6:33: error: "
+                                                           f"{MAILBOT / 'mailbot.cp'} has no event adress/2 (events: "
+                                                           "address, cancel, deliver, move, pickup, request)"),
+        (("\"address($slot,$2)\"", "\"address($slot,$3)\""), "requests.toml:6:1: error: request deliver uses $3 but not $2"),
+        (("\"address($slot,$2)\"", "\"address($1,$2)\""), "requests.toml:6:33: error: $1 fills places of two"),
+        (("[requests]", "[request]"), "requests.toml:5:1: error: unknown top-level field 'request'"),
+        (("cplus.requests/1", "cplus.requests/2"), "requests.toml:1:1: error: unsupported requests format"),
+        (("deliver = [", "deliver = ["), None),
+    ]
+    for (old, new), message in cases:
+        text = REQUESTS.replace(old, new)
+        if message is None:
+            assert parse_requests(text, "requests.toml", domain).usage() == "deliver(office,office)"
+            continue
+        with pytest.raises(RequestsError) as e:
+            parse_requests(text, "requests.toml", domain)
+        assert e.value.render().startswith(message), (new, e.value.render())
+    with pytest.raises(RequestsError, match="invalid TOML"):
+        parse_requests("format = ", "requests.toml", domain)
+
+
+def test_a_request_becomes_the_events_of_its_slot(domain):
+    v = vocabulary(domain)
+    assert v.events(" deliver( office3 , office2 ) ", 2) == ["request(2,office3)", "address(2,office2)"]
+    assert v.cancel_events(3) == ["cancel(3)"] and v.open_fluent(1).text == "pending(1)"
+    assert v.slots == (1, 2, 3) and v.usage() == "deliver(office,office)"
+    assert {gc.text for gc in v.event_constants()} >= {"request(1,office1)", "address(3,office4)", "cancel(2)"}
+    for bad in ("", "deliver", "deliver()", "deliver(office1,office2,office3)", "deliver(office1,,office2)",
+                "deliver(office1,office2", "42", "deliver(office1,office2) extra"):
+        with pytest.raises(Rejected):
+            v.events(bad, 1)
+
+
+def test_a_binding_must_take_the_request_events_from_input(domain, tmp_path):
+    from cplus.robot.binding import parse_binding
+    from cplus.robot.reactive import serve_roles
+    text = ('format = "cplus.robot/1"\n[bricks.robot]\n[actions.move]\nbrick = "robot"\nbehaviour = 1\n'
+            '[actions.pickup]\nbrick = "robot"\nbehaviour = 2\n[actions.deliver]\nbrick = "robot"\nbehaviour = 3\n'
+            '[events.request]\nsource = "input"\n[events.address]\nsource = "input"\n[events.cancel]\n'
+            'source = "inferred"\n')
+    binding = parse_binding(text, str(tmp_path / "robot.toml"), domain)
+    with pytest.raises(RequestsError) as e:
+        serve_roles(domain, vocabulary(domain), binding)
+    assert "cancel(1) is an event of the requests" in e.value.message and ":16:1" in str(e.value)
+    fixed = parse_binding(text.replace('source = "inferred"', 'source = "input"'), "robot.toml", domain)
+    roles = serve_roles(domain, vocabulary(domain), fixed)
+    assert {gc.text for gc in roles.agent} >= {"move(office1)", "pickup(2)"} and not roles.inferred

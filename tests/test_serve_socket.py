@@ -1,0 +1,186 @@
+"""The JSON-lines socket of ``cplus serve``: real TCP connections on the loopback interface to a
+server running in a thread (a simulated robot whose actions take a few milliseconds), and
+``cplus serve`` as a process stopped by SIGTERM."""
+from __future__ import annotations
+
+import json
+import os
+import signal
+import socket
+import subprocess
+import sys
+import threading
+from pathlib import Path
+
+import pytest
+
+from cplus.api import Domain
+from cplus.robot.channels import parse_listen
+from cplus.robot.online import OnlineStatus
+from cplus.robot.reactive import Server
+from cplus.robot.vocabulary import load_requests
+
+ROOT = Path(__file__).resolve().parent.parent
+MAILBOT = ROOT / "domains" / "mailbot"
+
+
+class Client:
+    """A line-oriented TCP client."""
+
+    def __init__(self, address: tuple[str, int]) -> None:
+        self.sock = socket.create_connection(address, timeout=60)
+        self.rfile = self.sock.makefile("rb")
+
+    def send(self, obj) -> None:
+        data = obj if isinstance(obj, bytes) else (json.dumps(obj) + "\n").encode()
+        self.sock.sendall(data)
+
+    def line(self) -> dict:
+        raw = self.rfile.readline()
+        assert raw, "the server hung up"
+        return json.loads(raw)
+
+    def until(self, kind: str, goal: int | None = None) -> list[dict]:
+        """Every line up to the first of ``kind`` (for ``goal``), that one included."""
+        out = []
+        while True:
+            x = self.line()
+            out.append(x)
+            if x["type"] == kind and (goal is None or x.get("id") == goal):
+                return out
+
+    def close(self) -> None:
+        self.rfile.close()
+        self.sock.close()
+
+
+@pytest.fixture
+def server():
+    d = Domain.load(str(MAILBOT / "mailbot.cp"))
+    srv = Server(d, load_requests(str(MAILBOT / "requests.toml"), d), action_time=0.005, idle_poll_s=0.01)
+    address = srv.listen("127.0.0.1", 0)
+    box: list = []
+    thread = threading.Thread(target=lambda: box.append(srv.run()), daemon=True)
+    thread.start()
+    srv.address = address
+    yield srv
+    srv.stop()
+    thread.join(30)
+    assert box and box[0].status is OnlineStatus.STOPPED
+
+
+def test_a_request_is_answered_with_its_id_status_feedback_and_result(server):
+    c = Client(server.address)
+    c.send({"request": "deliver(office3,office2)"})
+    lines = c.until("result", 1)
+    assert lines[0] == {"type": "goal", "id": 1, "request": "deliver(office3,office2)", "status": "pending"}
+    assert lines[1]["type"] == "status" and lines[1]["status"] == "active" and lines[1]["slot"] == 1
+    feedback = [x for x in lines if x["type"] == "feedback"]
+    assert [x["executed"] for x in feedback] == [["move(office2)"], ["move(office3)"], ["pickup(1)"],
+                                                 ["move(office2)"], ["deliver(1)"]]
+    assert feedback[0]["plan"] == [["move(office3)"], ["pickup(1)"], ["move(office2)"], ["deliver(1)"]]
+    assert feedback[-1]["plan"] == [] and all(x["id"] == 1 for x in feedback)
+    assert lines[-1]["status"] == "succeeded" and lines[-1]["done_cycle"] == feedback[-1]["cycle"] + 1
+    c.send({"status": 1})
+    assert c.line()["status"] == "succeeded"
+    c.close()
+
+
+def test_bad_lines_get_an_error_and_the_connection_goes_on(server):
+    c = Client(server.address)
+    c.send(b"deliver(office3,office2)\n")
+    assert c.line() == {"type": "error", "message": "not JSON: Expecting value at column 1"}
+    c.send({"request": 7})
+    assert c.line()["message"].startswith("\"request\" must be a string")
+    c.send({"cancel": 99})
+    assert c.line() == {"type": "error", "message": "no goal 99"}
+    c.send({"request": "x", "cancel": 1})
+    assert c.line()["message"].startswith("send one of")
+    c.send(b"\xff\xfe\n")
+    assert c.line() == {"type": "error", "message": "not UTF-8 text"}
+    c.send(b"x" * 70000 + b"\n")
+    assert c.line()["message"] == "line longer than 65536 bytes, dropped"
+    c.send({"request": "deliver(office3,office9)"})
+    assert c.line() == {"type": "goal", "id": 1, "request": "deliver(office3,office9)", "status": "rejected",
+                        "reason": "office9 is not an office (office1, office2, office3, office4)"}
+    c.send({"request": "deliver(office1,office2)"})
+    assert c.until("result", 2)[-1]["status"] == "succeeded"
+    c.close()
+
+
+def test_a_client_that_disconnects_mid_goal_leaves_it_running(server):
+    a = Client(server.address)
+    a.send({"request": "deliver(office4,office1)"})
+    assert a.line()["status"] == "pending"
+    assert a.until("feedback", 1)[-1]["cycle"] >= 1
+    a.close()                                   # gone, with its goal in flight
+    b = Client(server.address)
+    b.send({"request": "deliver(office2,office3)"})
+    b.until("result", 2)
+    while True:                                 # goal 1 finishes although nobody listens
+        b.send({"status": 1})
+        x = b.line()
+        if x["status"] not in ("pending", "active"):
+            break
+    assert x["status"] == "succeeded"
+    assert server.board.goals[1].status.value == "succeeded"
+    b.close()
+
+
+def test_a_client_cancels_a_goal_and_its_owner_hears_the_preemption(server):
+    owner, other = Client(server.address), Client(server.address)
+    owner.send({"request": "deliver(office4,office1)"})
+    owner.until("feedback", 1)
+    other.send({"cancel": 1})
+    reply = other.line()
+    assert reply["type"] == "cancel" and reply["id"] == 1 and reply["status"] in ("preempting", "preempted")
+    lines = owner.until("result", 1)
+    assert lines[-1]["status"] == "preempted" and lines[-1]["reason"] == "cancelled"
+    other.send({"cancel": 1})                   # a final goal stays as it is
+    assert other.line()["status"] == "preempted"
+    owner.close()
+    other.close()
+
+
+def test_listen_addresses_are_loopback_only():
+    assert parse_listen("127.0.0.1:0") == ("127.0.0.1", 0)
+    assert parse_listen("localhost:7070") == ("127.0.0.1", 7070)
+    assert parse_listen("[::1]:7070") == ("::1", 7070)
+    for bad in ("0.0.0.0:7070", "192.168.1.2:80", "example.org:80", "127.0.0.1", "127.0.0.1:99999", ":80"):
+        with pytest.raises(ValueError):
+            parse_listen(bad)
+
+
+@pytest.mark.slow
+def test_the_command_serves_a_socket_until_sigterm(tmp_path):
+    log = tmp_path / "run.jsonl"
+    env = dict(os.environ, PYTHONUNBUFFERED="1")
+    proc = subprocess.Popen([sys.executable, "-m", "cplus", "serve", str(MAILBOT / "mailbot.cp"), "--listen",
+                             "127.0.0.1:0", "--action-time", "1", "--log", str(log)],
+                            stderr=subprocess.PIPE, text=True, env=env)
+    try:
+        address = None
+        for line in proc.stderr:
+            if "listening on" in line:
+                host, port = line.split("listening on ")[1].split()[0].rsplit(":", 1)
+                address = (host, int(port))
+                break
+        assert address is not None
+        c = Client(address)
+        c.send({"request": "deliver(office3,office9)"})
+        assert c.line()["status"] == "rejected"
+        c.send({"request": "deliver(office1,office4)"})        # five actions of a second each
+        c.until("feedback", 2)
+        proc.send_signal(signal.SIGTERM)        # the goal in flight is aborted, the client told
+        last = c.until("result", 2)[-1]
+        assert last["status"] == "aborted" and last["reason"].startswith("the server stopped (stopped:")
+        _, rest = proc.communicate(timeout=60)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+    assert proc.returncode == 0
+    lines = [json.loads(x) for x in log.read_text().splitlines()]
+    assert lines[0]["record"] == "start" and lines[-1]["record"] == "end"
+    assert lines[-1]["status"] == "stopped"
+    assert [(g["id"], g["status"]) for g in lines[-1]["goals"]] == [(1, "rejected"), (2, "aborted")]
+    assert "aborted" in rest and "stopped" in rest
