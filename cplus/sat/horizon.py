@@ -320,7 +320,7 @@ class QuerySession:
         assumptions = [self.act, *self.assumptions]
         if not self.commit or self.assumptions or h.step_hooks or h.extra:
             return s.solve(assumptions)
-        before = s.propagations()
+        before = s.propagations
         # a horizon much slower than the one before: proofs of no history grow step by step,
         # a history is found in one jump (and a new solver would lose what was learned)
         budget = max(self._commit_factor * max(s.count, 1), 4 * self._last)
@@ -331,7 +331,7 @@ class QuerySession:
             if not ok:                       # no model any more: the next horizon needs a new solver
                 self._stale = True
                 self._commit_factor *= 4
-        self._last = s.propagations() - before
+        self._last = s.propagations - before
         return ok
 
     def _renew(self) -> None:
