@@ -81,16 +81,15 @@ def split(path: str, label: str, solver: str) -> dict:
     """Run in a fresh process: where the time goes, then the bare solve of the final CNF."""
     import gc
     t0 = time.perf_counter()
-    from cplus.ground.theory import ground_program
-    from cplus.load import load_program
+    from cplus.api import Domain
     from cplus.planner import run_query
     t1 = time.perf_counter()
     gc.disable()   # as the command does
-    prog = load_program(path)
+    domain = Domain.load(path)
     t2 = time.perf_counter()
-    theory = ground_program(prog)
+    query = domain.query(label)
+    theory = domain.theory_for(query)     # as the command grounds it
     t3 = time.perf_counter()
-    query = prog.query(label)
     r = run_query(theory, query, 1, solver)
     t4 = time.perf_counter()
     out = {"import": t1 - t0, "load": t2 - t1, "ground": t3 - t2, "templates": r.template_s,

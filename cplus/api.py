@@ -25,6 +25,8 @@ from __future__ import annotations
 from collections.abc import Callable, Iterator
 
 from cplus.errors import Diagnostics, QueryError
+from cplus.ground.atoms import AtomTable
+from cplus.ground.restrict import fixed_at_zero
 from cplus.ground.theory import GroundTheory, ground_program
 from cplus.history import History
 from cplus.load import load_program, load_text
@@ -45,6 +47,7 @@ class Domain:
         self.path = path
         self._theory: GroundTheory | None = None
         self._templates: tuple | None = None
+        self._for_state: dict[frozenset[int], GroundTheory] = {}
 
     @classmethod
     def load(cls, path: str, externals: Externals | None = None) -> Domain:
@@ -64,6 +67,23 @@ class Domain:
         if self._theory is None:
             self._theory = ground_program(self.program)
         return self._theory
+
+    def theory_for(self, query: QuerySpec) -> GroundTheory:
+        """The grounding a query is answered with: :attr:`theory` once that is built, else
+        only what can happen from the state the query fixes at step 0 (see
+        :mod:`cplus.ground.restrict`; built once per such state).  The histories are the same
+        either way; a restricted grounding is much smaller when most values of the domain's
+        integer fluents cannot be reached from that state."""
+        if self._theory is not None:
+            return self._theory
+        fixed = fixed_at_zero(self.program.signature, AtomTable(self.program.signature), query)
+        if not fixed:
+            return self.theory
+        key = frozenset(fixed)
+        theory = self._for_state.get(key)
+        if theory is None:
+            theory = self._for_state[key] = ground_program(self.program, fixed)
+        return theory
 
     @property
     def templates(self) -> tuple:
@@ -92,12 +112,14 @@ class Domain:
               max_horizon: int | None = None, on_horizon: Callable | None = None) -> QueryResult:
         """Run a query: the shortest maxstep in its range with a history, and up to
         ``solutions`` histories there (0 = all)."""
-        return run_query(self.theory, self.query(label), solutions, solver, max_horizon, on_horizon)
+        query = self.query(label)
+        return run_query(self.theory_for(query), query, solutions, solver, max_horizon, on_horizon)
 
     def plans(self, label: str = "0", solver: str = DEFAULT_SOLVER,
               max_horizon: int | None = None) -> Iterator[History]:
         """Every history at the shortest maxstep with one, lazily."""
-        session = QuerySession(self.theory, self.query(label), solver, max_horizon)
+        query = self.query(label)
+        session = QuerySession(self.theory_for(query), query, solver, max_horizon, commit=True)
         find_horizon(session)
         if session.found is not None:
             yield from iter_histories(session)
@@ -105,7 +127,8 @@ class Domain:
     def session(self, label: str = "0", solver: str = DEFAULT_SOLVER,
                 max_horizon: int | None = None) -> QuerySession:
         """A live solver for a query, for callers that add constraints between solves."""
-        return QuerySession(self.theory, self.query(label), solver, max_horizon)
+        query = self.query(label)
+        return QuerySession(self.theory_for(query), query, solver, max_horizon)
 
     def format(self, result: QueryResult, numbered: bool | None = None) -> str:
         """CCALC's text for a result, as ``cplus plan`` prints it: each history headed

@@ -57,7 +57,7 @@ def run_query(theory: GroundTheory, query: QuerySpec, solutions: int = 1, solver
     """Find the first maxstep in the query's range with a history, and ``solutions``
     histories there (0 = all of them).  Histories are distinct as histories: two models
     that differ only in auxiliary variables count once."""
-    session = QuerySession(theory, query, solver, max_horizon)
+    session = QuerySession(theory, query, solver, max_horizon, commit=True)
     failed = find_horizon(session, on_horizon)
     if session.found is None:
         status = PlanStatus.NO_PLAN if query.hi is not None else PlanStatus.HORIZON_LIMIT

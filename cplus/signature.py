@@ -185,6 +185,9 @@ class Signature:
         self.constructors: dict[tuple[str, int], Location | None] = {}
         self.max_additive: int | None = None
         self.ground: list[GroundConst] = []
+        self.made: dict = {}
+        """Internal constants made by grounding (additive contributions), by a key of the
+        grounder's: grounding the program again reuses them instead of adding more."""
         self.finalized = False
         self._sort_cache: dict[SortExpr, tuple] = {}
         self.add_sort("boolean", None)

@@ -140,6 +140,15 @@ def query(domain, label: str, path: str):
         raise
 
 
+def scene_beside(domain_path: str) -> str | None:
+    """The ``scene.toml`` beside a domain file, if there is one: it makes the file a robot
+    task.  The rule of :func:`cplus.robot.task.scene_beside`, here so that a command can
+    tell a plain domain without importing the robot stack."""
+    import os
+    beside = os.path.join(os.path.dirname(os.path.abspath(domain_path)), "scene.toml")
+    return beside if os.path.isfile(beside) else None
+
+
 def file_loc(path: str):
     """The start of a file, for errors about the file as a whole (standard input is not read
     again: it has been read once already)."""

@@ -6,7 +6,6 @@ until collision-free (:func:`cplus.robot.refine`) and may be exported as traject
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 import time
 
@@ -26,6 +25,7 @@ from cplus.cli.common import (
     positive_int,
     query,
     robot_exit_code,
+    scene_beside,
 )
 
 __all__ = ["build_parser", "main", "add_common", "add_robot_options"]
@@ -81,7 +81,6 @@ ROBOT_OPTIONS = ("no_refine", "max_iterations", "nogoods", "eager", "trajectory"
 
 def main(args: argparse.Namespace) -> int:
     from cplus.load import STDIN
-    from cplus.robot.task import scene_beside
     scene_path = args.scene or (None if args.file == STDIN else scene_beside(args.file))
     if scene_path is not None:
         args.n = 1 if args.n is None else args.n
@@ -110,18 +109,20 @@ def _plan_domain(args: argparse.Namespace) -> int:
         raise QueryError("this file has no queries; use '--query states' to list its states",
                          file_loc(args.file))
     queries = [query(domain, lab, args.file) for lab in labels]
-    t1 = time.perf_counter()
-    theory = domain.theory
-    t2 = time.perf_counter()
-    warn(domain.diagnostics)
-    if args.stats:
-        print(f"% {args.file}: loaded in {t1 - t0:.3f} s; grounded {theory.rule_count} rules over "
-              f"{len(theory.atoms)} atoms in {t2 - t1:.3f} s", file=sys.stderr)
+    loaded = f"% {args.file}: loaded in {time.perf_counter() - t0:.3f} s; "
     code = EXIT_OK
     docs = []
     for q in queries:
         if len(queries) > 1 and not args.json:
             print(f"% query {q.label}")
+        t1 = time.perf_counter()
+        theory = domain.theory_for(q)     # only what the query's initial state can reach
+        warn(domain.diagnostics)
+        if args.stats:
+            pruned = f", {len(theory.dead)} fluent values unreachable" if theory.initial is not None else ""
+            print(f"{loaded or '% '}grounded {theory.rule_count} rules over {len(theory.atoms)} atoms{pruned} in "
+                  f"{time.perf_counter() - t1:.3f} s", file=sys.stderr)
+            loaded = ""
         every_state = q.label == "states" and q.loc is None   # the built-in query, not a file's
         wanted = args.n if args.n is not None else 0 if every_state else 1
         result = domain.solve(q.label, wanted, args.solver or DEFAULT_SOLVER, args.max_horizon,
@@ -143,6 +144,8 @@ def _plan_domain(args: argparse.Namespace) -> int:
                 print(f"% no solution up to maxstep {args.max_horizon} (--max-horizon)", file=sys.stderr)
             code = max(code, EXIT_LIMIT)
     if args.json:
+        import json
+
         from cplus.output import PLAN_FORMAT
         json.dump({"format": PLAN_FORMAT, "file": args.file, "results": [
             {k: v for k, v in d.items() if k not in ("format", "file")} for d in docs]}, sys.stdout, indent=1)
@@ -211,6 +214,7 @@ def _plan_robot_task(args: argparse.Namespace, scene_path: str) -> int:
             print(f"% {result.reason}", file=sys.stderr)
         code = max(code, robot_exit_code(result.status))
     if args.json:
+        import json
         json.dump({"format": PLAN_FORMAT, "file": args.file, "results": [r.to_json(label) for label, r in results]},
                   sys.stdout, indent=1)
         sys.stdout.write("\n")

@@ -18,6 +18,7 @@ contribution constants (Lee & Lifschitz 2003) whose sums the SAT layer encodes.
 from __future__ import annotations
 
 import time as _time
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 from cplus import ir, limits
@@ -69,15 +70,33 @@ class GroundTheory:
     noconcurrency: list[list[PF]] = field(default_factory=list)
     rule_count: int = 0
     seconds: float = 0.0
+    initial: frozenset[int] | None = None
+    """Set when the theory was ground for one initial state (:mod:`cplus.ground.restrict`):
+    the positive atoms fixed at step 0; rules that need an unreachable value are left out."""
+    dead: frozenset[int] = frozenset()
+    """With :attr:`initial`: the fluent values no history from that state can take."""
 
     @property
     def sig(self):
         return self.program.signature
 
 
+@dataclass
+class PreparedLaw:
+    """A law ready to ground: ``leaf(env)`` appends the rules of one binding of
+    ``variables`` that passes ``filters`` (see :meth:`_Grounder.prepare`)."""
+
+    law: BasicLaw
+    variables: dict[str, ir.Var]
+    filters: list
+    leaf: Callable[[dict], None]
+    head_slot: int
+
+
 class _Grounder:
-    def __init__(self, program: Program) -> None:
+    def __init__(self, program: Program, initial: set[int] | None = None) -> None:
         self.program = program
+        self.initial = initial
         self.sig = program.signature
         self.atoms = AtomTable(self.sig)
         self.theory = GroundTheory(program, self.atoms)
@@ -107,8 +126,14 @@ class _Grounder:
     def run(self) -> GroundTheory:
         t0 = _time.perf_counter()
         self._increments()
-        for law in self.program.laws:
-            self._law(law)
+        if self.initial:
+            from cplus.ground.restrict import ground_reachable
+            th = self.theory
+            th.dead = ground_reachable(self, self.initial)
+            th.initial = frozenset(self.initial)
+        else:
+            for law in self.program.laws:
+                self._law(law)
         for gc in list(self.sig.ground):
             self._implied(gc)
         self._noconcurrency()
@@ -176,6 +201,22 @@ class _Grounder:
 
     # ------------------------------------------------------------------ laws
     def _law(self, law: BasicLaw) -> None:
+        prep = self.prepare(law)
+        if prep is None:
+            return
+        if law.frame is None and prep.variables:
+            done = ground_vectorized(self, law, prep.variables, prep.filters, prep.head_slot)
+            if done is not None:
+                self.theory.rules[law.cls].extend(done[0])
+                self.theory.constraints[law.cls].extend(done[1])
+                self._check_rules(law.loc)
+                return
+        self._bind(prep.variables, prep.filters, prep.leaf, law.loc)
+
+    def prepare(self, law: BasicLaw) -> PreparedLaw | None:
+        """A law compiled for grounding: its variables, its constant-free conditions
+        (binding filters) and the leaf that appends the rules of one binding; None when the
+        law yields nothing (head ``true``)."""
         head_slot = SLOT_NEXT if law.cls == "dynamic" else SLOT_NOW
         variables = self._variables(law.head, law.body, law.after, law.where, law.frame_cst)
         filters: list = []
@@ -189,17 +230,10 @@ class _Grounder:
         constraints = self.theory.constraints[law.cls]
 
         if law.frame is not None:
-            self._frame_law(law, variables, filters, parts, rules, constraints)
-            return
-        done = ground_vectorized(self, law, variables, filters, head_slot) if variables else None
-        if done is not None:
-            rules.extend(done[0])
-            constraints.extend(done[1])
-            self._check_rules(law.loc)
-            return
+            return PreparedLaw(law, variables, filters, self._frame_leaf(law, parts, rules, constraints), head_slot)
         heads = [self._head_fn(h) for h in ir.conjuncts(law.head)] if law.head is not None else None
         if heads == []:   # head `true`
-            return
+            return None
         body_of = evaluate_all(parts, True)
 
         def leaf(env: dict) -> None:
@@ -218,7 +252,7 @@ class _Grounder:
                         constraints.append(b)
                     else:
                         rules.append((lit, b))
-        self._bind(variables, filters, leaf, law.loc)
+        return PreparedLaw(law, variables, filters, leaf, head_slot)
 
     def _head_fn(self, h: ir.Formula):
         """Compile one head conjunct into ``fn(env, slot) -> [(literal or None, condition)]``."""
@@ -297,7 +331,7 @@ class _Grounder:
             f"the head value {shown} is outside the domain of {gc.text}; such instances act as "
             "'caused false' (guard the law with 'where')", loc)
 
-    def _frame_law(self, law: BasicLaw, variables, filters, parts, rules, constraints) -> None:
+    def _frame_leaf(self, law: BasicLaw, parts, rules, constraints):
         gc_fn = compile_term(law.frame_cst, self.ctx, names=True)  # type: ignore[arg-type]
         ctx_values = self.ctx.values
         mklit = self.mklit
@@ -320,7 +354,7 @@ class _Grounder:
                     rules.append((lit1, mk_and((lit1, mklit(aid, SLOT_NOW), body))))
                 else:  # rigid c: false if -(c=v) after c=v
                     constraints.append(mk_and((neg(mklit(aid, SLOT_NEXT)), mklit(aid, SLOT_NOW), body)))
-        self._bind(variables, filters, leaf, law.loc)
+        return leaf
 
     # ------------------------------------------------------------------ implied laws
     def _implied(self, gc: GroundConst) -> None:
@@ -371,12 +405,22 @@ class _Grounder:
         for inc in self.program.increments:
             self._increment(inc, groups, order)
         m = self.sig.max_additive or 0
-        decl = ConstDecl("contribution", (), "contribution", RangeSort(-m, m), None, hidden=True)
+        # the hidden constants are made once per signature: a program ground again (for
+        # another query's initial state) gets the same ones, so every theory of it agrees on
+        # the signature's ground constants
+        made = self.sig.made
+        decl = made.get("decl")
+        if decl is None:
+            decl = made["decl"] = ConstDecl("contribution", (), "contribution", RangeSort(-m, m), None, hidden=True)
         by_target: dict[int, list[GroundConst]] = {}
         for target, action in order:
             entries = groups[(target.id, action)]
             amounts = sorted({0} | {n for n, _ in entries if -m <= n <= m})
-            cg = self.sig.add_hidden_instance(decl, (target.text, len(self.sig.ground)), tuple(amounts))
+            key = (target.id, action, tuple(amounts))
+            cg = made.get(key)
+            if cg is None:
+                cg = made[key] = self.sig.add_hidden_instance(decl, (target.text, len(self.sig.ground)),
+                                                              tuple(amounts))
             self.atoms.add(cg)
             self.rigid.extend([False] * (len(self.atoms) + 1 - len(self.rigid)))
             by_target.setdefault(target.id, []).append(cg)
@@ -455,9 +499,14 @@ def _sampled(doms: dict[str, tuple], filters: list, cells: int, samples: int = 4
     return cells * passed // samples
 
 
-def ground_program(program: Program) -> GroundTheory:
-    """Ground every law of a resolved program into step templates."""
-    return _Grounder(program).run()
+def ground_program(program: Program, initial: set[int] | None = None) -> GroundTheory:
+    """Ground every law of a resolved program into step templates.
+
+    ``initial``: positive atoms that hold at step 0 in every history wanted (a query's
+    initial state, see :func:`cplus.ground.restrict.fixed_at_zero`).  When given (and not
+    empty) only the instances that can matter from that state are ground: the theory is then
+    for that state only (:attr:`GroundTheory.initial`)."""
+    return _Grounder(program, initial).run()
 
 
 def initially_free(decl: ConstDecl) -> bool:

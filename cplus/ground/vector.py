@@ -41,17 +41,23 @@ _CMP = {"=": "eq", "==": "eq", "\\=": "ne", "\\==": "ne", "<": "lt", ">": "gt", 
 
 
 def ground_vectorized(grounder, law, variables: dict[str, ir.Var], filters: list,
-                      head_slot: int) -> tuple[list, list] | None:
+                      head_slot: int, joins: list | None = None) -> tuple[list, list] | None:
     """``(rules, constraints)`` of a law as :meth:`_Grounder._law` would append them, or
-    None when the law does not have the vectorisable shape."""
+    None when the law does not have the vectorisable shape.
+
+    ``joins`` (restricted grounding, :mod:`cplus.ground.restrict`): ``(atom, pattern, rows)``
+    per body atom whose instances are limited to ``rows``, the ``(*args, value)`` of the atoms
+    allowed.  The first one, and every later one that shares no variable with those before,
+    becomes one axis of its own (its rows bind its variables together); the others filter
+    the cells.  Only the bindings where every such atom is allowed are ground."""
     try:
-        return _Law(grounder, law, variables, filters, head_slot).run()
+        return _Law(grounder, law, variables, filters, head_slot, joins or ()).run()
     except _Unsupported:
         return None
 
 
 class _Law:
-    def __init__(self, grounder, law, variables, filters, head_slot: int) -> None:
+    def __init__(self, grounder, law, variables, filters, head_slot: int, joins=()) -> None:
         self.g = grounder
         self.law = law
         self.sig = grounder.sig
@@ -83,28 +89,42 @@ class _Law:
         for v in variables.values():
             if isinstance(v.sort, (KindSort, StepSort)):
                 raise _Unsupported
-        self.levels = binding_levels(self.sig, variables, filters)
-        self.names = [n for n, _, _ in self.levels]
-        self.doms = [d for _, d, _ in self.levels]
+        # axes: (variable names, rows of their values); a plain variable has one per value
+        self.axes: list[tuple[list[str], list[tuple]]] = []
+        self.masks: list[tuple[object, list]] = []      # joined atoms that filter cells
+        bound: set[str] = set()
+        for node, pattern, rows in joins:
+            names = list(dict.fromkeys(x for is_var, x in pattern if is_var))
+            if bound.intersection(names):
+                self.masks.append((node, rows))
+                continue
+            self.axes.append((names, _relation(self.sig, variables, pattern, names, rows)))
+            bound.update(names)
+        rest = {n: v for n, v in variables.items() if n not in bound}
+        for name, dom, _ in binding_levels(self.sig, rest, filters):
+            self.axes.append(([name], [(v,) for v in dom]))
+        self.where: dict[str, tuple[int, int]] = {n: (i, k) for i, (names, _) in enumerate(self.axes)
+                                                 for k, n in enumerate(names)}
         cells = 1
-        for d in self.doms:
-            cells *= len(d)
+        for _, rows in self.axes:
+            cells *= len(rows)
         if not MIN_CELLS <= cells <= MAX_CELLS or (cells < COLD_CELLS and "numpy" not in sys.modules):
             raise _Unsupported
-        self.shape = tuple(len(d) for d in self.doms)
+        self.shape = tuple(len(rows) for _, rows in self.axes)
+
+    def values(self, name: str) -> list:
+        """The value of a variable along its axis."""
+        i, k = self.where[name]
+        return [row[k] for row in self.axes[i][1]]
 
     # ------------------------------------------------------------------ values
-    def _axis(self, name: str):
-        import numpy as np
-        i = self.names.index(name)
-        shape = [1] * len(self.shape)
-        shape[i] = self.shape[i]
-        return i, shape, np
-
     def _var(self, name: str) -> tuple:
         """(numbers, where they are integers, ranks) of a variable, shaped to broadcast."""
-        i, shape, np = self._axis(name)
-        dom = self.doms[i]
+        import numpy as np
+        i = self.where[name][0]
+        shape = [1] * len(self.shape)
+        shape[i] = self.shape[i]
+        dom = self.values(name)
         isint = np.array([type(v) is int for v in dom]).reshape(shape)
         num = np.array([v if type(v) is int else 0 for v in dom], dtype=np.int64).reshape(shape)
         rank = np.array([self._rank(v) for v in dom], dtype=np.int64).reshape(shape)
@@ -120,8 +140,9 @@ class _Law:
     def _prepare_ranks(self) -> None:
         """A rank for every object the law can compare, in Prolog's standard order."""
         objs: set = set()
-        for d in self.doms:
-            objs.update(d)
+        for _, rows in self.axes:
+            for row in rows:
+                objs.update(row)
         for c in self.conds:
             if c is not False:
                 _literals(c, objs)
@@ -180,9 +201,10 @@ class _Law:
         arg_vars = [a.name for a in args_of if isinstance(a, ir.Var)]
         value_var = atom.value.name if isinstance(atom.value, ir.Var) else None
         computed = head and not isinstance(atom.value, (ir.Var, ir.Lit))
-        axes = sorted({self.names.index(n) for n in arg_vars + ([value_var] if value_var and not computed else [])})
-        sub = [self.doms[i] for i in axes]
-        pos = {self.names[i]: k for k, i in enumerate(axes)}
+        used = arg_vars + ([value_var] if value_var and not computed else [])
+        axes = sorted({self.where[n][0] for n in used})
+        sub = [self.axes[i][1] for i in axes]
+        pos = {n: (axes.index(self.where[n][0]), self.where[n][1]) for n in used}
 
         def code(aid: int) -> int:
             if aid == 0:
@@ -193,18 +215,18 @@ class _Law:
         if not computed:
             table = np.zeros([len(d) for d in sub] or [1], dtype=np.int64)
             for ix, vals in zip(product(*(range(len(d)) for d in sub)), product(*sub)):
-                args = tuple(vals[pos[a.name]] if isinstance(a, ir.Var) else a.value for a in args_of)
+                args = tuple(_at(vals, pos[a.name]) if isinstance(a, ir.Var) else a.value for a in args_of)
                 gc = instances.get(args)
                 if gc is None:
                     continue
-                value = vals[pos[value_var]] if value_var else atom.value.value  # type: ignore[union-attr]
+                value = _at(vals, pos[value_var]) if value_var else atom.value.value  # type: ignore[union-attr]
                 table[ix or (0,)] = code(lit_of(gc, value))
             return self._spread(table, axes), None
         # a head whose value is computed: one lookup row per ground instance
         gcs: list = []
         gidx = np.zeros([len(d) for d in sub] or [1], dtype=np.int64)
         for ix, vals in zip(product(*(range(len(d)) for d in sub)), product(*sub)):
-            args = tuple(vals[pos[a.name]] if isinstance(a, ir.Var) else a.value for a in args_of)
+            args = tuple(_at(vals, pos[a.name]) if isinstance(a, ir.Var) else a.value for a in args_of)
             gc = instances.get(args)
             gidx[ix or (0,)] = len(gcs)
             gcs.append(gc)
@@ -227,6 +249,18 @@ class _Law:
         out = np.where(inside, lookup[np.broadcast_to(g, self.shape), np.clip(off, 0, width - 1)], 0)
         return out, (gcs, g, num, valid)
 
+    def _allowed(self, atom: ir.Atom, rows: list):
+        """A flag per atom id: whether a joined atom may be that one."""
+        import numpy as np
+        atoms = self.g.atoms
+        flags = np.zeros(len(atoms) + 2, dtype=bool)      # index -1 (no atom) stays False
+        instances = atom.cst.decl.instances  # type: ignore[union-attr]
+        for *args, value in rows:
+            gc = instances.get(tuple(args))
+            if gc is not None:
+                flags[atoms.lit(gc, value)] = True
+        return flags
+
     def _spread(self, table, axes: list[int]):
         """A table over some axes, shaped to broadcast over all of them."""
         shape = [1] * len(self.shape)
@@ -245,6 +279,9 @@ class _Law:
         for atom, slot in self.atoms:
             ids = np.broadcast_to(self._atom_ids(atom, slot, head=False)[0], self.shape)
             mask &= ids != 0
+            for node, rows in self.masks:
+                if node is atom:
+                    mask &= self._allowed(atom, rows)[(np.abs(ids) - 1) // 3]
             lits.append(ids)
         head_ids = info = None
         if self.head is not None:
@@ -304,6 +341,35 @@ class _Law:
         self.g._warn_domain(self.head.loc, gc, val)  # type: ignore[union-attr]
 
 
+def _at(vals: tuple, where: tuple[int, int]):
+    """The value of a variable in one combination of axis rows."""
+    return vals[where[0]][where[1]]
+
+
+def _relation(sig, variables: dict, pattern: tuple, names: list[str], rows: list) -> list[tuple]:
+    """The rows of a joined atom as an axis: the values of its variables (in ``names``
+    order) in every allowed atom that matches its objects, repeats and variable sorts."""
+    from cplus.ground.compile import domain_of
+    doms = {n: set(domain_of(sig, variables[n], {})) for n in names}
+    out = []
+    for row in rows:
+        got: dict = {}
+        for (is_var, x), v in zip(pattern, row):
+            if not is_var:
+                if v != x:
+                    break
+            elif x in got:
+                if got[x] != v:
+                    break
+            elif v in doms[x]:
+                got[x] = v
+            else:
+                break
+        else:
+            out.append(tuple(got[n] for n in names))
+    return out
+
+
 def _plain_atom(f, head: bool) -> bool:
     """``c(args) = value`` with arguments variables or objects; the value a variable or an
     object (or, in a head, constant-free integer arithmetic)."""
@@ -339,7 +405,7 @@ def _all_int(t, law: _Law) -> bool:
     if isinstance(t, ir.Lit):
         return type(t.value) is int
     if isinstance(t, ir.Var):
-        return all(type(v) is int for v in law.doms[law.names.index(t.name)])
+        return all(type(v) is int for v in law.values(t.name))
     return True
 
 

@@ -19,6 +19,7 @@ from cplus import ir
 from cplus.errors import GroundingError, Location
 from cplus.ground.compile import Ctx, bind, compile_formula
 from cplus.ground.pf import PF, mk_and
+from cplus.ground.restrict import fixed_at_zero, has_step_var
 from cplus.ground.theory import GroundTheory
 from cplus.limits import MAX_SOLVER_VARS, clause_bytes, count, memory_budget, too_large
 from cplus.program import QuerySpec
@@ -56,7 +57,7 @@ class Horizon:
         t0 = time.perf_counter()
         self.theory = theory
         if templates is None:
-            templates = build_templates(theory, unreachable(theory, fixed) if fixed else set())
+            templates = build_templates(theory, _dead(theory, fixed))
         self.layout, self.t_rigid, self.t_init, self.t_trans = templates
         self.template_s = time.perf_counter() - t0
         self.solver = solver_factory(solver)
@@ -101,6 +102,9 @@ class Horizon:
         off.extend(range(b0, b0 + L.N))
         off.extend(range(b1, b1 + L.N))
         off.extend(range(aux, aux + n_aux))
+        for part, slot in tpl.extra:
+            b = b1 if slot == 1 else b0
+            self._instantiate(part, b, b)
         if len(tpl.clauses) < _VECTORIZE_FROM or "numpy" not in sys.modules:
             # literal x of the template is entry x + top of a signed table: one C-level lookup
             # per literal, and the solver reads the map object itself (no list per clause)
@@ -133,14 +137,12 @@ class Horizon:
 
     def _check_size(self, m: int, loc: Location | None) -> None:
         steps = m - self.m
-        tpl = self.t_trans
-        if tpl._literals is None:
-            tpl._literals = sum(len(c) for c in tpl.clauses)
-        per_var = self.layout.N + tpl.top - self.layout.base_top
-        need = steps * (clause_bytes(len(tpl.clauses), tpl._literals) + 64 * per_var)
+        n, literals, aux = self.t_trans.size(self.layout.base_top)
+        per_var = self.layout.N + aux
+        need = steps * (clause_bytes(n, literals) + 64 * per_var)
         if need > memory_budget():
-            raise GroundingError(too_large(f"maxstep {count(m)} means {count(steps * len(tpl.clauses))} clauses "
-                                           f"({count(len(tpl.clauses))} per step)", need), loc)
+            raise GroundingError(too_large(f"maxstep {count(m)} means {count(steps * n)} clauses "
+                                           f"({count(n)} per step)", need), loc)
         if self.top + steps * per_var > MAX_SOLVER_VARS:
             raise GroundingError(f"maxstep {count(m)} means {count(self.top + steps * per_var)} solver variables, "
                                  f"more than the solver's limit of {count(MAX_SOLVER_VARS)}", loc)
@@ -174,12 +176,41 @@ class Horizon:
             self.builder.add(self._at(g, t))
 
 
+def _dead(theory: GroundTheory, fixed: set[int] | None) -> frozenset[int] | set[int]:
+    """The fluent values to leave out of the templates, given the atoms fixed at step 0."""
+    if theory.initial is not None:      # ground for one initial state: it must be this one
+        if fixed is None or theory.initial != frozenset(fixed):
+            raise ValueError("this theory was ground for another initial state (see GroundTheory.initial)")
+        return theory.dead
+    return unreachable(theory, fixed) if fixed else set()
+
+
+_COMMIT_FACTOR = 8
+"""Propagations per clause in the solver that a horizon may take under its assumption before
+its goal is committed to (see :class:`QuerySession`)."""
+
+
 class QuerySession:
-    """Answer one query: horizons in ascending order, then models at the first good one."""
+    """Answer one query: horizons in ascending order, then models at the first good one.
+
+    With ``commit`` (the planner's own searches) a horizon that takes long is committed to:
+    a solver finds a model much faster when the goal is a unit clause than when it is
+    assumed (bw-25's plan at horizon 9: 0.8 s instead of 2.0, medians over clause orders),
+    and proofs that there is none take about as long either way.  The price of committing
+    to a horizon without a history is a new solver for the next one (the templates are
+    kept), so the budget grows with the clauses a new solver takes, and doubles after each
+    such miss.  Sessions with hooks, later constraints or assumptions never commit."""
 
     def __init__(self, theory: GroundTheory, query: QuerySpec, solver: str = DEFAULT_SOLVER,
                  max_horizon: int | None = None, solver_factory=SatSolver,
-                 templates: tuple[Layout, Template, Template, Template] | None = None) -> None:
+                 templates: tuple[Layout, Template, Template, Template] | None = None,
+                 commit: bool = False) -> None:
+        self.commit = commit
+        self._commit_factor = _COMMIT_FACTOR
+        self._stale = False
+        self._last = 0                      # propagations of the last horizon's solve
+        self._solver_name = solver
+        self._solver_factory = solver_factory
         self.theory = theory
         self.query = query
         self.max_horizon = max_horizon
@@ -188,7 +219,7 @@ class QuerySession:
         self.ctx = Ctx(self.sig, self.atoms, self._mklit)
         self.items = []
         for formula, loc in query.items:
-            dynamic = ir.mentions(formula, (ir.MaxStepT,)) or _has_step_var(formula)
+            dynamic = ir.mentions(formula, (ir.MaxStepT,)) or has_step_var(formula)
             self.items.append([formula, loc, compile_formula(formula, self.ctx), dynamic, False])
         self.horizon = Horizon(theory, solver, solver_factory, templates,
                                None if templates is not None else self._fixed_at_zero())
@@ -201,23 +232,7 @@ class QuerySession:
 
     # ------------------------------------------------------------------ query items
     def _fixed_at_zero(self) -> set[int]:
-        """Positive atoms the query's permanent items force at step 0 (other literals are
-        read as true, which only weakens the items: what the weakened items force, the
-        items force)."""
-        def mklit(aid: int, t: object) -> PF:
-            return aid if t == 0 and not self.atoms.gc_of[abs(aid)].decl.kind == "rigid" else True  # type: ignore[union-attr]
-        ctx = Ctx(self.sig, self.atoms, mklit)
-        fixed: set[int] = set()
-        for formula, _ in self.query.items:
-            if ir.mentions(formula, (ir.MaxStepT,)) or _has_step_var(formula):
-                continue
-            try:
-                pf = _ground_formula(self.sig, formula, ctx, self.query.lo)
-            except Exception:   # the real grounding of the item reports it
-                continue
-            items = pf[1] if type(pf) is tuple and pf[0] == "&" else (pf,)
-            fixed.update(g for g in items if type(g) is int and g > 0)
-        return fixed
+        return fixed_at_zero(self.sig, self.atoms, self.query)
 
     def _mklit(self, aid: int, t: object) -> PF:
         a = aid if aid > 0 else -aid
@@ -285,6 +300,8 @@ class QuerySession:
     def solve_at(self, m: int) -> bool:
         """Extend to horizon m (only upwards) and solve; records statistics."""
         t0 = time.perf_counter()
+        if self._stale:
+            self._renew()
         h = self.horizon
         if self.act is not None:
             h.solver.add_clause([-self.act])    # retire the previous horizon's goal
@@ -293,10 +310,43 @@ class QuerySession:
         self._add_items(m)
         self._projection = None
         t1 = time.perf_counter()
-        ok = h.solver.solve([self.act, *self.assumptions])
+        ok = self._solve(h)
         t2 = time.perf_counter()
         self.stats.append(HorizonStats(m, h.top, h.solver.count, t1 - t0, t2 - t1, ok, 1 if ok else 0))
         return ok
+
+    def _solve(self, h: Horizon) -> bool:
+        s = h.solver
+        assumptions = [self.act, *self.assumptions]
+        if not self.commit or self.assumptions or h.step_hooks or h.extra:
+            return s.solve(assumptions)
+        before = s.propagations
+        # a horizon much slower than the one before: proofs of no history grow step by step,
+        # a history is found in one jump (and a new solver would lose what was learned)
+        budget = max(self._commit_factor * max(s.count, 1), 4 * self._last)
+        ok = s.solve_limited(assumptions, budget)
+        if ok is None:
+            s.add_clause([self.act])        # committed: this horizon's goal holds from now on
+            ok = s.solve(assumptions)
+            if not ok:                       # no model any more: the next horizon needs a new solver
+                self._stale = True
+                self._commit_factor *= 4
+        self._last = s.propagations - before
+        return ok
+
+    def _renew(self) -> None:
+        """A new solver with the same templates, after a horizon without history was
+        committed to (the items are added again at the next horizon)."""
+        old = self.horizon
+        self.horizon = Horizon(self.theory, self._solver_name, self._solver_factory,
+                               (old.layout, old.t_rigid, old.t_init, old.t_trans))
+        self.horizon.template_s = old.template_s
+        old.solver.delete()
+        self.act = None
+        for item in self.items:
+            item[4] = False
+        self._stale = False
+        self._last = 0
 
     def resolve(self) -> bool:
         """Solve again at the current horizon (after clauses were added)."""
@@ -335,31 +385,3 @@ class QuerySession:
                 out.extend(h.var(aid, t) for t in range(last + 1))
             self._projection = out  # type: ignore[assignment]
         return self._projection  # type: ignore[return-value]
-
-
-def _ground_formula(sig, formula: ir.Formula, ctx: Ctx, maxstep: int) -> PF:
-    fn = compile_formula(formula, ctx)
-    parts: list[PF] = []
-    bind(sig, ir.free_vars(formula), [], lambda env: parts.append(fn(env, None)), {"$maxstep": maxstep})
-    return mk_and(parts)
-
-
-def _has_step_var(f) -> bool:
-    from cplus.signature import StepSort
-    return any(isinstance(v.sort, StepSort) for v in ir.free_vars(f).values()) or _quant_step(f)
-
-
-def _quant_step(f) -> bool:
-    from cplus.signature import StepSort
-    if isinstance(f, ir.Quant):
-        return isinstance(f.var.sort, StepSort) or _quant_step(f.body)
-    if isinstance(f, (ir.And, ir.Or)):
-        return any(_quant_step(x) for x in f.items)
-    if isinstance(f, ir.Not):
-        return _quant_step(f.arg)
-    if isinstance(f, (ir.Imp, ir.Iff)):
-        return _quant_step(f.left) or _quant_step(f.right)
-    if isinstance(f, ir.StampF):
-        return _quant_step(f.body)
-    return False
-

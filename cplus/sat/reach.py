@@ -24,7 +24,8 @@ are pruned; actions, rigid and Boolean constants never are.
 """
 from __future__ import annotations
 
-from cplus.ground.theory import GroundTheory, initially_free
+from cplus.ground.restrict import Reachability
+from cplus.ground.theory import GroundTheory
 
 __all__ = ["unreachable"]
 
@@ -32,55 +33,8 @@ __all__ = ["unreachable"]
 def unreachable(theory: GroundTheory, fixed: set[int]) -> set[int]:
     """Atom ids of fluent values no history can take, when the positive atoms ``fixed`` hold
     at step 0 (an atom of a non-Boolean fluent fixes its value there)."""
-    atoms = theory.atoms
-    candidates: set[int] = set()
-    possible: set[int] = set()
-    for gc in theory.sig.ground:
-        d = gc.decl
-        if gc.boolean or not d.is_fluent or d.kind == "additiveFluent":
-            continue
-        ids = atoms.atoms(gc)
-        candidates.update(ids)
-        pinned = [a for a in ids if a in fixed]
-        if pinned:
-            possible.update(pinned)
-        elif initially_free(d):
-            possible.update(ids)
-    if not candidates or candidates <= possible:
-        return set()
-    closed = candidates - possible          # not (yet) possible
-    watch: dict[int, list[int]] = {}
-    heads: list[int] = []
-    missing: list[int] = []
-    queue: list[int] = []
-    for cls in ("static", "dynamic"):
-        for code, body in theory.rules[cls]:
-            head = (code - 1) // 3
-            if code < 0 or head not in closed:
-                continue
-            items = body[1] if type(body) is tuple and body[0] == "&" else (body,)
-            need = [a for a in [(g - 1) // 3 for g in items if type(g) is int and g > 0 and g != code]
-                    if a in closed]
-            if not need:
-                closed.discard(head)
-                queue.append(head)
-                continue
-            if len(need) > 1:
-                need = list(set(need))
-            i = len(heads)
-            heads.append(head)
-            missing.append(len(need))
-            for a in need:
-                w = watch.get(a)
-                if w is None:
-                    watch[a] = [i]
-                else:
-                    w.append(i)
-    while queue:
-        a = queue.pop()
-        for i in watch.pop(a, ()):
-            missing[i] -= 1
-            if missing[i] == 0 and heads[i] in closed:
-                closed.discard(heads[i])
-                queue.append(heads[i])
-    return closed
+    reach = Reachability(theory.sig, theory.atoms, fixed)
+    if not reach.trivial:
+        reach.add_rules(theory.rules["static"])
+        reach.add_rules(theory.rules["dynamic"])
+    return set(reach.closed)

@@ -31,7 +31,7 @@ CONFLICT = -2               # two strong rules with different values fire: impos
 def encode_table(domains: list[tuple], value_lits: list[dict], head_lits: list[int],
                  strong: list[tuple[int, dict]], weak: list[tuple[int, dict]],
                  add_clause: Callable[[list[int]], None], new_var: Callable[[], int],
-                 at_most_one: Callable[[list[int]], None]) -> bool:
+                 at_most_one: Callable[[list[int]], None], cache: dict | None = None) -> bool:
     """Write the table of a constant; False (nothing written) when it does not fit, or when
     weak cubes leave a choice between values somewhere (then it is not a table).
     ``add_clause([])`` means false.
@@ -40,6 +40,10 @@ def encode_table(domains: list[tuple], value_lits: list[dict], head_lits: list[i
     ``k=w``; ``head_lits[h]`` is the literal of the constant's h-th value; ``strong`` and
     ``weak`` are cubes ``(h, {k: w})``.  Small tables are built with lists (numpy's import
     costs more than a small domain's whole run), large ones with numpy arrays.
+
+    ``cache``: the diagrams built so far, by the table's content (domains, cubes); constants
+    whose laws are alike (a physics law per axis, a speed rule per car, the same static law
+    at the first step and in the transition) share one diagram with their own literals.
     """
     shape = tuple(len(d) for d in domains)
     cells = 1
@@ -47,12 +51,20 @@ def encode_table(domains: list[tuple], value_lits: list[dict], head_lits: list[i
         cells *= n
     if cells > TABLE_LIMIT or not shape:
         return False
-    index = [{w: i for i, w in enumerate(d)} for d in domains]
-    large = cells > _SMALL and ("numpy" in sys.modules or cells > _COLD)
-    built = (_build_large if large else _build_small)(shape, index, strong, weak)
+    key = None
+    if cache is not None:
+        key = (tuple(domains), len(head_lits), tuple((h, tuple(c.items())) for h, c in strong),
+               tuple((h, tuple(c.items())) for h, c in weak))
+    built: tuple | None | bool = cache.get(key, False) if cache is not None else False
+    if built is False:
+        index = [{w: i for i, w in enumerate(d)} for d in domains]
+        large = cells > _SMALL and ("numpy" in sys.modules or cells > _COLD)
+        built = (_build_large if large else _build_small)(shape, index, strong, weak)
+        if cache is not None:
+            cache[key] = built
     if built is None:
         return False
-    flat, order, levels = built
+    flat, order, levels = built  # type: ignore[misc]
     _write(flat, levels, [value_lits[k] for k in order], [domains[k] for k in order], head_lits,
            add_clause, new_var, at_most_one)
     return True

@@ -12,11 +12,11 @@ offsets, so a longer horizon only appends clauses.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 from cplus.ground.pf import PF, map_lits, mk_and
 from cplus.ground.theory import GroundTheory, initially_free
-from cplus.sat.cnf import CONFLICT, ClauseBuilder, _without, simplify_units
+from cplus.sat.cnf import CONFLICT, ClauseBuilder, _without, compact
 from cplus.sat.tables import TABLE_LIMIT, encode_table
 from cplus.signature import GroundConst
 
@@ -28,9 +28,23 @@ class Template:
     clauses: list[list[int]]
     top: int                      # highest template id used
     name: str
+    extra: list[tuple[Template, int]] = field(default_factory=list)
+    """Templates over slot 0 that come with this one, each placed at the given slot of every
+    instance (the part that is the same at every step is built once and placed at step 0
+    by the initial template, at the next step by the transition)."""
     _flat: tuple | None = None
     _literals: int | None = None
     _shifted: list | None = None
+
+    def size(self, base: int) -> tuple[int, int, int]:
+        """(clauses, literals, auxiliary variables) of one instance, extras included."""
+        if self._literals is None:
+            self._literals = sum(len(c) for c in self.clauses)
+        n, lits, aux = len(self.clauses), self._literals, self.top - base
+        for part, _ in self.extra:
+            pn, pl, pa = part.size(base)
+            n, lits, aux = n + pn, lits + pl, aux + pa
+        return n, lits, aux
 
     def shifted(self) -> list[list[int]]:
         """The clauses with every literal x as x + top, an index into a signed table (cached)."""
@@ -73,6 +87,7 @@ class Layout:
         self.N = len(self.step_atoms)
         self.dead: frozenset[int] = frozenset()
         self._tids: dict[int, int] = {}
+        self.tables: dict = {}        # decision diagrams built for these templates (tables.encode_table)
 
     def tid(self, code: int) -> int:
         """Template id of a template literal code (see :func:`template_lit`)."""
@@ -141,7 +156,8 @@ def build_templates(theory: GroundTheory, dead: set[int] | frozenset[int] = froz
     row that needs one of them is left out."""
     layout = Layout(theory)
     layout.dead = frozenset(dead)
-    return layout, _rigid(layout), _initial(layout), _transition(layout)
+    static = _static(layout)
+    return layout, _rigid(layout), _initial(layout, static), _transition(layout, static)
 
 
 def _needs_dead(dead: frozenset[int], body: PF) -> bool:
@@ -164,27 +180,30 @@ class _Builder:
         self.top += 1
         return self.top
 
-    def done(self) -> Template:
+    def done(self, extra: list[tuple[Template, int]] | None = None) -> Template:
         """The simplified clauses, with the auxiliary variables that survived renumbered
-        densely (every instance of the template allocates that many solver variables)."""
+        densely (every instance of the template allocates that many solver variables);
+        ``extra``: other templates instantiated with it (see :attr:`Template.extra`)."""
         base = self.layout.base_top
-        clauses = simplify_units(self.cb.clauses, keep=base)
+        clauses, top = compact(self.cb.clauses, base, self.top)
         if clauses is CONFLICT:   # no model at all: say so with a variable of this template's own
-            return Template([[base + 1], [-(base + 1)]], base + 1, self.name)
-        used = sorted({abs(x) for c in clauses for x in c if abs(x) > base})
-        renumber = {v: base + i for i, v in enumerate(used, start=1)}
-        if len(used) < self.top - base:
-            clauses = [[x if abs(x) <= base else (renumber[x] if x > 0 else -renumber[-x]) for x in c]
-                       for c in clauses]
-        return Template(clauses, base + len(used), self.name)
+            clauses, top = [[base + 1], [-(base + 1)]], base + 1
+        return Template(clauses, top, self.name, extra=extra or [])
 
 
-def _heads(theory: GroundTheory, layout: Layout, rules: list[tuple[int, PF]], shift: bool = False) -> dict:
+def _heads(theory: GroundTheory, layout: Layout, rules: list[tuple[int, PF]], shift: bool = False,
+           only: set[int] | None = None, but: set[int] | frozenset[int] = frozenset()) -> dict:
+    """The bodies of the rules by head (template ids), for the heads of atoms in ``only``
+    (every atom when None) and not in ``but``."""
     out: dict[int, list[PF]] = {}
     dead = layout.dead
     for code, body in rules:
         if dead and ((code > 0 and (code - 1) // 3 in dead) or _needs_dead(dead, body)):
             continue
+        if only is not None or but:
+            aid = ((code if code > 0 else -code) - 1) // 3
+            if (only is not None and aid not in only) or aid in but:
+                continue
         if shift:
             code, body = _shift_static(code), _shift_static(body)  # type: ignore[assignment]
         out.setdefault(layout.tid(code), []).append(_to_tids(layout, body))
@@ -204,7 +223,8 @@ def _complete_atoms(b: _Builder, gcs: list[GroundConst], slot: int, heads: dict,
             b.cb.complete(t, heads.get(t, ()), free)
             b.cb.complete(-t, heads.get(-t, ()), free)
         else:
-            ts = [layout.tid_atom(aid, slot) for aid in atoms.atoms(gc)]
+            dead = layout.dead    # false at every step (their unit clauses are written once)
+            ts = [layout.tid_atom(aid, slot) for aid in atoms.atoms(gc) if aid not in dead]
             for t in ts:
                 b.cb.complete(t, heads.get(t, ()), free)
             b.cb.exactly_one(ts)
@@ -257,10 +277,11 @@ def _table_completion(b: _Builder, gc: GroundConst, slot: int, heads: dict) -> b
     if not encode_table(domains, [_value_lits(layout, k) for k in order], head_tids,
                         [(h, {pos[k]: v for k, v in c.items()}) for h, c in strong],
                         [(h, {pos[k]: v for k, v in c.items()}) for h, c in weak],
-                        _nonempty(cb), b._new, cb.at_most_one):  # type: ignore[arg-type]
+                        _nonempty(cb), b._new, cb.at_most_one, layout.tables):  # type: ignore[arg-type]
         return False
     if not gc.boolean:
-        cb.exactly_one(head_tids)
+        dead = layout.dead
+        cb.exactly_one([t for (aid, _), t in zip(lits, head_tids) if aid not in dead])
     return True
 
 
@@ -332,11 +353,18 @@ def _cube(layout: Layout, body: PF, gc: GroundConst, slot: int) -> dict | None:
 
 
 def _constraints(b: _Builder, bodies: list[PF], shift: bool = False) -> None:
+    """``not body`` for every constraint, once: a law over two variables of the same sort
+    (``nonexecutable move(D)=L & move(D1)=L1 where D \\= D1``) grounds each pair twice."""
     from cplus.ground.pf import neg
     dead = b.layout.dead
+    seen: set = set()
     for body in bodies:
         if dead and _needs_dead(dead, body):
             continue
+        key = frozenset(body[1]) if type(body) is tuple and body[0] == "&" else body
+        if key in seen:
+            continue
+        seen.add(key)
         if shift:
             body = _shift_static(body)
         b.cb.add(neg(_to_tids(b.layout, body)))
@@ -355,38 +383,58 @@ def _fluents(th: GroundTheory, additive: bool) -> list[GroundConst]:
     return [gc for gc in th.sig.ground if gc.decl.is_fluent and (gc.decl.kind == "additiveFluent") == additive]
 
 
-def _initial(layout: Layout) -> Template:
+def _static(layout: Layout) -> tuple[Template, set[int]]:
+    """What is the same at every step, built once at slot 0: the unit clauses of dead values,
+    the static constraints, and the completion of the fluents only static laws determine
+    (statically determined fluents without dynamic laws: their completion at step 0 and
+    after a transition is the same).  Returns the template and those fluents' atoms."""
     th = layout.theory
-    b = _Builder(layout, "initial")
+    dynamic = {((code if code > 0 else -code) - 1) // 3 for code, _ in th.rules["dynamic"]}
+    gcs = [gc for gc in _fluents(th, False)
+           if not initially_free(gc.decl) and not any(a in dynamic for a in th.atoms.atoms(gc))]
+    atoms = {a for gc in gcs for a in th.atoms.atoms(gc)}
+    b = _Builder(layout, "static")
     _dead_units(b, (0,))
-    heads = _heads(th, layout, th.rules["static"])
+    _complete_atoms(b, gcs, 0, _heads(th, layout, th.rules["static"], only=atoms))
+    _constraints(b, th.constraints["static"])
+    return b.done(), atoms
+
+
+def _initial(layout: Layout, static: tuple[Template, set[int]]) -> Template:
+    th = layout.theory
+    part, done = static
+    b = _Builder(layout, "initial")
+    heads = _heads(th, layout, th.rules["static"], but=done)
     free = lambda gc: initially_free(gc.decl)  # noqa: E731
-    _complete_atoms(b, _fluents(th, False), 0, heads, free)
+    _complete_atoms(b, [gc for gc in _fluents(th, False) if not _among(th, gc, done)], 0, heads, free)
     for gc in _fluents(th, True):   # additive fluents: free at step 0, one value
         ts = [layout.tid_atom(aid, 0) for aid in th.atoms.atoms(gc)]
         b.cb.exactly_one(ts)
-    _constraints(b, th.constraints["static"])
-    return b.done()
+    return b.done(extra=[(part, 0)])
 
 
-def _transition(layout: Layout) -> Template:
+def _among(th: GroundTheory, gc: GroundConst, atoms: set[int]) -> bool:
+    ids = th.atoms.atoms(gc)
+    return bool(ids) and ids[0] in atoms
+
+
+def _transition(layout: Layout, static: tuple[Template, set[int]]) -> Template:
     th = layout.theory
+    part, done = static
     b = _Builder(layout, "transition")
-    _dead_units(b, (0, 1))
     actions = [gc for gc in th.sig.ground if gc.decl.is_action and gc.decl.kind != "additiveAction"]
     _complete_atoms(b, actions, 0, _heads(th, layout, th.rules["action"]))
-    heads = _heads(th, layout, th.rules["static"], shift=True)
+    heads = _heads(th, layout, th.rules["static"], shift=True, but=done)
     for t, bodies in _heads(th, layout, th.rules["dynamic"]).items():
         heads.setdefault(t, []).extend(bodies)
-    _complete_atoms(b, _fluents(th, False), 1, heads)
-    _constraints(b, th.constraints["static"], shift=True)
+    _complete_atoms(b, [gc for gc in _fluents(th, False) if not _among(th, gc, done)], 1, heads)
     _constraints(b, th.constraints["dynamic"])
     _constraints(b, th.constraints["action"])
     for group in th.noconcurrency:
         b.cb.at_most_one([_to_tids(layout, g) for g in group])
     for s in th.sums:
         _additive(b, s)
-    return b.done()
+    return b.done(extra=[(part, 1)])
 
 
 def _additive(b: _Builder, s) -> None:
