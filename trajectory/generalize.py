@@ -90,7 +90,7 @@ def widen(scene: Scene, states: Sequence[StepState], cause: Cause, budget: int |
     return {d: (a, b) for d, a, b in zip(dims, lo, hi)}
 
 
-def _grow(fails: Callable[[np.ndarray], np.ndarray], start: list[int], bounds: list[tuple[int, int]],
+def _grow(every_fails: Callable[[np.ndarray], bool], start: list[int], bounds: list[tuple[int, int]],
           budget: int) -> tuple[list[int], list[int]]:
     """Widen one value at a time, round robin over the coordinates and both directions."""
     lo, hi = list(start), list(start)
@@ -102,15 +102,16 @@ def _grow(fails: Callable[[np.ndarray], np.ndarray], start: list[int], bounds: l
             for value in (lo[d] - 1, hi[d] + 1):
                 if not bounds[d][0] <= value <= bounds[d][1]:
                     continue
-                ranges = [range(lo[e], hi[e] + 1) if e != d else range(value, value + 1)
-                          for e in range(len(start))]
-                size = math.prod(len(r) for r in ranges)
+                low = lo.copy()
+                low[d] = value
+                shape = [h - a + 1 if e != d else 1 for e, (a, h) in enumerate(zip(lo, hi))]
+                size = math.prod(shape)
                 if spent + size > budget:
                     continue
                 spent += size
-                slab = np.stack(np.meshgrid(*(np.arange(r.start, r.stop, dtype=float) for r in ranges),
-                                            indexing="ij"), axis=-1).reshape(-1, len(ranges))
-                if bool(np.all(fails(slab))):
+                # every combination, the last coordinate fastest (as itertools.product)
+                slab = (np.indices(shape).reshape(len(shape), -1).T + np.array(low)).astype(float)
+                if every_fails(slab):
                     if value < lo[d]:
                         lo[d] = value
                     else:
@@ -122,29 +123,33 @@ def _grow(fails: Callable[[np.ndarray], np.ndarray], start: list[int], bounds: l
 # ---------------------------------------------------------------------------- the payload
 
 
-def _payload_test(scene: Scene, span: int, order: list[int]) -> Callable[[np.ndarray], np.ndarray]:
-    """Rows ``x, y`` of each body (in the cause's order) at each step -> certainly fails."""
-    shrunk = [p for o in scene.obstacles for p in _parts(o.polygon.buffer(-MARGIN, join_style="mitre"))]
-    for p in shrunk:
-        shapely.prepare(p)
+class _Shrunk:
+    """An obstacle shrunk by `MARGIN` (one part of it), prepared, with its bounds and vertices."""
+
+    __slots__ = ("polygon", "bounds", "vx", "vy")
+
+    def __init__(self, polygon) -> None:
+        shapely.prepare(polygon)
+        self.polygon = polygon
+        self.bounds = polygon.bounds
+        ring = shapely.get_coordinates(polygon.exterior)[:-1]
+        self.vx, self.vy = ring[:, 0].copy(), ring[:, 1].copy()
+
+
+def _payload_test(scene: Scene, span: int, order: list[int]) -> Callable[[np.ndarray], bool]:
+    """Rows ``x, y`` of each body (in the cause's order) at each step -> does every one of
+    them certainly fail?"""
+    shrunk = [_Shrunk(p) for p in scene.workspace.shrunk(MARGIN)]
     low, high = scene.payload.length_sq_band
+    c1, c2 = 2 * order.index(0), 2 * order.index(1)
+    d1, d2 = (c1 + 4, c2 + 4) if span else (c1, c2)
 
-    def fails(rows: np.ndarray) -> np.ndarray:
-        ends = [rows[:, 2 * k:2 * k + 2] for k in range(2)]
-        a1, a2 = ends[order.index(0)], ends[order.index(1)]
-        if span == 0:
-            b1, b2 = a1, a2
-        else:
-            later = [rows[:, 4 + 2 * k:4 + 2 * k + 2] for k in range(2)]
-            b1, b2 = later[order.index(0)], later[order.index(1)]
-        return payload_motions_fail(a1, a2, b1, b2, shrunk, low, high)
-    return fails
-
-
-def _parts(geom) -> list:
-    if geom.is_empty:
-        return []
-    return list(getattr(geom, "geoms", [geom]))
+    def every_fails(rows: np.ndarray) -> bool:
+        cols = rows.T
+        found = _motions_fail(cols[c1], cols[c1 + 1], cols[c2], cols[c2 + 1],
+                              cols[d1], cols[d1 + 1], cols[d2], cols[d2 + 1], shrunk, low, high, every=True)
+        return found is not None and bool(found.all())
+    return every_fails
 
 
 def payload_motions_fail(a1: np.ndarray, a2: np.ndarray, b1: np.ndarray, b2: np.ndarray,
@@ -155,68 +160,114 @@ def payload_motions_fail(a1: np.ndarray, a2: np.ndarray, b1: np.ndarray, b2: np.
     Only certain failures count: the band is widened by rounding noise, and the obstacles
     should be shrunk by the caller (the sweep test is exact up to rounding).
     """
-    d0 = a2 - a1
-    dd = (b2 - b1) - d0
-    qa = (dd * dd).sum(axis=1)
-    qb = 2.0 * (d0 * dd).sum(axis=1)
-    qc = (d0 * d0).sum(axis=1)
-    ends = [qc, qa + qb + qc]
+    found = _motions_fail(a1[:, 0], a1[:, 1], a2[:, 0], a2[:, 1], b1[:, 0], b1[:, 1], b2[:, 0], b2[:, 1],
+                          [_Shrunk(p) for p in obstacles], low, high)
+    assert found is not None
+    return found
+
+
+def _motions_fail(a1x, a1y, a2x, a2y, b1x, b1y, b2x, b2y, obstacles: Sequence[_Shrunk],
+                  low: float, high: float, every: bool = False) -> np.ndarray | None:
+    """`payload_motions_fail` on coordinate columns (one array per coordinate: numpy's
+    reductions over a short last axis cost more than the arithmetic). With ``every``, ``None``
+    as soon as some motion is certainly clean (it touches no obstacle's bounding box and keeps
+    its length), when only "do they all fail?" is asked."""
+    d0x, d0y = a2x - a1x, a2y - a1y
+    ddx, ddy = (b2x - b1x) - d0x, (b2y - b1y) - d0y
+    qa = ddx * ddx + ddy * ddy
+    qb = 2.0 * (d0x * ddx + d0y * ddy)
+    qc = d0x * d0x + d0y * d0y
     with np.errstate(divide="ignore", invalid="ignore"):
         vertex = np.where(qa > 0.0, -qb / (2.0 * qa), 0.0)
     inside = (vertex > 0.0) & (vertex < 1.0)
     at_vertex = np.where(inside, (qa * vertex + qb) * vertex + qc, qc)
-    q_min = np.minimum(np.minimum(ends[0], ends[1]), at_vertex)
-    q_max = np.maximum(ends[0], ends[1])
+    end = qa + qb + qc
+    q_min = np.minimum(np.minimum(qc, end), at_vertex)
+    q_max = np.maximum(qc, end)
     noise = 8.0 * EPS * max(1.0, abs(low), abs(high))
     out = (q_min < low - noise) | (q_max > high + noise)
     todo = np.flatnonzero(~out)
-    if len(todo) and obstacles:
-        out[todo] = _sweeps_hit(a1[todo], a2[todo], b1[todo], b2[todo], obstacles)
+    if len(todo) and (obstacles or every):
+        hit = _sweeps_hit(a1x[todo], a1y[todo], a2x[todo], a2y[todo], b1x[todo], b1y[todo],
+                          b2x[todo], b2y[todo], obstacles, every)
+        if hit is None:
+            return None
+        out[todo] = hit
     return out
 
 
-def _sweeps_hit(a1, a2, b1, b2, obstacles) -> np.ndarray:
+def _sweeps_hit(a1x, a1y, a2x, a2y, b1x, b1y, b2x, b2y, obstacles: Sequence[_Shrunk],
+                every: bool = False) -> np.ndarray | None:
     """The first-contact test of `geometry.first_sweep_contact`, for many motions at once: the
-    start segment or an end's path meets the polygon, or a vertex of it is swept."""
-    hit = np.zeros(len(a1), dtype=bool)
-    pts = np.stack([a1, a2, b1, b2])
-    lo, hi = pts.min(axis=0), pts.max(axis=0)
-    for poly in obstacles:
-        x0, y0, x1, y1 = poly.bounds
-        near = np.flatnonzero(~hit & (lo[:, 0] <= x1) & (hi[:, 0] >= x0) & (lo[:, 1] <= y1) & (hi[:, 1] >= y0))
-        if not len(near):
+    start segment or an end's path meets a polygon (shapely, polygon by polygon), or a vertex
+    of it is swept (all polygons' vertices at once). ``every``: ``None`` as soon as a motion is
+    near no polygon at all."""
+    n = len(a1x)
+    lo_x = np.minimum(np.minimum(a1x, a2x), np.minimum(b1x, b2x))
+    hi_x = np.maximum(np.maximum(a1x, a2x), np.maximum(b1x, b2x))
+    lo_y = np.minimum(np.minimum(a1y, a2y), np.minimum(b1y, b2y))
+    hi_y = np.maximum(np.maximum(a1y, a2y), np.maximum(b1y, b2y))
+    near = [(lo_x <= x1) & (hi_x >= x0) & (lo_y <= y1) & (hi_y >= y0)
+            for x0, y0, x1, y1 in (ob.bounds for ob in obstacles)]
+    if every and (not near or not np.logical_or.reduce(near).all()):
+        return None
+    hit = np.zeros(n, dtype=bool)
+    vertex_test = []        # (obstacle, rows near it that its lines miss)
+    for ob, close in zip(obstacles, near):
+        rows = np.flatnonzero(close & ~hit)
+        if not len(rows):
             continue
-        n1, n2, m1, m2 = a1[near], a2[near], b1[near], b2[near]
-        lines = shapely.linestrings(np.concatenate([np.stack([n1, n2], axis=1), np.stack([n1, m1], axis=1),
-                                                    np.stack([n2, m2], axis=1)]))
-        touched = shapely.intersects(lines, poly).reshape(3, -1).any(axis=0)
-        vertices = shapely.get_coordinates(poly.exterior)[:-1]
-        rest = ~touched
-        if rest.any():
-            touched[rest] = _vertex_swept(n1[rest], n2[rest], m1[rest], m2[rest], vertices)
-        hit[near] = touched
+        k = len(rows)
+        n1x, n1y, n2x, n2y = a1x[rows], a1y[rows], a2x[rows], a2y[rows]
+        coords = np.empty((3 * k, 2, 2))
+        for row, (px, py, qx, qy) in enumerate(((n1x, n1y, n2x, n2y), (n1x, n1y, b1x[rows], b1y[rows]),
+                                                (n2x, n2y, b2x[rows], b2y[rows]))):
+            block = coords[row * k:(row + 1) * k]
+            block[:, 0, 0], block[:, 0, 1], block[:, 1, 0], block[:, 1, 1] = px, py, qx, qy
+        touched = shapely.intersects(shapely.linestrings(coords), ob.polygon).reshape(3, -1).any(axis=0)
+        hit[rows[touched]] = True
+        vertex_test.append((ob, rows[~touched]))
+    # one vertex test for what is left: rows x every vertex of the polygons each row is near
+    ask = np.zeros(n, dtype=bool)
+    for _, rows in vertex_test:
+        ask[rows] = True
+    ask &= ~hit
+    rows = np.flatnonzero(ask)
+    if len(rows):
+        where = np.full(n, -1)
+        where[rows] = np.arange(len(rows))
+        wanted = np.zeros((len(rows), sum(len(ob.vx) for ob, _ in vertex_test)), dtype=bool)
+        col = 0
+        for ob, mine in vertex_test:
+            at = where[mine]
+            at = at[at >= 0]
+            wanted[at, col:col + len(ob.vx)] = True
+            col += len(ob.vx)
+        vx = np.concatenate([ob.vx for ob, _ in vertex_test])
+        vy = np.concatenate([ob.vy for ob, _ in vertex_test])
+        swept = _vertex_swept(a1x[rows], a1y[rows], a2x[rows], a2y[rows], b1x[rows], b1y[rows],
+                              b2x[rows], b2y[rows], vx, vy)
+        hit[rows] = (swept & wanted).any(axis=1)
     return hit
 
 
-def _cross(p: np.ndarray, q: np.ndarray) -> np.ndarray:
-    return p[..., 0] * q[..., 1] - p[..., 1] * q[..., 0]
-
-
-def _vertex_swept(a1, a2, b1, b2, vertices) -> np.ndarray:
+def _vertex_swept(a1x, a1y, a2x, a2y, b1x, b1y, b2x, b2y, vx, vy) -> np.ndarray:
     """`geometry.first_vertex_sweep` for many motions (rows) and vertices (columns) at once:
-    is some vertex ever on the moving segment?"""
-    e1, e2 = (b1 - a1)[:, None, :], (b2 - a2)[:, None, :]
-    d0 = (a2 - a1)[:, None, :]
-    dd = e2 - e1
-    w0, z0 = vertices[None, :, :] - a1[:, None, :], vertices[None, :, :] - a2[:, None, :]
-    ca = -_cross(dd, e1)
-    cb = _cross(dd, w0) - _cross(d0, e1)
-    cc = _cross(d0, w0)
-    da = (e1 * e2).sum(axis=2)
-    db = -((w0 * e2).sum(axis=2) + (e1 * z0).sum(axis=2))
-    dc = (w0 * z0).sum(axis=2)
+    is the vertex ever on the moving segment?"""
+    col = np.newaxis
+    e1x, e1y = (b1x - a1x)[:, col], (b1y - a1y)[:, col]
+    e2x, e2y = (b2x - a2x)[:, col], (b2y - a2y)[:, col]
+    d0x, d0y = (a2x - a1x)[:, col], (a2y - a1y)[:, col]
+    ddx, ddy = e2x - e1x, e2y - e1y
+    w0x, w0y = vx[col, :] - a1x[:, col], vy[col, :] - a1y[:, col]
+    z0x, z0y = vx[col, :] - a2x[:, col], vy[col, :] - a2y[:, col]
+    ca = -(ddx * e1y - ddy * e1x)
+    cb = (ddx * w0y - ddy * w0x) - (d0x * e1y - d0y * e1x)
+    cc = d0x * w0y - d0y * w0x
+    da = e1x * e2x + e1y * e2y
+    db = -((w0x * e2x + w0y * e2y) + (e1x * z0x + e1y * z0y))
+    dc = w0x * z0x + w0y * z0y
     tiny = 1e-12
-    ca, da = np.broadcast_to(ca, cc.shape), np.broadcast_to(da, cc.shape)
     hit = np.zeros(cc.shape, dtype=bool)
     quad = np.abs(ca) > tiny
     lin = ~quad & (np.abs(cb) > tiny)
@@ -239,13 +290,13 @@ def _vertex_swept(a1, a2, b1, b2, vertices) -> np.ndarray:
         inside = (vert > 0.0) & (vert < 1.0)
         d_min = np.minimum(np.minimum(dc, da + db + dc), np.where(inside, (da * vert + db) * vert + dc, dc))
         hit |= flat & (d_min <= 0.0)
-    return np.asarray(hit.any(axis=1))
+    return hit
 
 
 # ---------------------------------------------------------------------------- a robot
 
 
-def _robot_test(scene: Scene, name: str, span: int) -> Callable[[np.ndarray], np.ndarray]:
+def _robot_test(scene: Scene, name: str, span: int) -> Callable[[np.ndarray], bool]:
     """Rows ``x, y`` at each step -> the checker's verdict on the robot alone (exact)."""
     arm = scene.robot(name).arm
 
@@ -262,11 +313,6 @@ def _robot_test(scene: Scene, name: str, span: int) -> Callable[[np.ndarray], np
             return True
         return hits(p, q) or not surviving_choices(arm, choices, p, q)[0]
 
-    def fails(rows: np.ndarray) -> np.ndarray:
-        out = np.zeros(len(rows), dtype=bool)
-        for k, row in enumerate(rows):
-            out[k] = one(row)
-            if not out[k]:
-                break       # one safe motion is enough to refuse the slab
-        return out
-    return fails
+    def every_fails(rows: np.ndarray) -> bool:
+        return all(one(row) for row in rows)     # one safe motion is enough to refuse the slab
+    return every_fails

@@ -42,6 +42,7 @@ segment leaves the reachable, joint-limited set exactly from those roots.
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -231,8 +232,19 @@ def point_problem(arm: Arm, x: float, y: float, branch: int) -> tuple[bool, str]
     return None
 
 
+_MEMO = 1 << 16
+"""Entries kept by each memoised function below: the refinement loop checks the same points
+and motions in plan after plan (and the pre-check and widening ask again), and the answers
+are pure functions of immutable arguments."""
+
+
 def choices_at(arm: Arm, x: float, y: float) -> tuple[BranchChoice, ...]:
-    """The branch choices that hold the arm at ``(x, y)`` within its joint limits."""
+    """The branch choices that hold the arm at ``(x, y)`` within its joint limits (memoised)."""
+    return _choices_at(arm, float(x), float(y))
+
+
+@functools.lru_cache(maxsize=_MEMO)
+def _choices_at(arm: Arm, x: float, y: float) -> tuple[BranchChoice, ...]:
     out = []
     for b in (1, -1):
         if point_problem(arm, x, y, b) is None:
@@ -261,8 +273,13 @@ def segment_exit(arm: Arm, p0: Point2, p1: Point2, choice: BranchChoice) -> Segm
     inside its limits, and ``s`` inside its limits. Exact: the breakpoints are the roots of the
     linear ``across(u)`` against its bounds and of the quadratics ``s(u) = s_min, s_max``
     (squared; spurious roots only add breakpoints), and each interval between breakpoints is
-    classified by its midpoint.
+    classified by its midpoint. Memoised.
     """
+    return _segment_exit(arm, (float(p0[0]), float(p0[1])), (float(p1[0]), float(p1[1])), choice)
+
+
+@functools.lru_cache(maxsize=_MEMO)
+def _segment_exit(arm: Arm, p0: Point2, p1: Point2, choice: BranchChoice) -> SegmentExit | None:
     b = choice.branch
     arm_len = arm.length
     (al0, al1), (ac0, ac1) = (tuple(float(c) for c in arr) for arr in arm.rail_frame(

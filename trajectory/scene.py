@@ -204,8 +204,9 @@ class Scene:
         return [o.name for k, o in enumerate(self.obstacles) if k in hit]
 
     def externals(self) -> dict[str, Any]:
-        """The externals this scene provides to the grounder, by name."""
-        return {"collision": self.collision}
+        """The externals this scene provides to the grounder, by name (``collision`` is the
+        workspace's own method: one call frame less on the grounder's hottest path)."""
+        return {"collision": self.workspace.collision}
 
     def reachable(self, robot: str, x: float, y: float) -> bool:
         """True when some IK branch holds ``robot``'s end-effector at (x, y) within limits."""

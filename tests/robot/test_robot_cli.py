@@ -180,3 +180,38 @@ def test_cplus_run_stops_at_a_proof_of_no_safe_plan(tmp_path, capsys):
 def test_cplus_run_gives_up_with_exit_5(tmp_path, capsys):
     code, _, err = run(capsys, "run", DOMAIN, "--out", tmp_path / "o", "--max-iterations", "1")
     assert code == 5 and "gave up after 1 refinement iteration" in err
+
+
+# ---------------------------------------------------------------- the process
+
+
+_THREADS_AFTER_NUMPY = r"""
+import os, sys
+import cplus.cli
+
+def report(argv=None):
+    import numpy  # noqa: F401  (what a robot task's command loads)
+    threads = next(line.split()[1] for line in open("/proc/self/status") if line.startswith("Threads:"))
+    print(os.environ.get("OPENBLAS_NUM_THREADS"), threads, flush=True)
+    return 0
+
+cplus.cli.main = report
+cplus.cli.run()
+"""
+
+
+@pytest.mark.parametrize("given, expected", [(None, "1 1"), ("2", "2 2")])
+def test_the_command_keeps_numpy_to_one_thread_unless_told(given, expected):
+    """numpy's OpenBLAS starts a spinning worker per core when it loads: half of numpy's import
+    in processor time.  The ``cplus`` entry point asks for one thread, unless the user chose."""
+    import os
+    import subprocess
+    import sys
+    env = {k: v for k, v in os.environ.items() if k != "OPENBLAS_NUM_THREADS"}
+    if given:
+        env["OPENBLAS_NUM_THREADS"] = given
+    if given and os.cpu_count() == 1:
+        pytest.skip("one core: OpenBLAS starts no worker whatever it is told")
+    out = subprocess.run([sys.executable, "-c", _THREADS_AFTER_NUMPY], env=env, capture_output=True, text=True,
+                         check=True).stdout
+    assert out.split() == expected.split()

@@ -175,3 +175,27 @@ class TestLimits:
         else:
             assert exit_ is not None and exit_.u == pytest.approx(expected, abs=1e-7)
 
+
+class TestMemo:
+    """`choices_at` and `segment_exit` remember their answers (the refinement loop asks the same
+    questions plan after plan); a remembered answer must be the answer."""
+
+    @settings(max_examples=80)
+    @given(arms(), st.lists(st.tuples(st.integers(-8, 8), st.integers(-8, 8)), min_size=2, max_size=6),
+           st.sampled_from([1, -1]))
+    def test_remembered_answers_are_the_answers(self, arm: Arm, points, branch: int) -> None:
+        from trajectory import kinematics
+        fresh_choices = kinematics._choices_at.__wrapped__
+        fresh_exit = kinematics._segment_exit.__wrapped__
+        for _ in range(2):   # the second round is answered from memory
+            for (x0, y0), (x1, y1) in zip(points, points[1:]):
+                p0, p1 = (x0, y0), (float(x1), float(y1))        # ints and floats are the same point
+                assert choices_at(arm, x0, y0) == fresh_choices(arm, float(x0), float(y0))
+                choice = BranchChoice(branch, 0)
+                assert segment_exit(arm, p0, p1, choice) == fresh_exit(arm, (float(x0), float(y0)), p1, choice)
+
+    def test_arms_that_differ_are_asked_apart(self) -> None:
+        near = Arm((0.0, 0.0), (1.0, 0.0), 3.0, (-5.0, 5.0), (0.1, 3.0))
+        far = Arm((0.0, 0.0), (1.0, 0.0), 6.0, (-5.0, 5.0), (0.1, 3.0))
+        assert choices_at(near, 0, 4) == ()
+        assert choices_at(far, 0, 4) != ()

@@ -173,6 +173,18 @@ def test_a_widened_robot_box_fails_everywhere(example_scene):
     assert all(member_fails(example_scene, cause, m) for m in members(box))
 
 
+def test_the_shipped_task_s_box_is_the_one_its_refinement_log_shows(payload_scene):
+    """The box of the shipped task's first violation (the payload carried past the post), as
+    ``cplus plan domains/payload/payload.cp`` prints it: the plans found depend on exactly
+    which motions a nogood forbids, so growing must not change with its implementation."""
+    states = [carried((4, 2), (4, 7)), carried((8, 2), (8, 7))]
+    v = first_violation(payload_scene, states)
+    assert v.kind is ViolationKind.PAYLOAD_COLLISION
+    box = widen(payload_scene, states, cause_of(payload_scene, states, v))
+    assert box == {(0, "pl1", 0): (1, 6), (0, "pl1", 1): (0, 4), (0, "pl2", 0): (3, 5), (0, "pl2", 1): (6, 7),
+                   (1, "pl1", 0): (7, 9), (1, "pl1", 1): (1, 3), (1, "pl2", 0): (7, 9), (1, "pl2", 1): (6, 7)}
+
+
 def test_causes_over_several_motions_or_holders_are_not_widened(example_scene):
     states = plan(((1, 1), (1, 4)), ((4, 1), (4, 4)))
     for cause in (Cause(("r1",), 0, 1, holds=True), Cause(("r1",), 0, 2)):
@@ -191,6 +203,18 @@ def test_the_vectorised_payload_test_never_says_fail_when_the_checker_does_not(p
     found = check_motion(payload_scene, 0, carried(motion[0], motion[1]), carried(motion[2], motion[3]))
     checker = any(v.kind in PAYLOAD_KINDS for v in found)
     assert not says or checker
+
+
+@given(motions=st.lists(payload_motions(), min_size=1, max_size=12))
+@settings(max_examples=60)
+def test_asking_whether_every_motion_fails_is_asking_each(payload_scene, motions):
+    """Widening only asks "does every motion of this slab fail?", and stops at the first clean
+    one; the answer must be the per-motion test's, whatever the slab."""
+    from trajectory.generalize import MARGIN, _payload_test
+    rows = np.array([[*a1, *a2, *b1, *b2] for a1, a2, b1, b2 in motions], dtype=float)
+    each = payload_motions_fail(rows[:, 0:2], rows[:, 2:4], rows[:, 4:6], rows[:, 6:8],
+                                payload_scene.workspace.shrunk(MARGIN), *payload_scene.payload.length_sq_band)
+    assert _payload_test(payload_scene, 1, [0, 1])(rows) is bool(each.all())
 
 
 # ---------------------------------------------------------------------------- pre-check

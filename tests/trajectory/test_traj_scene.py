@@ -6,6 +6,7 @@ import math
 import re
 from pathlib import Path
 
+import numpy as np
 import pytest
 import shapely
 from hypothesis import given, settings
@@ -110,6 +111,48 @@ class TestCollisionExternal:
 
     def test_externals(self, payload_scene: Scene) -> None:
         assert payload_scene.externals()["collision"](4, 0, 6, 0) is True
+
+    @settings(max_examples=200)
+    @given(st.integers(0, 12), st.integers(-1, 7), st.integers(0, 12), st.integers(-1, 7),
+           st.sampled_from([int, float, np.int64, np.float64]))
+    def test_a_grid_point_is_a_grid_point_whatever_its_number_type(self, x1: int, y1: int, x2: int, y2: int,
+                                                                   kind: type) -> None:
+        """The grounder passes ints; a float or a numpy number of the same value gets the same
+        answer, the geometric one (the table is looked up by value)."""
+        expected = bool(SCENE.workspace.union.intersects(
+            shapely.Point(x1, y1) if (x1, y1) == (x2, y2) else shapely.LineString([(x1, y1), (x2, y2)])))
+        answer = SCENE.externals()["collision"](kind(x1), kind(y1), kind(x2), kind(y2))
+        assert answer is expected
+
+    def test_off_grid_points_next_to_grid_points_are_not_rounded(self, payload_scene: Scene) -> None:
+        c = payload_scene.collision
+        assert c(4, 2, 6, 2) is False and c(4, 1.5, 6, 1.5) is True      # the wall's top edge
+        assert c(7, 5, 7, 5.6) is True and c(7, 5, 7, 5.5999) is False    # the post's bottom edge
+        assert c(7, 5, 7, 5.6 + 1e-12) is True
+
+
+class TestWorkspace:
+    @settings(max_examples=60)
+    @given(st.lists(st.tuples(st.integers(-3, 14), st.integers(-3, 9), st.sampled_from([0.3, 0.5, 1.0, 2.5]),
+                              st.sampled_from([0.3, 0.5, 1.0, 2.5])), max_size=25),
+           st.lists(st.lists(st.tuples(st.integers(-4, 16), st.integers(-4, 10)), min_size=1, max_size=4),
+                    min_size=1, max_size=20))
+    def test_candidates_are_the_tree_s_answer_in_the_tree_s_order(self, boxes, queries) -> None:
+        """The checker breaks ties between obstacles in this order, so it must not change."""
+        from trajectory.workspace import Workspace
+        polygons = [shapely.box(x, y, x + w, y + h) for x, y, w, h in boxes]
+        ws = Workspace(polygons, (0, 12, -1, 7))
+        for points in queries:
+            xs, ys = [p[0] for p in points], [p[1] for p in points]
+            tree = [int(k) for k in ws.tree.query(shapely.box(min(xs), min(ys), max(xs), max(ys)))]
+            assert ws.candidates([(float(x), float(y)) for x, y in points]) == tree
+
+    def test_shrunk_obstacles(self, example_scene: Scene) -> None:
+        ws = example_scene.workspace
+        (post,) = ws.shrunk(0.25)
+        assert post.bounds == (2.25, -0.75, 2.75, 0.75)
+        assert ws.shrunk(0.25) is ws.shrunk(0.25)        # computed once
+        assert ws.shrunk(0.6) == ()                      # thinner than twice the margin: nothing left
 
 
 # -- bad input: every error located at file:line:col -------------------------------------------
