@@ -100,7 +100,7 @@ def _parser() -> lalr.Parser:
         fmt, text, tables = marshal.loads(path.read_bytes())
         if fmt == lalr.FORMAT and text == grammar:
             return lalr.Parser(tables)
-    except (OSError, ValueError, EOFError, TypeError):
+    except (OSError, ValueError, EOFError, TypeError, KeyError):   # unreadable or damaged: rebuilt
         pass
     tables = lalr.tables_of(_lark())
     try:

@@ -128,7 +128,12 @@ def test_tables_are_kept_and_rebuilt_when_stale_or_damaged(tmp_path: Path, monke
         fmt, _, tables = marshal.loads(kept.read_bytes())
         kept.write_bytes(marshal.dumps((fmt, "another grammar", {})))
         assert parse_program("a causes b.").statements      # another grammar's: rebuilt
-        assert marshal.loads(kept.read_bytes())[1] == parser._GRAMMAR.read_text(encoding="utf-8")
+        grammar = parser._GRAMMAR.read_text(encoding="utf-8")
+        assert marshal.loads(kept.read_bytes())[1] == grammar
+        parser._parser.cache_clear()
+        kept.write_bytes(marshal.dumps((fmt, grammar, {"states": {}})))
+        assert parse_program("a causes b.").statements      # this grammar's, damaged: rebuilt
+        assert marshal.loads(kept.read_bytes())[2] == tables
     finally:
         parser._parser.cache_clear()
 
