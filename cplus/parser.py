@@ -55,8 +55,15 @@ _BLOCK_START = re.compile(r"\s*(?::-\s*|#)begin_(asp|lua|f2lp|python)\s*$")
 _WORD = re.compile(r"[A-Za-z][A-Za-z0-9_]*")
 
 
-def _cache_dir() -> Path:
-    return Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "cplus"
+def _cache_dir() -> Path | None:
+    """Where the parse tables are kept (None: there is no home directory to keep them in)."""
+    base = os.environ.get("XDG_CACHE_HOME")
+    if not base:
+        try:
+            base = str(Path.home() / ".cache")
+        except RuntimeError:
+            return None
+    return Path(base) / "cplus"
 
 
 @lru_cache(maxsize=1)
@@ -69,11 +76,14 @@ def _lark() -> Lark:
 
     text = _GRAMMAR.read_text(encoding="utf-8")
     options = dict(parser="lalr", propagate_positions=True, maybe_placeholders=False)
-    try:
-        _cache_dir().mkdir(parents=True, exist_ok=True)
-        return Lark(text, cache=str(_cache_dir() / f"grammar-{_lark_version()}.cache"), **options)
-    except OSError:
-        return Lark(text, **options)
+    cache_dir = _cache_dir()
+    if cache_dir is not None:
+        try:
+            cache_dir.mkdir(parents=True, exist_ok=True)
+            return Lark(text, cache=str(cache_dir / f"grammar-{_lark_version()}.cache"), **options)
+        except OSError:
+            pass
+    return Lark(text, **options)
 
 
 def _lark_version() -> str:
@@ -94,8 +104,10 @@ def _parser() -> lalr.Parser:
     import zlib
 
     grammar = _GRAMMAR.read_text(encoding="utf-8")
-    key = f"{sys.implementation.cache_tag}-{zlib.crc32(grammar.encode()):08x}"
-    path = _cache_dir() / f"tables-{key}.marshal"
+    cache_dir = _cache_dir()
+    if cache_dir is None:
+        return lalr.Parser(lalr.tables_of(_lark()))
+    path = cache_dir / f"tables-{sys.implementation.cache_tag}-{zlib.crc32(grammar.encode()):08x}.marshal"
     try:
         fmt, text, tables = marshal.loads(path.read_bytes())
         if fmt == lalr.FORMAT and text == grammar:
@@ -103,13 +115,16 @@ def _parser() -> lalr.Parser:
     except (OSError, ValueError, EOFError, TypeError, KeyError):   # unreadable or damaged: rebuilt
         pass
     tables = lalr.tables_of(_lark())
+    tmp = path.with_name(f"{path.name}.{os.getpid()}.tmp")
     try:
-        _cache_dir().mkdir(parents=True, exist_ok=True)
-        tmp = path.with_name(f"{path.name}.{os.getpid()}.tmp")
+        cache_dir.mkdir(parents=True, exist_ok=True)
         tmp.write_bytes(marshal.dumps((lalr.FORMAT, grammar, tables)))
         os.replace(tmp, path)
     except OSError:
-        pass
+        try:
+            tmp.unlink(missing_ok=True)
+        except OSError:
+            pass
     return lalr.Parser(tables)
 
 

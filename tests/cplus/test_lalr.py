@@ -164,3 +164,20 @@ def test_a_plan_does_not_import_lark(tmp_path: Path, corpus: Path) -> None:
     bad.write_text(":- constants a :: inertialFluent.\na causes causes a.\n")
     run = subprocess.run([sys.executable, "-m", "cplus", "plan", str(bad)], capture_output=True, text=True, env=env)
     assert run.returncode != 0 and "bad.cp:2:" in run.stderr and "Traceback" not in run.stderr
+
+
+def test_no_home_directory_still_parses(monkeypatch) -> None:
+    def no_home() -> Path:
+        raise RuntimeError("Could not determine home directory.")
+    monkeypatch.delenv("XDG_CACHE_HOME", raising=False)
+    monkeypatch.setattr(parser.Path, "home", staticmethod(no_home))
+    parser._parser.cache_clear()
+    parser._lark.cache_clear()
+    try:
+        assert parser._cache_dir() is None
+        assert len(parse_program("a causes b.").statements) == 1
+        with pytest.raises(CPlusSyntaxError, match="unexpected"):
+            parse_program("a causes causes b.")
+    finally:
+        parser._parser.cache_clear()
+        parser._lark.cache_clear()
