@@ -19,14 +19,17 @@ import os
 import re
 from functools import lru_cache
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-from lark import Lark, Token, Tree
-from lark.exceptions import UnexpectedCharacters, UnexpectedEOF, UnexpectedInput, UnexpectedToken
-
-from cplus import ast
+from cplus import ast, lalr
 from cplus.errors import CPlusSyntaxError, Diagnostics, Location, Source
+from cplus.lalr import Token, Tree
 from cplus.limits import MAX_INT, MAX_NESTING
 from cplus.signature import USER_KINDS
+
+if TYPE_CHECKING:
+    from lark import Lark
+    from lark.exceptions import UnexpectedInput
 
 __all__ = ["parse_program", "split_statements", "RESERVED"]
 
@@ -52,19 +55,35 @@ _BLOCK_START = re.compile(r"\s*(?::-\s*|#)begin_(asp|lua|f2lp|python)\s*$")
 _WORD = re.compile(r"[A-Za-z][A-Za-z0-9_]*")
 
 
+def _cache_dir() -> Path | None:
+    """Where the parse tables are kept (None: there is no home directory to keep them in)."""
+    base = os.environ.get("XDG_CACHE_HOME")
+    if not base:
+        try:
+            base = str(Path.home() / ".cache")
+        except RuntimeError:
+            return None
+    return Path(base) / "cplus"
+
+
 @lru_cache(maxsize=1)
 def _lark() -> Lark:
-    """The LALR parser.  Building its tables takes a fifth of a second, so lark keeps them in
-    the user's cache directory (keyed by a hash of the grammar and options); when that
-    directory is not writable the tables are simply built each time."""
+    """lark's LALR parser of the grammar: it builds the tables and explains syntax errors.
+    Building its tables takes a fifth of a second, so lark keeps them in the user's cache
+    directory (keyed by a hash of the grammar and options); when that directory is not
+    writable the tables are simply built each time."""
+    from lark import Lark
+
     text = _GRAMMAR.read_text(encoding="utf-8")
     options = dict(parser="lalr", propagate_positions=True, maybe_placeholders=False)
-    cache_dir = Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "cplus"
-    try:
-        cache_dir.mkdir(parents=True, exist_ok=True)
-        return Lark(text, cache=str(cache_dir / f"grammar-{_lark_version()}.cache"), **options)
-    except OSError:
-        return Lark(text, **options)
+    cache_dir = _cache_dir()
+    if cache_dir is not None:
+        try:
+            cache_dir.mkdir(parents=True, exist_ok=True)
+            return Lark(text, cache=str(cache_dir / f"grammar-{_lark_version()}.cache"), **options)
+        except OSError:
+            pass
+    return Lark(text, **options)
 
 
 def _lark_version() -> str:
@@ -73,6 +92,56 @@ def _lark_version() -> str:
     import lark
     digest = hashlib.sha256(_GRAMMAR.read_bytes() + lark.__version__.encode()).hexdigest()
     return digest[:16]
+
+
+@lru_cache(maxsize=1)
+def _parser() -> lalr.Parser:
+    """The parser of well-formed statements (:mod:`cplus.lalr`): its tables are read from the
+    user's cache directory, where they are kept with the grammar's text they were built
+    from, without importing lark; built by lark and stored there when missing or stale."""
+    import marshal
+    import sys
+    import zlib
+
+    grammar = _GRAMMAR.read_text(encoding="utf-8")
+    cache_dir = _cache_dir()
+    if cache_dir is None:
+        return lalr.Parser(lalr.tables_of(_lark()))
+    path = cache_dir / f"tables-{sys.implementation.cache_tag}-{zlib.crc32(grammar.encode()):08x}.marshal"
+    try:
+        fmt, text, tables = marshal.loads(path.read_bytes())
+        if fmt == lalr.FORMAT and text == grammar:
+            return lalr.Parser(tables)
+    except (OSError, ValueError, EOFError, TypeError, KeyError):   # unreadable or damaged: rebuilt
+        pass
+    tables = lalr.tables_of(_lark())
+    tmp = path.with_name(f"{path.name}.{os.getpid()}.tmp")
+    try:
+        cache_dir.mkdir(parents=True, exist_ok=True)
+        tmp.write_bytes(marshal.dumps((lalr.FORMAT, grammar, tables)))
+        os.replace(tmp, path)
+    except OSError:
+        try:
+            tmp.unlink(missing_ok=True)
+        except OSError:
+            pass
+    return lalr.Parser(tables)
+
+
+def _parse(source: Source, begin: int, end: int) -> Tree | Token:
+    """The tree of the statement at ``begin:end``; lark itself explains one that is not
+    well formed (it is imported only then)."""
+    chunk = source.text[begin:end]
+    try:
+        return _parser().parse(chunk)
+    except lalr.NoParse:
+        pass
+    from lark.exceptions import UnexpectedInput
+    try:
+        tree = _lark().parse(chunk)
+    except UnexpectedInput as exc:
+        raise _syntax_error(exc, source, begin, end, chunk) from None
+    return lalr.from_lark(tree)
 
 
 def _strip_comments(text: str) -> str:
@@ -165,17 +234,12 @@ def parse_program(text: str, path: str = "<input>",
     text = text.removeprefix("\ufeff")  # a UTF-8 byte-order mark is not part of the text
     source = Source(path, text)
     statements: list[ast.Statement] = []
-    parser = _lark()
     for begin, end in split_statements(source, diagnostics):
         first = _skip_blank(text, begin)
         if first >= end:
             raise CPlusSyntaxError("empty statement: a '.' with nothing before it",
                                    Location(source, end, end + 1))
-        chunk = text[begin:end]
-        try:
-            tree = parser.parse(chunk)
-        except UnexpectedInput as exc:
-            raise _syntax_error(exc, source, begin, end, chunk) from None
+        tree = _parse(source, begin, end)
         stmt = _Builder(source, begin).build(tree)
         deep = _too_deep(stmt)
         if deep is not None:
@@ -231,6 +295,8 @@ def _describe(name: str) -> str:
 
 def _syntax_error(exc: UnexpectedInput, source: Source, begin: int, end: int,
                   chunk: str) -> CPlusSyntaxError:
+    from lark.exceptions import UnexpectedCharacters, UnexpectedEOF, UnexpectedToken
+
     directive = _DIRECTIVE.match(_strip_comments(chunk))
     if directive and directive.group(1) not in _DIRECTIVES:
         at = begin + chunk.index(directive.group(1))
@@ -378,7 +444,7 @@ class _Builder:
         self.base = base
 
     # -------------------------------------------------------------- the walk
-    def build(self, tree: Tree):
+    def build(self, tree: Tree | Token):
         values: list = []
         todo: list = [tree]
         while todo:
@@ -421,7 +487,7 @@ class _Builder:
         return Location(self.source, self.base + meta.start_pos, self.base + meta.end_pos)
 
     def _tloc(self, tok: Token) -> Location:
-        return Location(self.source, self.base + tok.start_pos, self.base + tok.end_pos)  # type: ignore[operator]
+        return Location(self.source, self.base + tok.start_pos, self.base + tok.end_pos)
 
     def _span(self, first, last) -> Location:
         return Location(self.source, first.loc.start, last.loc.end)

@@ -29,7 +29,7 @@ CONFLICT = -2               # two strong rules with different values fire: impos
 
 
 def encode_table(domains: list[tuple], value_lits: list[dict], head_lits: list[int],
-                 strong: list[tuple[int, dict]], weak: list[tuple[int, dict]],
+                 strong: list[tuple[int, tuple]], weak: list[tuple[int, tuple]],
                  add_clause: Callable[[list[int]], None], new_var: Callable[[], int],
                  at_most_one: Callable[[list[int]], None], cache: dict | None = None) -> bool:
     """Write the table of a constant; False (nothing written) when it does not fit, or when
@@ -38,7 +38,7 @@ def encode_table(domains: list[tuple], value_lits: list[dict], head_lits: list[i
 
     ``domains[k]`` are the values of body constant k and ``value_lits[k][w]`` the literal of
     ``k=w``; ``head_lits[h]`` is the literal of the constant's h-th value; ``strong`` and
-    ``weak`` are cubes ``(h, {k: w})``.  Small tables are built with lists (numpy's import
+    ``weak`` are cubes ``(h, ((k, w), ...))``.  Small tables are built with lists (numpy's import
     costs more than a small domain's whole run), large ones with numpy arrays.
 
     ``cache``: the diagrams built so far, by the table's content (domains, cubes); constants
@@ -53,13 +53,13 @@ def encode_table(domains: list[tuple], value_lits: list[dict], head_lits: list[i
         return False
     key = None
     if cache is not None:
-        key = (tuple(domains), len(head_lits), tuple((h, tuple(c.items())) for h, c in strong),
-               tuple((h, tuple(c.items())) for h, c in weak))
+        key = (tuple(domains), len(head_lits), tuple(strong), tuple(weak))
     built: tuple | None | bool = cache.get(key, False) if cache is not None else False
     if built is False:
         index = [{w: i for i, w in enumerate(d)} for d in domains]
         large = cells > _SMALL and ("numpy" in sys.modules or cells > _COLD)
-        built = (_build_large if large else _build_small)(shape, index, strong, weak)
+        built = (_build_large if large else _build_small)(shape, index, [(h, dict(c)) for h, c in strong],
+                                                          [(h, dict(c)) for h, c in weak])
         if cache is not None:
             cache[key] = built
     if built is None:

@@ -13,6 +13,7 @@ offsets, so a longer horizon only appends clauses.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from itertools import chain
 
 from cplus.ground.pf import PF, map_lits, mk_and
 from cplus.ground.theory import GroundTheory, initially_free
@@ -88,6 +89,7 @@ class Layout:
         self.dead: frozenset[int] = frozenset()
         self._tids: dict[int, int] = {}
         self.tables: dict = {}        # decision diagrams built for these templates (tables.encode_table)
+        self.cube_atoms: dict = {}    # template literal -> ((constant, slot), value), see _cube
 
     def tid(self, code: int) -> int:
         """Template id of a template literal code (see :func:`template_lit`)."""
@@ -233,10 +235,9 @@ def _complete_atoms(b: _Builder, gcs: list[GroundConst], slot: int, heads: dict,
 def _table_completion(b: _Builder, gc: GroundConst, slot: int, heads: dict) -> bool:
     """Completion of a constant whose rules are tables over other constants (see
     :mod:`cplus.sat.tables`): every rule for ``gc`` at this slot has a body that is a
-    conjunction of atoms ``d=w`` of other constants (at most one atom per constant), or is
-    self-supporting with such a rest (inertia, defaults).  Returns False when the rules do
-    not have that shape or the table is too large; the caller then writes the ordinary
-    completion."""
+    conjunction of atoms ``d=w`` of other constants (at most one atom per constant).  Returns
+    False when the rules do not have that shape (a self-supporting rule, inertia or a default,
+    among them) or the table is too large; the caller then writes the ordinary completion."""
     layout = b.layout
     atoms = layout.theory.atoms
     lits = atoms.head_lits(gc)
@@ -244,39 +245,35 @@ def _table_completion(b: _Builder, gc: GroundConst, slot: int, heads: dict) -> b
     for aid, _ in lits:
         t = layout.tid_atom(abs(aid), slot)
         head_tids.append(t if aid > 0 else -t)
-    strong: list[tuple[int, dict]] = []
-    weak: list[tuple[int, dict]] = []
-    keys: set = set()
+    strong: list[tuple[int, tuple]] = []
     for hi, h in enumerate(head_tids):
         for body in heads.get(h, ()):
             if body is False:
                 continue
-            rest = _without(body, h)
-            if rest is not None:
+            if _without(body, h) is not None:
                 # self-supporting rules (inertia) as weak table rows give the same models but
                 # propagate badly backwards from a goal (hanoi-6-3 solved 12x slower): the
                 # ordinary completion keeps them
                 return False
-            target = body
-            cube = {} if target is True else _cube(layout, target, gc, slot)
+            cube = () if body is True else _cube(layout, body, gc, slot)
             if cube is None:
                 return False
-            (strong if rest is None else weak).append((hi, cube))
-            keys.update(cube)
+            strong.append((hi, cube))
     if not strong:
         return False
-    order = sorted(keys, key=lambda k: (k[0].id, k[1]))
+    used = set(chain.from_iterable(c for _, c in strong))       # ((constant, slot), value) pairs
+    order = sorted({k for k, _ in used}, key=lambda k: (k[0].id, k[1]))
     size = 1
     for key in order:
         size *= len(_live_values(layout, key[0]))
         if size > TABLE_LIMIT:
             return False
     pos = {k: i for i, k in enumerate(order)}
+    placed = {atom: (pos[atom[0]], atom[1]) for atom in used}
     cb = b.cb
     domains = [_live_values(layout, k[0]) for k in order]
     if not encode_table(domains, [_value_lits(layout, k) for k in order], head_tids,
-                        [(h, {pos[k]: v for k, v in c.items()}) for h, c in strong],
-                        [(h, {pos[k]: v for k, v in c.items()}) for h, c in weak],
+                        [(h, tuple(map(placed.__getitem__, c))) for h, c in strong], [],
                         _nonempty(cb), b._new, cb.at_most_one, layout.tables):  # type: ignore[arg-type]
         return False
     if not gc.boolean:
@@ -318,38 +315,42 @@ def _value_lits(layout: Layout, key: tuple) -> dict:
     return {v: layout.tid_atom(atoms.lit(other, v), s) for v in other.domain}
 
 
-def _cube(layout: Layout, body: PF, gc: GroundConst, slot: int) -> dict | None:
-    """``{(constant, slot): value}`` when ``body`` is a conjunction of atoms of constants
-    other than gc@slot, each at most once; None otherwise."""
+def _cube(layout: Layout, body: PF, gc: GroundConst, slot: int) -> tuple | None:
+    """``((constant, slot), value)`` pairs when ``body`` is a conjunction of atoms of
+    constants other than gc@slot, each at most once; None otherwise."""
     items = body[1] if type(body) is tuple and body[0] == "&" else (body,)
-    atoms = layout.theory.atoms
-    gc_of, value_of = atoms.gc_of, atoms.value_of
-    base, R, N = layout.base_top, layout.R, layout.N
-    rigid, step = layout.rigid_atoms, layout.step_atoms
-    cube: dict = {}
+    atom_of = layout.cube_atoms
+    cube = []
+    seen = set()
     for lit in items:
-        if type(lit) is not int:
+        atom = atom_of.get(lit) if type(lit) is int else None
+        if atom is None:
+            if type(lit) is not int or lit in atom_of:
+                return None
+            atom = atom_of[lit] = _cube_atom(layout, lit)
+            if atom is None:
+                return None
+        key = atom[0]
+        if (key[0] is gc and key[1] == slot) or key in seen:
             return None
-        t = lit if lit > 0 else -lit
-        if t > base:
-            return None
-        if t <= R:
-            aid, s = rigid[t - 1], 2
-        elif t <= R + N:
-            aid, s = step[t - R - 1], 0
-        else:
-            aid, s = step[t - R - N - 1], 1
-        other = gc_of[aid]
-        value = value_of[aid]
-        if value is None:
-            value = "true" if lit > 0 else "false"
-        elif lit < 0:
-            return None
-        key = (other, s)
-        if (other is gc and s == slot) or key in cube:
-            return None
-        cube[key] = value
-    return cube
+        seen.add(key)
+        cube.append(atom)
+    return tuple(cube)
+
+
+def _cube_atom(layout: Layout, lit: int) -> tuple | None:
+    """``((constant, slot), value)`` of a template literal that may be in a cube."""
+    atoms = layout.theory.atoms
+    t = lit if lit > 0 else -lit
+    if t > layout.base_top:
+        return None
+    aid, s = layout.atom_of_tid(t)
+    value = atoms.value_of[aid]
+    if value is None:
+        value = "true" if lit > 0 else "false"
+    elif lit < 0:
+        return None
+    return (atoms.gc_of[aid], s), value
 
 
 def _constraints(b: _Builder, bodies: list[PF], shift: bool = False) -> None:

@@ -73,7 +73,8 @@ def check_table(domains, values, strong, weak):
     for lits in value_lits:
         cb.exactly_one(list(lits.values()))
     cb.exactly_one(head_lits)
-    ok = encode_table(domains, value_lits, head_lits, strong, weak,
+    ok = encode_table(domains, value_lits, head_lits, [(h, tuple(c.items())) for h, c in strong],
+                      [(h, tuple(c.items())) for h, c in weak],
                       lambda c: cb.add_clause(c) if c else cb.add(False), new_var, cb.at_most_one)
     want = expected_rows(domains, values, strong, weak)
     if not ok:   # refused only when weak rules leave a choice somewhere
