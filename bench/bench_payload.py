@@ -183,7 +183,7 @@ def main() -> int:
           "bytecode cached); processor time by phase:")
     for key, what in (("interpreter", "Python start-up alone (python -c pass)"),
                       ("numpy+shapely", "imports: numpy and shapely (the geometry)"),
-                      ("imports", "imports: the rest (cplus CLI, robot, trajectory, pysat, lark)"),
+                      ("imports", "imports: the rest (cplus CLI, robot, trajectory)"),
                       ("load", "load: scene and domain (parse, resolve)"),
                       ("ground", "grounding (the collision/4 external included)"),
                       ("templates", "clause templates"),
