@@ -22,7 +22,11 @@ The paper's figures, for comparison: CCALC grounded in 48.5 s and solved 9 itera
     python bench/bench_payload.py [--runs 5] [--quick]
 
 ``--quick`` leaves out the paper's form on the raised wall (about three minutes: hundreds of
-iterations before its proof).
+iterations before its proof). ``--paths K`` runs the position nogoods on each scene K more
+times, each with 1..K satisfiable two-literal clauses over fresh variables added first: the
+task is the same, only the solver's path through it changes, and the spread of the times
+(median, lowest, highest) says how much of a difference between two versions is the
+solver's luck (the island's refinement: 0.8 to 1.3 s of processor time).
 """
 from __future__ import annotations
 
@@ -45,14 +49,26 @@ SCENES = {"shipped task": ROOT / "domains" / "payload" / "scene.toml",
 FORMS = {"positions": "position nogoods", "actions": "paper's form"}
 
 
-def refine_once(scene: Path, form: str) -> dict:
+def refine_once(scene: Path, form: str, pad: int = 0) -> dict:
+    """One refinement as `cplus plan` runs it; ``pad`` binary clauses over fresh variables
+    first (satisfiable, unrelated to the task) change nothing but the solver's path."""
     from cplus.robot import RobotTask, refine
+    from cplus.robot.refine import DEFAULT_MAX_HORIZON
+    from cplus.sat.horizon import QuerySession
     task = RobotTask.load(str(DOMAIN), str(scene))
     _ = task.domain.theory
     gc.collect()
     gc.disable()
     t0, c0 = time.perf_counter(), time.process_time()
-    result = refine(task, "0", nogoods=form)
+    session = None
+    if pad:
+        query = task.domain.query("0")
+        session = QuerySession(task.domain.theory, query, max_horizon=None if query.hi is not None
+                               else DEFAULT_MAX_HORIZON)
+        h = session.horizon
+        for _ in range(pad):
+            h.solver.add_clause([h.new_var(), h.new_var()])
+    result = refine(task, "0", nogoods=form, session=session)
     wall, cpu = time.perf_counter() - t0, time.process_time() - c0
     gc.enable()
     last = result.stats[-1]
@@ -132,6 +148,8 @@ def main() -> int:
     ap = argparse.ArgumentParser()
     ap.add_argument("--runs", type=int, default=5)
     ap.add_argument("--quick", action="store_true", help="leave out the paper's form on the raised wall")
+    ap.add_argument("--paths", type=int, default=0, metavar="K",
+                    help="also run the position nogoods along K other solver paths per scene")
     args = ap.parse_args()
     print(f"refinement, medians of {args.runs} runs (the paper's form on the raised wall: one run)")
     print(f"  {'scene':<13} {'algorithm':<17} {'status':<13} {'len':>3} {'iter':>4} {'learned':>7} "
@@ -150,13 +168,22 @@ def main() -> int:
                   f"{med['wall']:>8.3f} {med['cpu']:>6.3f} {med['solve']:>7.3f}", flush=True)
     print("  (pre-check: single-body motions + payload turns handed to the solver up front; refine s: wall,\n"
           "   cpu s: processor time of the refinement, solve s: the SAT solver's part of the wall time)")
+    if args.paths:
+        print(f"\nposition nogoods along {args.paths} other solver paths (processor time of the refinement):")
+        for scene_name, scene in SCENES.items():
+            runs = [refine_once(scene, "positions", pad) for pad in range(1, args.paths + 1)]
+            cpus = sorted(r["cpu"] for r in runs)
+            its = sorted(r["iterations"] for r in runs)
+            print(f"  {scene_name:<13} {runs[0]['status']:<13} iterations {its[0]}..{its[-1]}  "
+                  f"cpu median {statistics.median(cpus):.3f} s, lowest {cpus[0]:.3f}, highest {cpus[-1]:.3f}",
+                  flush=True)
     walls, cpus, phases = zip(*(command() for _ in range(args.runs)))
     print(f"\n`cplus plan domains/payload/payload.cp`: {statistics.median(walls):.3f} s wall, "
           f"{statistics.median(cpus):.3f} s processor time (medians of {args.runs} fresh processes, "
           "bytecode cached); processor time by phase:")
     for key, what in (("interpreter", "Python start-up alone (python -c pass)"),
                       ("numpy+shapely", "imports: numpy and shapely (the geometry)"),
-                      ("imports", "imports: the rest (cplus CLI, robot, trajectory, pysat, lark)"),
+                      ("imports", "imports: the rest (cplus CLI, robot, trajectory)"),
                       ("load", "load: scene and domain (parse, resolve)"),
                       ("ground", "grounding (the collision/4 external included)"),
                       ("templates", "clause templates"),

@@ -10,6 +10,7 @@ plan's length, or that there is none.
 from __future__ import annotations
 
 import sys
+from collections import Counter
 from pathlib import Path
 
 import pytest
@@ -19,6 +20,7 @@ from hypothesis import strategies as st
 import trajectory
 from cplus.planner import iter_histories
 from cplus.robot import RefineStatus, RobotTask, TaskError, refine
+from cplus.robot.nogoods import Nogood, NogoodStore, position_nogood
 from cplus.sat.horizon import QuerySession
 
 sys.path.insert(0, str(Path(__file__).parent))
@@ -80,3 +82,66 @@ def test_the_tiny_task_learns_from_both_bodies(tmp_path):
     assert {"effector-collision", "payload-collision"} <= kinds
     assert result.store.excludes(list(result.history.states)) is None
     assert result.store.excludes(list(result.first_history.states)) is not None
+
+
+
+def _plans(task: RobotTask, nogood: Nogood | None = None) -> tuple[Counter, dict, NogoodStore]:
+    """Every plan of the tiny query, by its states (how many, and the states themselves), with
+    ``nogood`` in the solver at every step, and the store that holds it."""
+    session = QuerySession(task.domain.theory, task.domain.query("0"))
+    store = NogoodStore(session.horizon, task.domain.theory.atoms)
+    if nogood is not None:
+        store.add(nogood)
+    count: Counter = Counter()
+    states: dict = {}
+    for m in range(task.domain.query("0").hi + 1):
+        if session.solve_at(m):
+            for hist in iter_histories(session):
+                key = tuple(tuple(sorted((gc.text, str(v)) for gc, v in s.items())) for s in hist.states)
+                count[key] += 1
+                states[key] = list(hist.states)
+    return count, states, store
+
+
+@st.composite
+def boxes(draw) -> dict:
+    """A box over one motion (or one state) of the payload's ends or of a robot, in the grid."""
+    span = draw(st.sampled_from([0, 1]))
+    bodies = draw(st.sampled_from([("pl1", "pl2"), ("r1",), ("r2",), ("pl2",)]))
+    box = {}
+    for off in range(span + 1):
+        for body in bodies:
+            for axis, top in ((0, 3), (1, 4)):
+                lo = draw(st.integers(0, top))
+                box[(off, body, axis)] = (lo, draw(st.integers(lo, top)))
+    return box
+
+
+@pytest.fixture(scope="module")
+def open_task(tmp_path_factory):
+    scene = tmp_path_factory.mktemp("open") / "scene.toml"
+    scene.write_text(tiny_scene([]))
+    task = RobotTask.load(str(DOMAIN), str(scene))
+    every, states, _ = _plans(task)
+    return task, every, states
+
+
+def _inside(task: RobotTask, box: dict, states: list) -> bool:
+    """Does some window of ``states`` have every coordinate of ``box`` inside its range?"""
+    span = max(off for off, _, _ in box)
+    return any(all(lo <= states[t + off][task.body_fluents(body)[axis]] <= hi
+                   for (off, body, axis), (lo, hi) in box.items())
+               for t in range(len(states) - span))
+
+
+@given(box=boxes())
+@settings(max_examples=25, suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture])
+def test_the_solver_forbids_exactly_the_plans_inside_a_box(open_task, box):
+    """A widened nogood in the solver removes exactly the plans with a window inside its box,
+    read from the box itself (every plan of the tiny task, enumerated without it, is the
+    reference); the store's own reading of its clauses agrees."""
+    assume(any((lo, hi) != ((0, 3) if axis == 0 else (0, 4)) for (_, _, axis), (lo, hi) in box.items()))
+    task, every, states = open_task
+    left, _, store = _plans(task, position_nogood(task, box))
+    assert left == Counter({k: n for k, n in every.items() if not _inside(task, box, states[k])})
+    assert all((store.excludes(states[k]) is None) == (k in left) for k in every)
