@@ -242,20 +242,39 @@ def first_vertex_sweep(a1: Point2, a2: Point2, b1: Point2, b2: Point2, v: Point2
     def dot(p: Point2, q: Point2) -> float:
         return p[0] * q[0] + p[1] * q[1]
 
+    scale = _scale(a1, a2, b1, b2, v)
+    near = EPS * scale
+    if math.hypot(*d0) <= near and math.hypot(*dd) <= near:
+        # a segment of length 0 throughout is a point on a straight path: v is on the path or
+        # not (the quadratics below vanish or square the distance, and lose half the digits)
+        run = math.hypot(*e1)
+        if run <= near:
+            return 0.0 if math.hypot(*w0) <= near else None
+        if abs(cross(e1, w0)) / run > near:
+            return None
+        u = dot(w0, e1) / (run * run)
+        return min(max(u, 0.0), 1.0) if -near / run <= u <= 1.0 + near / run else None
     c = Quadratic(-cross(dd, e1), cross(dd, w0) - cross(d0, e1), cross(d0, w0))
     d = Quadratic(dot(e1, e2), -(dot(w0, e2) + dot(e1, z0)), dot(w0, z0))
-    scale = _scale(a1, a2, b1, b2, v)
     tol = EPS * scale * scale
+
+    def between(u: float) -> bool:
+        # v on the line a distance t beyond an end of a segment of length L has d = t*(t+L):
+        # the bound keeps t within EPS*scale whatever L is (a fixed EPS*scale**2 would let a
+        # segment of length 0 reach sqrt(EPS)*scale, 3e-5 grid units, before it gets there)
+        length = math.hypot(d0[0] + u * dd[0], d0[1] + u * dd[1])
+        return d(u) <= EPS * scale * (EPS * scale + length)
+
     roots = quadratic_roots(c, tol)
     if roots is None:
         # v is on the moving line at every time: it is swept iff it is ever between the ends
-        if d(0.0) <= tol:
+        if between(0.0):
             return 0.0
         # d(0) > 0, so the first time v is between the ends is d's first root in [0, 1]
         d_roots = quadratic_roots(d, tol)
         return d_roots[0] if d_roots else None
     for u in roots:
-        if d(u) <= tol:
+        if between(u):
             return u
     return None
 

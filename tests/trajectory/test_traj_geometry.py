@@ -164,6 +164,18 @@ class TestSweptPayload:
         assert first_vertex_sweep(a, a, b, b, (3, 0.01)) is None
         assert first_sweep_contact(a, a, b, b, box(2, -1, 3, 1)).u == pytest.approx(0.5)
 
+    def test_a_point_payload_touches_when_it_gets_there_not_before(self) -> None:
+        """A tolerance fixed in squared length let a payload of length 0 count a vertex
+        6e-5 ahead as reached at u = 0 (a sweep that is ahead of the motion)."""
+        a, b, gap = (2.0, 0.0), (0.0, 0.0), 6.103515625e-05
+        assert first_vertex_sweep(a, a, b, b, (2.0 - gap, 0.0)) == pytest.approx(gap / 2)
+        contact = first_sweep_contact(a, a, b, b, box(-gap, 0, 2 - gap, 1))
+        assert contact is not None and contact.u == pytest.approx(gap / 2)
+        # ... and one that passes a vertex 5e-4 to its side never touches it
+        assert first_vertex_sweep((1.0, -4.0), (1.0, -4.0), (-1.0, 4.0), (-1.0, 4.0), (0.0, 0.001953125)) is None
+        # a long segment still reaches a vertex on its line within the tolerance at once
+        assert first_vertex_sweep((0, 0), (0, 5), (0, 2), (0, 7), (0, 5 + 1e-12)) == 0.0
+
     def test_static_payload(self) -> None:
         assert first_sweep_contact((0, 0), (0, 5), (0, 0), (0, 5), box(1, 1, 2, 2)) is None
         c = first_sweep_contact((0, 0), (0, 5), (0, 0), (0, 5), box(-1, 1, 2, 2))
