@@ -84,23 +84,28 @@ def plan(bodies: dict[int, list[tuple[int, ...]]], key_of: Callable[[int], Hasha
             best = found
     if best is None:
         return None
-    _, groups, replaced = best
+    _, groups, key = best
+    replaced = {(h, b) for h, b, keys in keyed if keys.count(key) == 1}
     return groups, replaced
 
 
 def _plan_for(keyed: list, key: Hashable):
-    """(cost, groups, replaced rules) when ``key`` is factored out, or None if it does not pay."""
+    """(cost, groups, key) when ``key`` is factored out, or None if it does not pay.  A body
+    with two literals of that constant is left as it is."""
     relation: dict[tuple[int, ...], set[tuple[int, int]]] = {}
-    replaced: set[tuple[int, tuple[int, ...]]] = set()
     old = 0
     for h, b, keys in keyed:
-        if keys.count(key) != 1:
+        if key not in keys:
             continue
         i = keys.index(key)
-        rest = tuple(sorted(b[:i] + b[i + 1:]))
-        relation.setdefault(rest, set()).add((b[i], h))
-        replaced.add((h, b))
-        old += 1 if h == 0 else len(b) + 2
+        if key in keys[i + 1:]:
+            continue
+        rest = b[:i] + b[i + 1:]     # the laws' ground rules list their atoms in one order
+        pairs = relation.get(rest)
+        if pairs is None:
+            pairs = relation[rest] = set()
+        pairs.add((b[i], h))
+        old += len(b) + 2
     by_pairs: dict[frozenset, list[tuple[int, ...]]] = {}
     for rest, pairs in relation.items():
         by_pairs.setdefault(frozenset(pairs), []).append(rest)
@@ -110,4 +115,4 @@ def _plan_for(keyed: list, key: Hashable):
     if new > _GAIN * old:
         return None
     groups = [(rests, sorted(pairs)) for pairs, rests in by_pairs.items()]
-    return new, groups, replaced
+    return new, groups, key

@@ -378,18 +378,24 @@ def _constraints(b: _Builder, bodies: list[PF], shift: bool = False) -> None:
     """``not body`` for every constraint, once: a law over two variables of the same sort
     (``nonexecutable move(D)=L & move(D1)=L1 where D \\= D1``) grounds each pair twice."""
     from cplus.ground.pf import neg
-    dead = b.layout.dead
+    layout = b.layout
+    dead = layout.dead
+    get, tid, add_clause = layout._tids.get, layout.tid, b.cb.add_clause
     seen: set = set()
     for body in bodies:
         if dead and _needs_dead(dead, body):
             continue
-        key = frozenset(body[1]) if type(body) is tuple and body[0] == "&" else body
+        flat = type(body) is tuple and body[0] == "&"
+        key = frozenset(body[1]) if flat else body   # type: ignore[index]
         if key in seen:
             continue
         seen.add(key)
         if shift:
             body = _shift_static(body)
-        b.cb.add(neg(_to_tids(b.layout, body)))
+        elif flat and all(type(g) is int for g in body[1]):  # type: ignore[index]  # one clause
+            add_clause([-(get(g) or tid(g)) for g in body[1]])  # type: ignore[index]
+            continue
+        b.cb.add(neg(_to_tids(layout, body)))
 
 
 def _rigid(layout: Layout) -> Template:
