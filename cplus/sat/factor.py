@@ -13,6 +13,10 @@ The rewriting is exact: ``m & x -> h`` for every ``(x, h)`` of the group is the 
 the group's rules, and the disjunction of the new bodies with head ``h`` is that of the old
 ones; every new variable is fully defined, so the models (and their count) do not move.  It is
 used only where it saves clauses (see :func:`plan`); elsewhere the rules stay as they are.
+
+Constraints (``nonexecutable``) could be grouped the same way, a binary clause per group and
+value, but are not: on hanoi-6-3 the shared variables made the search 7% slower although
+the clauses shrank, and car-300 gained 3%.
 """
 from __future__ import annotations
 
