@@ -32,8 +32,6 @@ that each of them leads to."""
 
 _FROM = 64      # rules; below, the rewriting cannot save enough to pay for trying
 _GAIN = 0.8     # the rewriting must cost at most this share of the clauses it replaces
-_CANDIDATES = 3  # body constants tried as the factored one (the most frequent, in at least half
-                 # as many bodies as the most frequent)
 
 
 def rewrite(heads: dict[int, Sequence[PF]], key_of: Callable[[int], Hashable | None],
@@ -74,18 +72,18 @@ def plan(bodies: dict[int, list[tuple[int, ...]]], key_of: Callable[[int], Hasha
     ordinary completion: its clause and the definition of its conjunction."""
     keyed = [(h, b, [key_of(x) for x in b]) for h, bs in bodies.items() for b in bs]
     count: dict[Hashable, int] = {}
-    for _, _, keys in keyed:
-        for key in dict.fromkeys(keys):     # in body order: deterministic
+    values: dict[Hashable, set[int]] = {}
+    for _, b, keys in keyed:
+        for x, key in zip(b, keys):
             if key is not None:
                 count[key] = count.get(key, 0) + 1
-    best = None
-    most = max(count.values(), default=0)
-    for key in sorted(count, key=count.__getitem__, reverse=True)[:_CANDIDATES]:
-        if 2 * count[key] < most:
-            break
-        found = _plan_for(keyed, key)
-        if found is not None and (best is None or found[0] < best[0]):
-            best = found
+                values.setdefault(key, set()).add(x)
+    if not count:
+        return None
+    # the constant in most bodies, and among those the one with the most values: the rest
+    # then varies least (the position, not the speed, in ``pos' = pos + spd * dur``)
+    key = max(count, key=lambda k: (count[k], len(values[k])))
+    best = _plan_for(keyed, key)
     if best is None:
         return None
     _, groups, key = best
