@@ -20,9 +20,9 @@ SIZES = (3, 2, 3)     # body constants' domains; the head constant has 3 values
 
 @st.composite
 def rule_sets(draw):
-    def body():
+    def body():     # (constant, value, sign): a negated value stays in the rest
         keys = draw(st.lists(st.integers(0, len(SIZES) - 1), unique=True, min_size=2, max_size=len(SIZES)))
-        return [(k, draw(st.integers(0, SIZES[k] - 1))) for k in keys]
+        return [(k, draw(st.integers(0, SIZES[k] - 1)), draw(st.sampled_from((1, 1, -1)))) for k in keys]
     rules = [(draw(st.integers(0, 2)), body()) for _ in range(draw(st.integers(1, 12)))]
     constraints = [body() for _ in range(draw(st.integers(0, 6)))]
     self_supporting = draw(st.lists(st.tuples(st.integers(0, 2), st.integers(0, SIZES[0] - 1)), max_size=2))
@@ -46,7 +46,7 @@ def models(rules, constraints, self_supporting, rewrite: bool, sizes=SIZES, valu
         cb.exactly_one(xs)
     bodies: dict[int, list] = {h: [] for h in heads}
     for h, body in rules:
-        bodies[heads[h]].append(("&", tuple(lits[k][v] for k, v in body)))
+        bodies[heads[h]].append(("&", tuple(sign * lits[k][v] for k, v, sign in body)))
     for h, v in self_supporting:       # inertia-like: the head itself in the body
         bodies[heads[h]].append(("&", (heads[h], lits[0][v])))
     if rewrite:
@@ -54,7 +54,7 @@ def models(rules, constraints, self_supporting, rewrite: bool, sizes=SIZES, valu
     for h in heads:
         cb.complete(h, bodies[h])
     for body in constraints:
-        cb.add(neg(("&", tuple(lits[k][v] for k, v in body))))
+        cb.add(neg(("&", tuple(sign * lits[k][v] for k, v, sign in body))))
     with Solver(name="glucose4", bootstrap_with=cb.clauses) as s:
         found = [frozenset(x for x in m if 0 < x <= atoms) for m in s.enum_models()]
     assert len(found) == len(set(found)), "group variables must be functions of the atoms"
@@ -85,7 +85,7 @@ def test_rewritten_rules_have_the_models_of_the_ordinary_completion(spec):
 def test_a_translation_law_is_written_once_per_increment_and_position():
     """``pos' = pos + spd*dur``: pairs with the same product share one variable (the
     ordinary completion: 5 clauses a rule; here 4 per position and product)."""
-    rules = [(p + s * d, [(0, p), (1, s), (2, d)])
+    rules = [(p + s * d, [(0, p, 1), (1, s, 1), (2, d, 1)])
              for s in range(4) for d in range(1, 4) for p in range(10) if p + s * d < 10]
     want, plain_size = models(rules, [], [], rewrite=False, sizes=(10, 4, 4), values=10)
     got, size = models(rules, [], [], rewrite=True, sizes=(10, 4, 4), values=10)
