@@ -18,6 +18,7 @@ from cplus import ir
 from cplus.errors import GroundingError, Location
 from cplus.ground.arith import ARITH_FUNCTIONS
 from cplus.ground.atoms import AtomTable
+from cplus.ground.intexpr import int_comparison, int_term
 from cplus.ground.pf import PF, mk_and, mk_or, neg
 from cplus.signature import GroundConst, Signature, StepSort, order_key, render_value
 
@@ -185,14 +186,14 @@ def _compile_arith(t: ir.Arith, ctx: Ctx, names: bool) -> Callable:
             if type(a) is Cases or type(b) is Cases:
                 return combine([a, b], apply)
             return UNDEF
-        return arith2
+        return int_term(t, arith2)
 
     def arith(env, time):
         vals = [f(env, time) for f in fns]
         if any(type(v) is Cases for v in vals):
             return combine(vals, apply)
         return apply(vals)
-    return arith
+    return int_term(t, arith)
 
 
 def _compile_cst_term(t: ir.Cst, ctx: Ctx, names: bool) -> Callable:
@@ -409,7 +410,7 @@ def _compile_cmp(f: ir.Cmp, ctx: Ctx) -> Callable:
         lb = b if tb else [(True, b)]
         return mk_or(mk_and((ca, cb)) for ca, va in la for cb, vb in lb
                      if va is not UNDEF and vb is not UNDEF and rel(va, vb))
-    return cmp
+    return int_comparison(f, cmp)
 
 
 _MISSING = object()

@@ -12,12 +12,14 @@ offsets, so a longer horizon only appends clauses.
 """
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from itertools import chain
 
 from cplus.ground.pf import PF, map_lits, mk_and
 from cplus.ground.theory import GroundTheory, initially_free
 from cplus.sat.cnf import CONFLICT, ClauseBuilder, _without, compact
+from cplus.sat.factor import rewrite
 from cplus.sat.tables import TABLE_LIMIT, encode_table
 from cplus.signature import GroundConst
 
@@ -227,9 +229,28 @@ def _complete_atoms(b: _Builder, gcs: list[GroundConst], slot: int, heads: dict,
         else:
             dead = layout.dead    # false at every step (their unit clauses are written once)
             ts = [layout.tid_atom(aid, slot) for aid in atoms.atoms(gc) if aid not in dead]
+            bodies = heads if free else _factored(b, ts, heads)
             for t in ts:
-                b.cb.complete(t, heads.get(t, ()), free)
+                b.cb.complete(t, bodies.get(t, ()), free)
             b.cb.exactly_one(ts)
+
+
+def _factored(b: _Builder, ts: list[int], heads: dict) -> dict[int, Sequence[PF]]:
+    """The bodies of the rules for the values ``ts`` of a constant, rewritten through the
+    rests they share where that saves clauses (see :mod:`cplus.sat.factor`)."""
+    layout = b.layout
+    memo = layout.cube_atoms
+
+    def key_of(lit: int) -> tuple | None:
+        """The (constant, slot) whose value ``lit`` states; None for a negated value or an
+        auxiliary variable (through the layout's memo of cube atoms)."""
+        atom = memo.get(lit)
+        if atom is None:
+            if lit in memo:
+                return None
+            atom = memo[lit] = _cube_atom(layout, lit)
+        return None if atom is None else atom[0]
+    return rewrite({t: heads.get(t, ()) for t in ts}, key_of, b.cb.lit)
 
 
 def _table_completion(b: _Builder, gc: GroundConst, slot: int, heads: dict) -> bool:
@@ -357,18 +378,24 @@ def _constraints(b: _Builder, bodies: list[PF], shift: bool = False) -> None:
     """``not body`` for every constraint, once: a law over two variables of the same sort
     (``nonexecutable move(D)=L & move(D1)=L1 where D \\= D1``) grounds each pair twice."""
     from cplus.ground.pf import neg
-    dead = b.layout.dead
+    layout = b.layout
+    dead = layout.dead
+    get, tid, add_clause = layout._tids.get, layout.tid, b.cb.add_clause
     seen: set = set()
     for body in bodies:
         if dead and _needs_dead(dead, body):
             continue
-        key = frozenset(body[1]) if type(body) is tuple and body[0] == "&" else body
+        flat = type(body) is tuple and body[0] == "&"
+        key = frozenset(body[1]) if flat else body   # type: ignore[index]
         if key in seen:
             continue
         seen.add(key)
         if shift:
             body = _shift_static(body)
-        b.cb.add(neg(_to_tids(b.layout, body)))
+        elif flat and all(type(g) is int for g in body[1]):  # type: ignore[index]  # one clause
+            add_clause([-(get(g) or tid(g)) for g in body[1]])  # type: ignore[index]
+            continue
+        b.cb.add(neg(_to_tids(layout, body)))
 
 
 def _rigid(layout: Layout) -> Template:
