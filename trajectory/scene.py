@@ -35,7 +35,7 @@ from ._format import fmt as _fmt
 from .errors import JointLimitError, Location, SceneError, UnreachableError
 from .geometry import segment_geometry
 from .kinematics import Arm, choices_at, point_problem
-from .toml_locations import KeyPath, locate_keys, nearest_location
+from .toml_locations import KeyPath, KeyPathReader, kind_of, locate_keys, nearest_location, toml_error
 from .workspace import Workspace
 
 __all__ = [
@@ -277,24 +277,20 @@ def parse_scene(text: str, filename: str = "scene.toml") -> Scene:
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
-        message = str(exc)
-        m = re.search(r"\(at line (\d+), column (\d+)\)", message)
-        line, col = (int(m.group(1)), int(m.group(2))) if m else (1, 1)
-        bare = re.sub(r"\s*\(at (line \d+, column \d+|end of document)\)", "", message)
-        raise SceneError(f"invalid TOML: {bare}", Location(filename, line, col)) from None
+        message, line, col = toml_error(exc)
+        raise SceneError(message, Location(filename, line, col)) from None
     return _Reader(filename, data, locate_keys(text)).scene()
 
 
 # ---------------------------------------------------------------------------------------------
 
 
-class _Reader:
+class _Reader(KeyPathReader):
     """Reads the parsed TOML with type checks; every complaint names its position."""
 
     def __init__(self, filename: str, data: dict[str, Any], locations: dict[KeyPath, tuple[int, int]]):
+        super().__init__(data, locations)
         self.filename = filename
-        self.data = data
-        self.locations = locations
 
     # -- helpers ---------------------------------------------------------------------------
     def loc(self, path: KeyPath) -> Location:
@@ -303,36 +299,6 @@ class _Reader:
 
     def fail(self, path: KeyPath, message: str) -> SceneError:
         return SceneError(message, self.loc(path))
-
-    @staticmethod
-    def show(path: KeyPath) -> str:
-        out = ""
-        for part in path:
-            out += f"[{part}]" if isinstance(part, int) else (f".{part}" if out else str(part))
-        return out or "the top level"
-
-    def get(self, path: KeyPath) -> Any:
-        node: Any = self.data
-        for part in path:
-            node = node[part]
-        return node
-
-    def has(self, path: KeyPath) -> bool:
-        node: Any = self.data
-        for part in path:
-            if isinstance(node, dict) and isinstance(part, str) and part in node:
-                node = node[part]
-            elif isinstance(node, list) and isinstance(part, int) and part < len(node):
-                node = node[part]
-            else:
-                return False
-        return True
-
-    def require(self, path: KeyPath) -> Any:
-        if not self.has(path):
-            parent = path[:-1]
-            raise self.fail(parent, f"missing required field '{path[-1]}' in {self.show(parent)}")
-        return self.get(path)
 
     def table(self, path: KeyPath, allowed: Sequence[str] | None = None) -> dict[str, Any]:
         value = self.require(path)
@@ -350,7 +316,7 @@ class _Reader:
             return default
         value = self.require(path)
         if isinstance(value, bool) or not isinstance(value, (int, float)):
-            raise self.fail(path, f"{self.show(path)} must be a number, not {_kind(value)}")
+            raise self.fail(path, f"{self.show(path)} must be a number, not {kind_of(value)}")
         if not math.isfinite(value):
             raise self.fail(path, f"{self.show(path)} must be finite, not {value}")
         return float(value)
@@ -358,7 +324,7 @@ class _Reader:
     def integer(self, path: KeyPath) -> int:
         value = self.require(path)
         if isinstance(value, bool) or not isinstance(value, int):
-            raise self.fail(path, f"{self.show(path)} must be an integer, not {_kind(value)}")
+            raise self.fail(path, f"{self.show(path)} must be an integer, not {kind_of(value)}")
         return value
 
     def string(self, path: KeyPath, default: str | None = None) -> str:
@@ -366,7 +332,7 @@ class _Reader:
             return default
         value = self.require(path)
         if not isinstance(value, str):
-            raise self.fail(path, f"{self.show(path)} must be a string, not {_kind(value)}")
+            raise self.fail(path, f"{self.show(path)} must be a string, not {kind_of(value)}")
         return value
 
     def pair(self, path: KeyPath) -> tuple[float, float]:
@@ -574,10 +540,6 @@ class _Reader:
                                  f"and to {what}", binding.location)
             seen[binding.fluent] = what
 
-
-def _kind(value: object) -> str:
-    return {bool: "a boolean", int: "an integer", float: "a number", str: "a string",
-            list: "an array", dict: "a table"}.get(type(value), type(value).__name__)
 
 
 

@@ -17,7 +17,12 @@ Paths use the same shape as the parsed document: ``("robots", "r1", "arm_length"
 
 from __future__ import annotations
 
-__all__ = ["KeyPath", "locate_keys", "nearest_location"]
+import re
+import tomllib
+from abc import ABC, abstractmethod
+from typing import Any
+
+__all__ = ["KeyPath", "KeyPathReader", "kind_of", "locate_keys", "nearest_location", "toml_error"]
 
 KeyPath = tuple[str | int, ...]
 
@@ -230,3 +235,62 @@ def nearest_location(locations: dict[KeyPath, tuple[int, int]], path: KeyPath) -
         if where is not None:
             return where
     return (1, 1)
+
+
+def toml_error(exc: tomllib.TOMLDecodeError) -> tuple[str, int, int]:
+    """``tomllib``'s complaint as ``("invalid TOML: ...", line, col)``: its message carries the
+    position in words ("(at line 3, column 7)"), which a located error shows separately."""
+    message = str(exc)
+    m = re.search(r"\(at line (\d+), column (\d+)\)", message)
+    line, col = (int(m.group(1)), int(m.group(2))) if m else (1, 1)
+    bare = re.sub(r"\s*\(at (line \d+, column \d+|end of document)\)", "", message)
+    return f"invalid TOML: {bare}", line, col
+
+
+def kind_of(value: object) -> str:
+    """What a TOML value is, for messages ("must be a number, not a string")."""
+    return {bool: "a boolean", int: "an integer", float: "a number", str: "a string",
+            list: "an array", dict: "a table"}.get(type(value), type(value).__name__)
+
+
+class KeyPathReader(ABC):
+    """Reads a parsed TOML document by key path; the schema readers (scene, binding, world)
+    add their typed accessors and say how a complaint is located (:meth:`fail`)."""
+
+    def __init__(self, data: dict[str, Any], locations: dict[KeyPath, tuple[int, int]]) -> None:
+        self.data = data
+        self.locations = locations
+
+    @abstractmethod
+    def fail(self, path: KeyPath, message: str) -> Exception:
+        """The schema's own error for ``message``, located at ``path``."""
+
+    @staticmethod
+    def show(path: KeyPath) -> str:
+        out = ""
+        for part in path:
+            out += f"[{part}]" if isinstance(part, int) else (f".{part}" if out else str(part))
+        return out or "the top level"
+
+    def has(self, path: KeyPath) -> bool:
+        node: Any = self.data
+        for part in path:
+            if isinstance(node, dict) and isinstance(part, str) and part in node:
+                node = node[part]
+            elif isinstance(node, list) and isinstance(part, int) and part < len(node):
+                node = node[part]
+            else:
+                return False
+        return True
+
+    def get(self, path: KeyPath) -> Any:
+        node: Any = self.data
+        for part in path:
+            node = node[part]
+        return node
+
+    def require(self, path: KeyPath) -> Any:
+        if not self.has(path):
+            parent = path[:-1]
+            raise self.fail(parent, f"missing required field '{path[-1]}' in {self.show(parent)}")
+        return self.get(path)

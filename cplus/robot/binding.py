@@ -41,7 +41,7 @@ from typing import Any
 from cplus.errors import CPlusError, Location, Source
 from cplus.robot.estimation import Act, Roles, user_actions
 from cplus.signature import GroundConst, render_value
-from trajectory.toml_locations import KeyPath, locate_keys, nearest_location
+from trajectory.toml_locations import KeyPath, KeyPathReader, kind_of, locate_keys, nearest_location, toml_error
 
 __all__ = ["ROBOT_FORMAT", "SENSOR_PORTS", "MOTOR_PORTS", "SENSOR_TYPES", "EVENT_SOURCES", "BindingError",
            "BrickSpec", "ActionBinding", "EventBinding", "SensedBinding", "RobotBinding", "load_binding",
@@ -207,11 +207,8 @@ def parse_binding(text: str, path: str, domain) -> RobotBinding:
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
-        message = str(exc)
-        m = re.search(r"\(at line (\d+), column (\d+)\)", message)
-        line, col = (int(m.group(1)), int(m.group(2))) if m else (1, 1)
-        bare = re.sub(r"\s*\(at (line \d+, column \d+|end of document)\)", "", message)
-        raise BindingError(f"invalid TOML: {bare}", _loc(source, line, col)) from None
+        message, line, col = toml_error(exc)
+        raise BindingError(message, _loc(source, line, col)) from None
     return _Reader(source, data, locate_keys(text), domain).binding()
 
 
@@ -225,18 +222,12 @@ def _loc(source: Source, line: int, col: int) -> Location:
     return Location(source, offset, max(end, offset + 1))
 
 
-def _kind(value: object) -> str:
-    return {bool: "a boolean", int: "an integer", float: "a number", str: "a string", list: "an array",
-            dict: "a table"}.get(type(value), type(value).__name__)
-
-
-class _Reader:
+class _Reader(KeyPathReader):
     """Reads the parsed TOML with type checks; every complaint names its position."""
 
     def __init__(self, source: Source, data: dict[str, Any], locations: dict[KeyPath, tuple[int, int]], domain):
+        super().__init__(data, locations)
         self.source = source
-        self.data = data
-        self.locations = locations
         self.domain = domain
         sig = domain.program.signature
         self.ground = [gc for gc in sig.ground if not gc.decl.hidden]
@@ -260,35 +251,12 @@ class _Reader:
                 out += f".{text}" if out else text
         return out or "the top level"
 
-    def has(self, path: KeyPath) -> bool:
-        node: Any = self.data
-        for part in path:
-            if isinstance(node, dict) and isinstance(part, str) and part in node:
-                node = node[part]
-            elif isinstance(node, list) and isinstance(part, int) and part < len(node):
-                node = node[part]
-            else:
-                return False
-        return True
-
-    def get(self, path: KeyPath) -> Any:
-        node: Any = self.data
-        for part in path:
-            node = node[part]
-        return node
-
-    def require(self, path: KeyPath) -> Any:
-        if not self.has(path):
-            parent = path[:-1]
-            raise self.fail(parent, f"missing required field '{path[-1]}' in {self.show(parent)}")
-        return self.get(path)
-
     def table(self, path: KeyPath, allowed: Sequence[str] | None = None, required: bool = True) -> dict[str, Any]:
         if not required and not self.has(path):
             return {}
         value = self.require(path)
         if not isinstance(value, dict):
-            raise self.fail(path, f"{self.show(path)} must be a table, not {_kind(value)}")
+            raise self.fail(path, f"{self.show(path)} must be a table, not {kind_of(value)}")
         if allowed is not None:
             for key in value:
                 if key not in allowed:
@@ -299,7 +267,7 @@ class _Reader:
     def string(self, path: KeyPath, choices: Sequence[str] | None = None) -> str:
         value = self.require(path)
         if not isinstance(value, str):
-            raise self.fail(path, f"{self.show(path)} must be a string, not {_kind(value)}")
+            raise self.fail(path, f"{self.show(path)} must be a string, not {kind_of(value)}")
         if choices is not None and value not in choices:
             raise self.fail(path, f"{self.show(path)} = {value!r}: expected one of {', '.join(choices)}")
         return value
@@ -307,7 +275,7 @@ class _Reader:
     def integer(self, path: KeyPath, lo: int = _INT32[0], hi: int = _INT32[1]) -> int:
         value = self.require(path)
         if isinstance(value, bool) or not isinstance(value, int):
-            raise self.fail(path, f"{self.show(path)} must be an integer, not {_kind(value)}")
+            raise self.fail(path, f"{self.show(path)} must be an integer, not {kind_of(value)}")
         if not lo <= value <= hi:
             raise self.fail(path, f"{self.show(path)} = {value} is outside {lo}..{hi}")
         return value
@@ -315,7 +283,7 @@ class _Reader:
     def array(self, path: KeyPath) -> list:
         value = self.require(path)
         if not isinstance(value, list):
-            raise self.fail(path, f"{self.show(path)} must be an array, not {_kind(value)}")
+            raise self.fail(path, f"{self.show(path)} must be an array, not {kind_of(value)}")
         return value
 
     def brick_ref(self, path: KeyPath, bricks: Mapping[str, BrickSpec]) -> str:
@@ -355,7 +323,7 @@ class _Reader:
         elif isinstance(raw, (int, str)):
             value = raw
         else:
-            raise self.fail(path, f"{self.show(path)} must be a value of {gc.text}, not {_kind(raw)}")
+            raise self.fail(path, f"{self.show(path)} must be a value of {gc.text}, not {kind_of(raw)}")
         if value not in gc.domain:
             shown = ", ".join(render_value(v) for v in gc.domain)
             raise self.fail(path, f"{render_value(value)} is not a value of {gc.text} ({shown})")  # type: ignore[arg-type]
@@ -422,7 +390,7 @@ class _Reader:
 
     def arg(self, path: KeyPath, a: object, gcs: list[GroundConst]) -> int | str:
         if isinstance(a, bool) or not isinstance(a, (int, str)):
-            raise self.fail(path, f"{self.show(path)} must be an integer or \"$N\", not {_kind(a)}")
+            raise self.fail(path, f"{self.show(path)} must be an integer or \"$N\", not {kind_of(a)}")
         if isinstance(a, int):
             return self.integer(path)
         if not a.startswith("$") or not a[1:]:

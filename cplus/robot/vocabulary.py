@@ -55,7 +55,7 @@ from typing import Any
 from cplus.errors import CPlusError, Location, Source
 from cplus.robot.binding import _loc
 from cplus.signature import ConstDecl, GroundConst, NamedSort, render_value
-from trajectory.toml_locations import KeyPath, locate_keys, nearest_location
+from trajectory.toml_locations import KeyPath, locate_keys, nearest_location, toml_error
 
 __all__ = ["REQUESTS_FORMAT", "Rejected", "RequestForm", "RequestVocabulary", "RequestsError", "load_requests",
            "parse_requests", "requests_beside"]
@@ -216,11 +216,8 @@ def parse_requests(text: str, path: str, domain) -> RequestVocabulary:
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
-        message = str(exc)
-        m = re.search(r"\(at line (\d+), column (\d+)\)", message)
-        line, col = (int(m.group(1)), int(m.group(2))) if m else (1, 1)
-        bare = re.sub(r"\s*\(at (line \d+, column \d+|end of document)\)", "", message)
-        raise RequestsError(f"invalid TOML: {bare}", _loc(source, line, col)) from None
+        message, line, col = toml_error(exc)
+        raise RequestsError(message, _loc(source, line, col)) from None
     return _Reader(source, data, locate_keys(text), domain).vocabulary()
 
 

@@ -66,7 +66,6 @@ Every problem is a :class:`WorldFileError` located at ``file:line:col``.
 from __future__ import annotations
 
 import math
-import re
 import tomllib
 from collections.abc import Callable, Sequence
 from pathlib import Path
@@ -75,7 +74,7 @@ from typing import Any
 import nxt_link.world as w
 from cplus.errors import CPlusError, Location, Source
 from nxt_link import legolog_program
-from trajectory.toml_locations import KeyPath, locate_keys, nearest_location
+from trajectory.toml_locations import KeyPath, KeyPathReader, locate_keys, nearest_location, toml_error
 
 __all__ = ["WORLD_FORMAT", "WorldFileError", "load_world", "parse_world"]
 
@@ -111,11 +110,8 @@ def parse_world(text: str, filename: str = "world.toml") -> w.WorldSpec:
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
-        message = str(exc)
-        m = re.search(r"\(at line (\d+), column (\d+)\)", message)
-        line, col = (int(m.group(1)), int(m.group(2))) if m else (1, 1)
-        bare = re.sub(r"\s*\(at (line \d+, column \d+|end of document)\)", "", message)
-        raise WorldFileError(f"invalid TOML: {bare}", _at(source, line, col)) from None
+        message, line, col = toml_error(exc)
+        raise WorldFileError(message, _at(source, line, col)) from None
     return _Reader(source, data, locate_keys(text)).world()
 
 
@@ -126,50 +122,19 @@ def _at(source: Source, line: int, col: int) -> Location:
     return Location(source, offset, offset + 1)
 
 
-class _Reader:
+class _Reader(KeyPathReader):
     """Reads the parsed TOML with type checks; every complaint names its position."""
 
     def __init__(self, source: Source, data: dict[str, Any],
                  locations: dict[KeyPath, tuple[int, int]]) -> None:
+        super().__init__(data, locations)
         self.source = source
-        self.data = data
-        self.locations = locations
 
     # -- helpers ------------------------------------------------------------------------------
 
     def fail(self, path: KeyPath, message: str) -> WorldFileError:
         line, col = nearest_location(self.locations, path)
         return WorldFileError(message, _at(self.source, line, col))
-
-    @staticmethod
-    def show(path: KeyPath) -> str:
-        out = ""
-        for part in path:
-            out += f"[{part}]" if isinstance(part, int) else (f".{part}" if out else str(part))
-        return out or "the top level"
-
-    def has(self, path: KeyPath) -> bool:
-        node: Any = self.data
-        for part in path:
-            if isinstance(node, dict) and isinstance(part, str) and part in node:
-                node = node[part]
-            elif isinstance(node, list) and isinstance(part, int) and part < len(node):
-                node = node[part]
-            else:
-                return False
-        return True
-
-    def get(self, path: KeyPath) -> Any:
-        node: Any = self.data
-        for part in path:
-            node = node[part]
-        return node
-
-    def require(self, path: KeyPath) -> Any:
-        if not self.has(path):
-            raise self.fail(path[:-1], f"missing required field '{path[-1]}' in "
-                                       f"{self.show(path[:-1])}")
-        return self.get(path)
 
     def table(self, path: KeyPath, allowed: Sequence[str]) -> dict[str, Any]:
         value = self.require(path)

@@ -16,6 +16,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
+from nxt_link.vm.flash import HANDLEALREADYCLOSED
 from nxt_link.vm.opcodes import TC
 from nxt_link.vm.values import int_of, store
 
@@ -148,7 +149,6 @@ def _file_close(vm: VM, a: list[int]) -> None:
 
 
 def _file_resolve_handle(vm: VM, a: list[int]) -> None:
-    from nxt_link.vm.flash import HANDLEALREADYCLOSED
     name = _name(vm, a[3]).lower()
     flash = _flash(vm)
     for i, h in enumerate(flash.handles):
