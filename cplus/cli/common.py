@@ -78,6 +78,17 @@ def positive(text: str) -> float:
     return v
 
 
+def seconds(text: str) -> float:
+    """A duration: a finite number of seconds, 0 allowed."""
+    try:
+        v = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
+    if not v >= 0 or v == float("inf"):
+        raise argparse.ArgumentTypeError(f"expected seconds >= 0, got {text!r}")
+    return v
+
+
 def positive_int(text: str) -> int:
     try:
         v = int(text)

@@ -33,6 +33,7 @@ from cplus.cli.common import (
     Warnings,
     nonneg,
     positive,
+    seconds,
 )
 
 __all__ = ["build_parser", "main", "exit_code"]
@@ -53,7 +54,7 @@ def build_parser() -> OneLineArgumentParser:
                         "emulate every brick in its world")
     p.add_argument("--simulate", action="store_true",
                    help="no brick: a simulated robot that does what the model predicts (events come from --events)")
-    p.add_argument("--action-time", type=_seconds, default=0.0, metavar="SECONDS",
+    p.add_argument("--action-time", type=seconds, default=0.0, metavar="SECONDS",
                    help="with --simulate: how long each action takes (default 0)")
     p.add_argument("--events", metavar="FILE|-", help="events from a file or standard input: lines "
                    "'[@CYCLE] EVENT ...' naming events whose binding source is 'input'")
@@ -79,16 +80,6 @@ def build_parser() -> OneLineArgumentParser:
                            "for good)")
     p.add_argument("--quiet", "-q", action="store_true", help="no progress on stderr")
     return p
-
-
-def _seconds(text: str) -> float:
-    try:
-        v = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
-    if not v >= 0 or v == float("inf"):
-        raise argparse.ArgumentTypeError(f"expected seconds >= 0, got {text!r}")
-    return v
 
 
 def exit_code(status) -> int:

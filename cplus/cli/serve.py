@@ -18,7 +18,16 @@ import signal
 import sys
 from typing import TextIO
 
-from cplus.cli.common import EXIT_INPUT, EXIT_OK, CliError, OneLineArgumentParser, Warnings, nonneg
+from cplus.cli.common import (
+    EXIT_INPUT,
+    EXIT_OK,
+    CliError,
+    OneLineArgumentParser,
+    Warnings,
+    nonneg,
+    positive,
+    seconds,
+)
 from cplus.cli.online import Progress
 from cplus.robot.goals import GoalWatcher
 
@@ -50,7 +59,7 @@ def build_parser() -> OneLineArgumentParser:
     p.add_argument("--requests", metavar="FILE", help="the requests the domain accepts (cplus.requests/1; default: "
                    "requests.toml beside the domain)")
     p.add_argument("--log", metavar="FILE", help="write the run as JSON lines (cplus.online/1, with goals)")
-    p.add_argument("--action-time", type=_seconds, default=0.5, metavar="SECONDS",
+    p.add_argument("--action-time", type=seconds, default=0.5, metavar="SECONDS",
                    help="simulated robot: how long each action takes (default 0.5)")
     p.add_argument("--budget", type=nonneg, metavar="PROPAGATIONS",
                    help="the solver's unit propagations for the shortest plan of every goal at once, per re-plan; "
@@ -63,26 +72,11 @@ def build_parser() -> OneLineArgumentParser:
                    help="longest plan when the goal's maxstep range is open (default 40)")
     p.add_argument("--no-latency", action="store_true",
                    help="with --robot: emulated bricks answer at once instead of with Bluetooth timing")
-    p.add_argument("--time-scale", type=_positive, default=1.0, metavar="X",
+    p.add_argument("--time-scale", type=positive, default=1.0, metavar="X",
                    help="with --robot: emulated bricks and their worlds run X times faster (default 1)")
     p.add_argument("--solver", default=None, help="SAT solver (default glucose4)")
     p.add_argument("--quiet", "-q", action="store_true", help="no progress on stderr")
     return p
-
-
-def _seconds(text: str) -> float:
-    try:
-        v = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
-    if not v >= 0 or v == float("inf"):
-        raise argparse.ArgumentTypeError(f"expected seconds >= 0, got {text!r}")
-    return v
-
-
-def _positive(text: str) -> float:
-    from cplus.cli.common import positive
-    return positive(text)
 
 
 class ServeProgress(Progress):
