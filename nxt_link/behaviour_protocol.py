@@ -54,7 +54,15 @@ import struct
 from dataclasses import dataclass
 
 from nxt_link.errors import TelegramError
-from nxt_link.stream_protocol import CMD_INBOX, MAX_MESSAGE, RESPONSE_MAILBOX, RESPONSE_QUEUE, crc16
+from nxt_link.stream_protocol import (
+    CMD_INBOX,
+    REQ_HEAD,
+    RESP_HEAD,
+    RESPONSE_MAILBOX,
+    RESPONSE_QUEUE,
+    seal,
+    unseal,
+)
 
 __all__ = [
     "PROTOCOL_VERSION",
@@ -118,9 +126,6 @@ MAX_EVENTS_PER_MESSAGE = 8
 #: Events the brick keeps until the PC acknowledges them; more are counted as lost.
 EVENT_SLOTS = 16
 
-_REQ_HEAD = struct.Struct("<BHH")  # kind, session, seq
-_RESP_HEAD = struct.Struct("<BHHB")  # kind, session, seq, state
-_CHECK = 2
 
 
 class Kind(enum.IntEnum):
@@ -362,21 +367,6 @@ Response = Welcome | Ack | MoreTime | Done | Events | NoEvents | Aborted | Panic
 # codec
 
 
-def _seal(body: bytes) -> bytes:
-    if len(body) + _CHECK > MAX_MESSAGE:
-        raise TelegramError(f"message of {len(body) + _CHECK} bytes exceeds {MAX_MESSAGE}")
-    return body + struct.pack("<H", crc16(body))
-
-
-def _open(message: bytes) -> bytes:
-    if len(message) < _CHECK + 1:
-        raise TelegramError("message too short")
-    body, check = message[:-_CHECK], struct.unpack("<H", message[-_CHECK:])[0]
-    if crc16(body) != check:
-        raise TelegramError("message check failed")
-    return body
-
-
 def encode_request(req: Request) -> bytes:
     """Encode a request as a mailbox payload (<= 58 bytes, may contain NULs).
 
@@ -384,19 +374,19 @@ def encode_request(req: Request) -> bytes:
         TelegramError: a field does not fit (too many arguments, out of range).
     """
     try:
-        head = _REQ_HEAD.pack(req.kind, req.session, req.seq)
+        head = REQ_HEAD.pack(req.kind, req.session, req.seq)
         if isinstance(req, Hello):
-            return _seal(head + struct.pack("<B", req.version))
+            return seal(head + struct.pack("<B", req.version))
         if isinstance(req, Act):
             n = len(req.args)
             if n > MAX_ARGS:
                 raise TelegramError(f"{n} arguments exceed {MAX_ARGS}")
-            return _seal(head + struct.pack(f"<BB{n}h", req.behaviour, n, *req.args))
+            return seal(head + struct.pack(f"<BB{n}h", req.behaviour, n, *req.args))
         if isinstance(req, Cont):
-            return _seal(head + struct.pack("<B", req.part))
+            return seal(head + struct.pack("<B", req.part))
         if isinstance(req, Exog):
-            return _seal(head + struct.pack("<H", req.ack_through))
-        return _seal(head)
+            return seal(head + struct.pack("<H", req.ack_through))
+        return seal(head)
     except struct.error as exc:
         raise TelegramError(f"field out of range: {exc}") from None
 
@@ -407,11 +397,11 @@ def decode_request(message: bytes) -> Request:
     Raises:
         TelegramError: damaged (check fails), unknown kind, or malformed body.
     """
-    body = _open(message)
-    if len(body) < _REQ_HEAD.size:
+    body = unseal(message)
+    if len(body) < REQ_HEAD.size:
         raise TelegramError("request header truncated")
-    kind, session, seq = _REQ_HEAD.unpack_from(body)
-    rest = body[_REQ_HEAD.size:]
+    kind, session, seq = REQ_HEAD.unpack_from(body)
+    rest = body[REQ_HEAD.size:]
     try:
         if kind == Kind.HELLO:
             return Hello(session, seq, struct.unpack("<B", rest)[0])
@@ -434,29 +424,29 @@ def decode_request(message: bytes) -> Request:
 def encode_response(resp: Response) -> bytes:
     """Encode a response (the brick's side)."""
     try:
-        head = _RESP_HEAD.pack(resp.kind, resp.session, resp.seq, resp.state)
+        head = RESP_HEAD.pack(resp.kind, resp.session, resp.seq, resp.state)
         if isinstance(resp, Welcome):
-            return _seal(head + struct.pack("<BBHHH", resp.version, resp.code, resp.last_act,
+            return seal(head + struct.pack("<BBHHH", resp.version, resp.code, resp.last_act,
                                             resp.aborts, resp.action_ms))
         if isinstance(resp, Ack):
-            return _seal(head + struct.pack("<BB", resp.code, resp.behaviour))
+            return seal(head + struct.pack("<BB", resp.code, resp.behaviour))
         if isinstance(resp, MoreTime):
-            return _seal(head + struct.pack("<BI", resp.part, resp.elapsed_ms))
+            return seal(head + struct.pack("<BI", resp.part, resp.elapsed_ms))
         if isinstance(resp, Done):
             flat = [x for pair in resp.values for x in pair]
             n = len(resp.values)
-            return _seal(head + struct.pack("<BBIB" + "Bh" * n, resp.status, resp.behaviour,
+            return seal(head + struct.pack("<BBIB" + "Bh" * n, resp.status, resp.behaviour,
                                             resp.elapsed_ms, n, *flat))
         if isinstance(resp, Events):
             out = bytearray(struct.pack("<HHB", resp.first, resp.lost, len(resp.events)))
             for code, args in resp.events:
                 out += struct.pack(f"<BB{len(args)}h", code, len(args), *args)
-            return _seal(head + bytes(out))
+            return seal(head + bytes(out))
         if isinstance(resp, NoEvents):
-            return _seal(head + struct.pack("<HH", resp.next_event, resp.lost))
+            return seal(head + struct.pack("<HH", resp.next_event, resp.lost))
         if isinstance(resp, Aborted):
-            return _seal(head + struct.pack("<HH", resp.aborts, resp.last_act))
-        return _seal(head + struct.pack("<HB", resp.aborts, resp.behaviour))
+            return seal(head + struct.pack("<HH", resp.aborts, resp.last_act))
+        return seal(head + struct.pack("<HB", resp.aborts, resp.behaviour))
     except struct.error as exc:
         raise TelegramError(f"field out of range: {exc}") from None
 
@@ -467,11 +457,11 @@ def decode_response(message: bytes) -> Response:
     Raises:
         TelegramError: damaged, unknown kind or malformed.
     """
-    body = _open(message)
-    if len(body) < _RESP_HEAD.size:
+    body = unseal(message)
+    if len(body) < RESP_HEAD.size:
         raise TelegramError("response header truncated")
-    kind, session, seq, state = _RESP_HEAD.unpack_from(body)
-    rest = body[_RESP_HEAD.size:]
+    kind, session, seq, state = RESP_HEAD.unpack_from(body)
+    rest = body[RESP_HEAD.size:]
     try:
         if kind == Kind.WELCOME:
             return Welcome(session, seq, state, *struct.unpack("<BBHHH", rest))

@@ -55,6 +55,10 @@ __all__ = [
     "MAX_MESSAGE",
     "SETPOINT_VALUES_PER_MESSAGE",
     "LOG_VALUES_PER_MESSAGE",
+    "REQ_HEAD",
+    "RESP_HEAD",
+    "seal",
+    "unseal",
     "Kind",
     "State",
     "Code",
@@ -98,14 +102,16 @@ CONTROL_MS = 10
 #: Largest message: the mailbox payload limit (59 bytes incl. NUL).
 MAX_MESSAGE = 58
 
-_REQ_HEAD = struct.Struct("<BHH")  # kind, session, seq
-_RESP_HEAD = struct.Struct("<BHHB")  # kind, session, seq, state
+#: The session layer every message shares (this protocol and the behaviour protocol):
+#: a request head, a response head, and a CRC-16 check after the body (:func:`seal`).
+REQ_HEAD = struct.Struct("<BHH")  # kind, session, seq
+RESP_HEAD = struct.Struct("<BHHB")  # kind, session, seq, state
 _CHECK = 2
 
 #: int16 values that fit a SETPOINTS message after header, first_row, count, check.
-SETPOINT_VALUES_PER_MESSAGE = (MAX_MESSAGE - _REQ_HEAD.size - 3 - _CHECK) // 2
+SETPOINT_VALUES_PER_MESSAGE = (MAX_MESSAGE - REQ_HEAD.size - 3 - _CHECK) // 2
 #: int16 values that fit a LOGDATA message.
-LOG_VALUES_PER_MESSAGE = (MAX_MESSAGE - _RESP_HEAD.size - 3 - _CHECK) // 2
+LOG_VALUES_PER_MESSAGE = (MAX_MESSAGE - RESP_HEAD.size - 3 - _CHECK) // 2
 
 
 class Kind(enum.IntEnum):
@@ -280,13 +286,15 @@ Request = Hello | Config | Setpoints | Prepare | Go | Query | LogRead | Stop
 SEQUENCED_KINDS = frozenset({Kind.CONFIG, Kind.SETPOINTS, Kind.PREPARE, Kind.GO})
 
 
-def _seal(body: bytes) -> bytes:
+def seal(body: bytes) -> bytes:
+    """``body`` with its CRC-16 check appended; refused when the mailbox cannot carry it."""
     if len(body) + _CHECK > MAX_MESSAGE:
         raise TelegramError(f"message of {len(body) + _CHECK} bytes exceeds {MAX_MESSAGE}")
     return body + struct.pack("<H", crc16(body))
 
 
-def _open(message: bytes) -> bytes:
+def unseal(message: bytes) -> bytes:
+    """The body of a sealed message; a short or damaged one is a :class:`TelegramError`."""
     if len(message) < _CHECK + 1:
         raise TelegramError("message too short")
     body, check = message[:-_CHECK], struct.unpack("<H", message[-_CHECK:])[0]
@@ -306,9 +314,9 @@ def encode_request(req: Request) -> bytes:
         TelegramError: a field does not fit (too many values, out of int16 range).
     """
     try:
-        head = _REQ_HEAD.pack(req.kind, req.session, req.seq)
+        head = REQ_HEAD.pack(req.kind, req.session, req.seq)
         if isinstance(req, Hello):
-            return _seal(head + struct.pack("<B", req.version))
+            return seal(head + struct.pack("<B", req.version))
         if isinstance(req, Config):
             n = len(req.ports)
             if not 1 <= n <= MAX_PORTS or len(req.min_deg) != n or len(req.max_deg) != n:
@@ -316,19 +324,19 @@ def encode_request(req: Request) -> bytes:
             ports = list(req.ports) + [0xFF] * (MAX_PORTS - n)
             lo = list(req.min_deg) + [0] * (MAX_PORTS - n)
             hi = list(req.max_deg) + [0] * (MAX_PORTS - n)
-            return _seal(head + struct.pack(
+            return seal(head + struct.pack(
                 "<B3BHHBBBB3h3h", n, *ports, req.n_rows, req.tick_ms, req.kp_num, req.kp_den,
                 req.max_power, req.tolerance_deg, *lo, *hi))
         if isinstance(req, Setpoints):
             count = len(req.values)
             if count > SETPOINT_VALUES_PER_MESSAGE:
                 raise TelegramError(f"{count} values exceed {SETPOINT_VALUES_PER_MESSAGE}")
-            return _seal(head + struct.pack(f"<HB{count}h", req.first_row, count, *req.values))
+            return seal(head + struct.pack(f"<HB{count}h", req.first_row, count, *req.values))
         if isinstance(req, LogRead):
-            return _seal(head + struct.pack("<HB", req.first_row, req.count))
+            return seal(head + struct.pack("<HB", req.first_row, req.count))
         if isinstance(req, Go):
-            return _seal(head + struct.pack("<H", req.delay_ms))
-        return _seal(head)
+            return seal(head + struct.pack("<H", req.delay_ms))
+        return seal(head)
     except struct.error as exc:
         raise TelegramError(f"field out of range: {exc}") from None
 
@@ -339,11 +347,11 @@ def decode_request(message: bytes) -> Request:
     Raises:
         TelegramError: damaged (check fails), unknown kind, or malformed body.
     """
-    body = _open(message)
-    if len(body) < _REQ_HEAD.size:
+    body = unseal(message)
+    if len(body) < REQ_HEAD.size:
         raise TelegramError("request header truncated")
-    kind, session, seq = _REQ_HEAD.unpack_from(body)
-    rest = body[_REQ_HEAD.size:]
+    kind, session, seq = REQ_HEAD.unpack_from(body)
+    rest = body[REQ_HEAD.size:]
     try:
         if kind == Kind.HELLO:
             return Hello(session, seq, struct.unpack("<B", rest)[0])
@@ -429,19 +437,19 @@ Response = Welcome | Ack | LogData
 def encode_response(resp: Response) -> bytes:
     """Encode a response (the brick's side)."""
     try:
-        head = _RESP_HEAD.pack(resp.kind, resp.session, resp.seq, resp.state)
+        head = RESP_HEAD.pack(resp.kind, resp.session, resp.seq, resp.state)
         if isinstance(resp, Welcome):
-            return _seal(head + struct.pack("<BBHHHHB", resp.version, resp.code,
+            return seal(head + struct.pack("<BBHHHHB", resp.version, resp.code,
                                             resp.expected_seq, resp.max_values,
                                             resp.rows_stored, resp.logged, resp.control_ms))
         if isinstance(resp, Ack):
-            return _seal(head + struct.pack("<BHHHhH", resp.code, resp.expected_seq,
+            return seal(head + struct.pack("<BHHHhH", resp.code, resp.expected_seq,
                                             resp.rows_stored, resp.logged, resp.value,
                                             resp.checksum))
         count = len(resp.values)
         if count > LOG_VALUES_PER_MESSAGE:
             raise TelegramError(f"{count} values exceed {LOG_VALUES_PER_MESSAGE}")
-        return _seal(head + struct.pack(f"<HB{count}h", resp.first_row, count, *resp.values))
+        return seal(head + struct.pack(f"<HB{count}h", resp.first_row, count, *resp.values))
     except struct.error as exc:
         raise TelegramError(f"field out of range: {exc}") from None
 
@@ -452,11 +460,11 @@ def decode_response(message: bytes) -> Response:
     Raises:
         TelegramError: damaged, unknown kind or malformed.
     """
-    body = _open(message)
-    if len(body) < _RESP_HEAD.size:
+    body = unseal(message)
+    if len(body) < RESP_HEAD.size:
         raise TelegramError("response header truncated")
-    kind, session, seq, state = _RESP_HEAD.unpack_from(body)
-    rest = body[_RESP_HEAD.size:]
+    kind, session, seq, state = RESP_HEAD.unpack_from(body)
+    rest = body[RESP_HEAD.size:]
     try:
         if kind == Kind.WELCOME:
             return Welcome(session, seq, state, *struct.unpack("<BBHHHHB", rest))
