@@ -19,6 +19,7 @@ import logging
 
 from nxt_link.firmware import ProgramHost
 from nxt_link.output_module import RESET_NONE
+from nxt_link.program_bytes import MessageBytes, div
 from nxt_link.stream_protocol import (
     CMD_INBOX,
     CONTROL_MS,
@@ -26,7 +27,6 @@ from nxt_link.stream_protocol import (
     MAX_PORTS,
     MAX_VALUES,
     PROTOCOL_VERSION,
-    RESPONSE_QUEUE,
     Code,
     Kind,
     State,
@@ -41,13 +41,7 @@ log = logging.getLogger(__name__)
 MAX_BATCH = 5
 
 
-def _div(a: int, b: int) -> int:
-    """C/NXC integer division: truncates toward zero."""
-    q = abs(a) // abs(b)
-    return q if (a >= 0) == (b > 0) else -q
-
-
-class FollowerProgram:
+class FollowerProgram(MessageBytes):
     """State of one run of ``cplus_follow.rxe`` (globals of the NXC program)."""
 
     def __init__(self) -> None:
@@ -105,25 +99,6 @@ class FollowerProgram:
 
     # -- byte helpers -------------------------------------------------------------
 
-    def rd_u8(self, i: int) -> int:
-        return self.msg[i]
-
-    def rd_u16(self, i: int) -> int:
-        return self.msg[i] + self.msg[i + 1] * 256
-
-    def rd_s16(self, i: int) -> int:
-        v = self.msg[i] + self.msg[i + 1] * 256
-        return v - 65536 if v > 32767 else v
-
-    def wr_u8(self, i: int, v: int) -> None:
-        self.out[i] = v & 0xFF
-
-    def wr_16(self, i: int, v: int) -> None:
-        if v < 0:
-            v += 65536
-        self.out[i] = v & 0xFF
-        self.out[i + 1] = _div(v, 256) & 0xFF
-
     @staticmethod
     def crc16(b: bytes | bytearray, n: int) -> int:
         return crc16(bytes(b[:n]))
@@ -134,12 +109,6 @@ class FollowerProgram:
         self.ck = crc16(bytes((v & 0xFF, (v // 256) & 0xFF)), self.ck)
 
     # -- responses ------------------------------------------------------------------
-
-    def send_out(self, n: int) -> None:
-        c = self.crc16(self.out, n)
-        self.wr_16(n, c)
-        assert self._host is not None
-        self._host.send_response_string(RESPONSE_QUEUE, bytes(self.out))
 
     def begin(self, kind: int, length: int) -> None:
         self.out = bytearray(length)
@@ -183,7 +152,7 @@ class FollowerProgram:
             p = self.port[j]
             ref = self.refs[row * self.nports + j]
             err = ref - self._host.motor_rotation_count(p)
-            pwr = _div(self.kp_num * err, self.kp_den)
+            pwr = div(self.kp_num * err, self.kp_den)
             if pwr > self.max_power:
                 pwr = self.max_power
             if pwr < -self.max_power:
@@ -208,7 +177,7 @@ class FollowerProgram:
         elif self.state == State.RUNNING and now < self.t0:
             self.control_row(0)
         elif self.state == State.RUNNING:
-            k = _div(now - self.t0, self.tick_ms)
+            k = div(now - self.t0, self.tick_ms)
             while self.logged < k and self.logged < self.nrows:
                 self.record_row()
             if self.logged >= self.nrows:

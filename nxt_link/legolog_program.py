@@ -49,7 +49,7 @@ from nxt_link.behaviour_protocol import (
     PANIC_PERIOD_MS,
     PROTOCOL_VERSION,
     RESEND_MS,
-    RESPONSE_QUEUE,
+    RESPONSE_QUEUE,  # noqa: F401  (the NXC program defines it: part of ROBOT_CONSTANTS)
     AckCode,
     Behaviour,
     Event,
@@ -59,9 +59,9 @@ from nxt_link.behaviour_protocol import (
     Status,
 )
 from nxt_link.firmware import ProgramHost
-from nxt_link.follower_program import _div
 from nxt_link.input_module import SensorMode, SensorType
 from nxt_link.output_module import RESET_NONE
+from nxt_link.program_bytes import MessageBytes, div
 from nxt_link.stream_protocol import crc16
 
 __all__ = ["LegologProgram", "MAX_BATCH", "ROBOT_CONSTANTS"]
@@ -116,7 +116,7 @@ ROBOT_CONSTANTS = {name: value for name, value in dict(globals()).items()
                    if name.isupper() and isinstance(value, int) and name != "RESET_NONE"}
 
 
-class LegologProgram:
+class LegologProgram(MessageBytes):
     """State of one run of ``cplus_legolog.rxe`` (globals of the NXC program)."""
 
     def __init__(self) -> None:
@@ -225,28 +225,9 @@ class LegologProgram:
 
     # -- byte helpers -------------------------------------------------------------------------
 
-    def rd_u8(self, i: int) -> int:
-        return self.msg[i]
-
-    def rd_u16(self, i: int) -> int:
-        return self.msg[i] + self.msg[i + 1] * 256
-
-    def rd_s16(self, i: int) -> int:
-        v = self.msg[i] + self.msg[i + 1] * 256
-        return v - 65536 if v > 32767 else v
-
-    def wr_u8(self, i: int, v: int) -> None:
-        self.out[i] = v & 0xFF
-
-    def wr_16(self, i: int, v: int) -> None:
-        if v < 0:
-            v += 65536
-        self.out[i] = v & 0xFF
-        self.out[i + 1] = _div(v, 256) & 0xFF
-
     def wr_32(self, i: int, v: int) -> None:
         self.wr_16(i, v & 0xFFFF)
-        self.wr_16(i + 2, _div(v, 65536) & 0xFFFF)
+        self.wr_16(i + 2, div(v, 65536) & 0xFFFF)
 
     # -- responses ------------------------------------------------------------------------------
 
@@ -263,12 +244,6 @@ class LegologProgram:
         self.wr_16(1, session)
         self.wr_16(3, seq)
         self.wr_u8(5, self.state())
-
-    def send_out(self, n: int) -> None:
-        c = crc16(bytes(self.out[:n]))
-        self.wr_16(n, c)
-        assert self._host is not None
-        self._host.send_response_string(RESPONSE_QUEUE, bytes(self.out))
 
     def send_welcome(self, code: int) -> None:
         self.begin(Kind.WELCOME, 16, self.rq_session, self.rq_seq)
@@ -472,7 +447,7 @@ class LegologProgram:
         assert self._host is not None
         light = self._host.sensor(PORT_LIGHT)
         wl, wr = self.wheels()
-        d = _div((wl + wr) * MM_NUM, 2 * MM_DEN)
+        d = div((wl + wr) * MM_NUM, 2 * MM_DEN)
         if light >= BAR_ON:
             if self.in_bar == 0:
                 self.bars += 1
@@ -505,14 +480,14 @@ class LegologProgram:
             return
         turn = 0
         if light < BAR_OFF:
-            turn = _div((light - LIGHT_TARGET) * KP_NUM, KP_DEN)
+            turn = div((light - LIGHT_TARGET) * KP_NUM, KP_DEN)
         self.drive(BASE_POWER + turn, BASE_POWER - turn)
 
     def step_turn(self, now: int) -> None:
         assert self._host is not None
         light = self._host.sensor(PORT_LIGHT)
         wl, wr = self.wheels()
-        turned = _div(wr - wl, 2)
+        turned = div(wr - wl, 2)
         if self.phase == 0 and turned >= TURN_MIN_DEG:
             self.phase = 1
         if self.phase == 1 and light < DARK:
