@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import os
 import sys
 
 __all__ = ["EXIT_OK", "EXIT_NO_PLAN", "EXIT_LINK", "EXIT_INPUT", "EXIT_LIMIT", "EXIT_NO_SAFE_PLAN",
@@ -97,6 +98,30 @@ def positive_int(text: str) -> int:
     if v < 1:
         raise argparse.ArgumentTypeError(f"expected a positive integer, got '{text}'")
     return v
+
+
+def parse_bricks(items: list[str], prog: str) -> dict[str, str]:
+    """``--brick NAME=PORT`` options as a mapping (a robot once, a port once).
+
+    Raises:
+        CliError: one line for the user.
+    """
+    ports: dict[str, str] = {}
+    for item in items:
+        name, sep, port = item.partition("=")
+        if not sep or not name or not port:
+            raise CliError(f"{prog}: error: --brick expects NAME=PORT, got {item!r}")
+        if name in ports:
+            raise CliError(f"{prog}: error: two --brick options for {name!r}")
+        ports[name] = port
+    seen: dict[str, str] = {}
+    for name, port in ports.items():
+        key = os.path.realpath(port)
+        if key in seen:
+            raise CliError(f"{prog}: error: --brick {seen[key]} and --brick {name} are both "
+                           f"{port}: each robot needs its own brick")
+        seen[key] = name
+    return ports
 
 
 def externals(files: list[str]):

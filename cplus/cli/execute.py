@@ -30,6 +30,7 @@ from cplus.cli.common import (
     EXIT_OK,
     CliError,
     OneLineArgumentParser,
+    parse_bricks,
     positive,
 )
 from cplus.robot.execution import (
@@ -42,7 +43,7 @@ from cplus.robot.execution import (
 )
 from nxt_link.errors import ExecutionFailed, ExecutionInterrupted, LinkError, SetpointError
 
-__all__ = ["build_parser", "main", "output_problem", "parse_bricks"]
+__all__ = ["build_parser", "main", "output_problem"]
 
 
 class _ProgressPrinter:
@@ -140,30 +141,6 @@ def add_execution_options(p: argparse.ArgumentParser, *, fast: bool = False) -> 
                    help="emulated bricks run X times faster than real time (default "
                         f"{'10, or 1 with --brick' if fast else 1}; 1 = real time); with --brick, "
                         "the bricks' own time scale")
-
-
-def parse_bricks(items: list[str], prog: str) -> dict[str, str]:
-    """``--brick NAME=PORT`` options as a mapping (a robot once, a port once).
-
-    Raises:
-        CliError: one line for the user.
-    """
-    ports: dict[str, str] = {}
-    for item in items:
-        name, sep, port = item.partition("=")
-        if not sep or not name or not port:
-            raise CliError(f"{prog}: error: --brick expects NAME=PORT, got {item!r}")
-        if name in ports:
-            raise CliError(f"{prog}: error: two --brick options for {name!r}")
-        ports[name] = port
-    seen: dict[str, str] = {}
-    for name, port in ports.items():
-        key = os.path.realpath(port)
-        if key in seen:
-            raise CliError(f"{prog}: error: --brick {seen[key]} and --brick {name} are both "
-                             f"{port}: each robot needs its own brick")
-        seen[key] = name
-    return ports
 
 
 def output_problem(path: str) -> str | None:

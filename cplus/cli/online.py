@@ -32,6 +32,7 @@ from cplus.cli.common import (
     OneLineArgumentParser,
     Warnings,
     nonneg,
+    parse_bricks,
     positive,
     seconds,
 )
@@ -155,19 +156,6 @@ def _v(value: object) -> str:
     return render_value(value)  # type: ignore[arg-type]
 
 
-def _ports(items: Sequence[str]) -> dict[str, str]:
-    from cplus.cli.common import CliError
-    ports: dict[str, str] = {}
-    for item in items:
-        name, sep, port = item.partition("=")
-        if not sep or not name or not port:
-            raise CliError(f"cplus online: error: --brick expects NAME=PORT, got {item!r}")
-        if name in ports:
-            raise CliError(f"cplus online: error: two --brick options for {name!r}")
-        ports[name] = port
-    return ports
-
-
 def main(args: argparse.Namespace) -> int:
     """``cplus online``; returns the exit code."""
     from cplus.cli.common import CliError
@@ -175,7 +163,7 @@ def main(args: argparse.Namespace) -> int:
     from cplus.robot.task import scene_beside
     err = sys.stderr
     try:
-        ports = _ports(args.brick)
+        ports = parse_bricks(args.brick, "cplus online")
         robot = args.robot or binding_beside(args.domain)
         scene = None if robot else (args.scene or scene_beside(args.domain))
         if robot is None and scene is None:

@@ -25,6 +25,7 @@ from cplus.cli.common import (
     OneLineArgumentParser,
     Warnings,
     nonneg,
+    parse_bricks,
     positive,
     seconds,
 )
@@ -110,7 +111,6 @@ def main(args: argparse.Namespace) -> int:
     """``cplus serve``; returns the exit code."""
     from cplus.api import Domain
     from cplus.cli.common import query
-    from cplus.cli.online import _ports
     from cplus.robot.channels import load_script, parse_listen
     from cplus.robot.vocabulary import load_requests, requests_beside
     err = sys.stderr
@@ -125,7 +125,7 @@ def main(args: argparse.Namespace) -> int:
         except ValueError as exc:
             return fail(f"--listen: {exc}")
     try:
-        ports = _ports(args.brick)
+        ports = parse_bricks(args.brick, "cplus serve")
     except CliError as exc:
         print(str(exc).replace("cplus online", "cplus serve"), file=err)
         return EXIT_INPUT
