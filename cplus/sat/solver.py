@@ -116,7 +116,7 @@ class _Generic:
     def solve_limited(self, assumptions: list[int], propagations: int) -> bool | None:
         try:
             self._s.prop_budget(max(1, propagations))
-        except NotImplementedError:
+        except NotImplementedError:     # pysat's word for a backend without budgets: solve to the end
             return self.solve(assumptions)
         ok = self._s.solve_limited(assumptions=assumptions)
         return None if ok is None else bool(ok)
@@ -124,7 +124,7 @@ class _Generic:
     def propagations(self) -> int:
         try:
             return int((self._s.accum_stats() or {}).get("propagations", 0))
-        except NotImplementedError:
+        except NotImplementedError:     # a backend that does not count them
             return 0
 
     def get_model(self) -> list[int]:
