@@ -101,7 +101,7 @@ def positive_int(text: str) -> int:
 
 
 def parse_bricks(items: list[str], prog: str) -> dict[str, str]:
-    """``--brick NAME=PORT`` options as a mapping (a robot once, a port once).
+    """``--brick NAME=PORT`` options as a mapping (each robot once).
 
     Raises:
         CliError: one line for the user.
@@ -114,6 +114,15 @@ def parse_bricks(items: list[str], prog: str) -> dict[str, str]:
         if name in ports:
             raise CliError(f"{prog}: error: two --brick options for {name!r}")
         ports[name] = port
+    return ports
+
+
+def distinct_bricks(ports: dict[str, str], prog: str) -> dict[str, str]:
+    """``ports`` when no device serves two robots (a trajectory streams to every brick at once).
+
+    Raises:
+        CliError: one line for the user.
+    """
     seen: dict[str, str] = {}
     for name, port in ports.items():
         key = os.path.realpath(port)

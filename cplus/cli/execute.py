@@ -30,6 +30,7 @@ from cplus.cli.common import (
     EXIT_OK,
     CliError,
     OneLineArgumentParser,
+    distinct_bricks,
     parse_bricks,
     positive,
 )
@@ -256,7 +257,7 @@ def main(args: argparse.Namespace) -> int:
     err = sys.stderr
     prog = "cplus execute"
     try:
-        ports = parse_bricks(args.brick, prog)
+        ports = distinct_bricks(parse_bricks(args.brick, prog), prog)
     except CliError as exc:
         print(exc, file=err)
         return EXIT_INPUT

@@ -21,6 +21,7 @@ from cplus.cli.common import (
     CliError,
     OneLineArgumentParser,
     Warnings,
+    distinct_bricks,
     horizon_progress,
     nonneg,
     parse_bricks,
@@ -79,7 +80,7 @@ def _validate(args: argparse.Namespace) -> tuple[str, dict[str, str]]:
         raise CliError(f"{prog}: error: --step-time {args.step_time:g} s / --points-per-step "
                        f"{args.points_per_step} = a tick of {tick:g} ms; it must be a whole number "
                        f"of milliseconds from {_TICK_MS[0]} to {_TICK_MS[1]}")
-    ports = parse_bricks(args.brick, prog)
+    ports = distinct_bricks(parse_bricks(args.brick, prog), prog)
     if args.time_scale is None:  # emulated bricks are fast unless asked; real ones keep time
         args.time_scale = 1.0 if ports else FAST_TIME_SCALE
     if os.path.exists(args.out) and not os.path.isdir(args.out):
