@@ -12,7 +12,7 @@ offsets, so a longer horizon only appends clauses.
 """
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from itertools import chain
 
@@ -20,6 +20,7 @@ from cplus.ground.pf import PF, map_lits, mk_and
 from cplus.ground.theory import GroundTheory, initially_free
 from cplus.sat.cnf import CONFLICT, ClauseBuilder, _without, compact
 from cplus.sat.factor import rewrite
+from cplus.sat.products import factor_products
 from cplus.sat.tables import TABLE_LIMIT, encode_table
 from cplus.signature import GroundConst
 
@@ -238,19 +239,23 @@ def _complete_atoms(b: _Builder, gcs: list[GroundConst], slot: int, heads: dict,
 def _factored(b: _Builder, ts: list[int], heads: dict) -> dict[int, Sequence[PF]]:
     """The bodies of the rules for the values ``ts`` of a constant, rewritten through the
     rests they share where that saves clauses (see :mod:`cplus.sat.factor`)."""
-    layout = b.layout
+    return rewrite({t: heads.get(t, ()) for t in ts}, _constant_key(b.layout), b.cb.lit)
+
+
+def _constant_key(layout: Layout) -> Callable[[int], tuple | None]:
+    """``key_of(lit)``: the (constant, slot) whose value the template literal ``lit`` states;
+    None for a negated value or an auxiliary variable (through the layout's memo of cube
+    atoms).  Constants are given by their ids, so that keys sort."""
     memo = layout.cube_atoms
 
     def key_of(lit: int) -> tuple | None:
-        """The (constant, slot) whose value ``lit`` states; None for a negated value or an
-        auxiliary variable (through the layout's memo of cube atoms)."""
         atom = memo.get(lit)
         if atom is None:
             if lit in memo:
                 return None
             atom = memo[lit] = _cube_atom(layout, lit)
-        return None if atom is None else atom[0]
-    return rewrite({t: heads.get(t, ()) for t in ts}, key_of, b.cb.lit)
+        return None if atom is None else (atom[0][0].id, atom[0][1])
+    return key_of
 
 
 def _table_completion(b: _Builder, gc: GroundConst, slot: int, heads: dict) -> bool:
@@ -382,6 +387,7 @@ def _constraints(b: _Builder, bodies: list[PF], shift: bool = False) -> None:
     dead = layout.dead
     get, tid, add_clause = layout._tids.get, layout.tid, b.cb.add_clause
     seen: set = set()
+    flats: list[tuple[int, ...]] = []
     for body in bodies:
         if dead and _needs_dead(dead, body):
             continue
@@ -393,9 +399,11 @@ def _constraints(b: _Builder, bodies: list[PF], shift: bool = False) -> None:
         if shift:
             body = _shift_static(body)
         elif flat and all(type(g) is int for g in body[1]):  # type: ignore[index]  # one clause
-            add_clause([-(get(g) or tid(g)) for g in body[1]])  # type: ignore[index]
+            flats.append(tuple(get(g) or tid(g) for g in body[1]))  # type: ignore[index]
             continue
         b.cb.add(neg(_to_tids(layout, body)))
+    for items in factor_products(flats, _constant_key(layout), add_clause, b._new):
+        add_clause([-t for t in items])
 
 
 def _rigid(layout: Layout) -> Template:
