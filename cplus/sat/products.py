@@ -17,8 +17,9 @@ defined as the disjunction of its assignments, turns the family into
 * ``p -> a1 | a2 | ...`` and ``p & a -> b1 | b2 | ...`` (``p`` holds only through a member),
 * ``-p | -q`` for each forbidden pair of classes:
 
-about 2,900 clauses instead of 12,827.  Every class variable is fully defined by the atoms,
-so the models (and their count) do not move; the rewriting needs no exactly-one axiom.
+about 2,900 clauses instead of 12,827.  Every class variable is a function of the atoms
+whenever each constant has at most one value (in every model each has exactly one), so the
+models and their count do not move.
 
 Measured on the payload task (``bench/bench_payload.py``, median of 21 solver paths): the
 island scene's refinement 0.91 -> 0.86 s of processor time, the raised wall's proof 1.13 ->

@@ -20,6 +20,7 @@ from cplus.ground.pf import PF, map_lits, mk_and
 from cplus.ground.theory import GroundTheory, initially_free
 from cplus.sat.cnf import CONFLICT, ClauseBuilder, _without, compact
 from cplus.sat.factor import rewrite
+from cplus.sat.intervals import factor_intervals
 from cplus.sat.products import factor_products
 from cplus.sat.tables import TABLE_LIMIT, encode_table
 from cplus.signature import GroundConst
@@ -258,6 +259,37 @@ def _constant_key(layout: Layout) -> Callable[[int], tuple | None]:
     return key_of
 
 
+def _atom_key(layout: Layout) -> Callable[[int], tuple | None]:
+    """``atom_of(lit)``: ``((constant id, slot), value)`` of a template literal stating a
+    constant's value (:func:`_constant_key`, with the value)."""
+    memo = layout.cube_atoms
+
+    def atom_of(lit: int) -> tuple | None:
+        atom = memo.get(lit)
+        if atom is None:
+            if lit in memo:
+                return None
+            atom = memo[lit] = _cube_atom(layout, lit)
+        return None if atom is None else ((atom[0][0].id, atom[0][1]), atom[1])
+    return atom_of
+
+
+def _integer_values(layout: Layout) -> Callable[[tuple], dict]:
+    """``values_of((constant id, slot))``: the template literal of each value that is not
+    dead, in increasing order, for a constant whose values are all integers; empty
+    otherwise.  Dead values are false at every step, so a run of forbidden values may
+    step over them."""
+    sig = layout.theory.sig
+
+    def values_of(key: tuple) -> dict:
+        gc = sig.ground[key[0]]
+        if gc.boolean or not all(type(v) is int for v in gc.domain):
+            return {}
+        lits = _value_lits(layout, (gc, key[1]))
+        return {v: lits[v] for v in sorted(_live_values(layout, gc))}
+    return values_of
+
+
 def _table_completion(b: _Builder, gc: GroundConst, slot: int, heads: dict) -> bool:
     """Completion of a constant whose rules are tables over other constants (see
     :mod:`cplus.sat.tables`): every rule for ``gc`` at this slot has a body that is a
@@ -402,7 +434,8 @@ def _constraints(b: _Builder, bodies: list[PF], shift: bool = False) -> None:
             flats.append(tuple(get(g) or tid(g) for g in body[1]))  # type: ignore[index]
             continue
         b.cb.add(neg(_to_tids(layout, body)))
-    for items in factor_products(flats, _constant_key(layout), add_clause, b._new):
+    rest = factor_products(flats, _constant_key(layout), add_clause, b._new)
+    for items in factor_intervals(rest, _atom_key(layout), _integer_values(layout), add_clause, b._new):
         add_clause([-t for t in items])
 
 
