@@ -22,6 +22,7 @@ one clause each (and :mod:`cplus.sat.products` may still take them).
 from __future__ import annotations
 
 from collections.abc import Callable, Hashable, Sequence
+from typing import Any
 
 __all__ = ["factor_intervals", "MIN_ROWS", "GAIN"]
 
@@ -31,7 +32,7 @@ GAIN = 0.5          # the new clauses must be at most this share of the ones the
 
 def factor_intervals(bodies: Sequence[tuple[int, ...]],
                      atom_of: Callable[[int], tuple[Hashable, object] | None],
-                     values_of: Callable[[Hashable], dict[object, int]],
+                     values_of: Callable[[Any], dict[object, int]],
                      add_clause: Callable[[list[int]], None], new_var: Callable[[], int]
                      ) -> list[tuple[int, ...]]:
     """Write the constraints that runs of values of one integer constant share, and return
