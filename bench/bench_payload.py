@@ -53,7 +53,7 @@ def refine_once(scene: Path, form: str, pad: int = 0) -> dict:
     """One refinement as `cplus plan` runs it; ``pad`` binary clauses over fresh variables
     first (satisfiable, unrelated to the task) change nothing but the solver's path."""
     from cplus.robot import RobotTask, refine
-    from cplus.robot.refine import DEFAULT_MAX_HORIZON
+    from cplus.robot.refine import DEFAULT_MAX_HORIZON, REFINE_SOLVER
     from cplus.sat.horizon import QuerySession
     task = RobotTask.load(str(DOMAIN), str(scene))
     _ = task.domain.theory
@@ -63,8 +63,8 @@ def refine_once(scene: Path, form: str, pad: int = 0) -> dict:
     session = None
     if pad:
         query = task.domain.query("0")
-        session = QuerySession(task.domain.theory, query, max_horizon=None if query.hi is not None
-                               else DEFAULT_MAX_HORIZON)
+        session = QuerySession(task.domain.theory, query, REFINE_SOLVER,
+                               max_horizon=None if query.hi is not None else DEFAULT_MAX_HORIZON)
         h = session.horizon
         for _ in range(pad):
             h.solver.add_clause([h.new_var(), h.new_var()])
@@ -91,9 +91,8 @@ import numpy, shapely
 t1 = cpu()
 from cplus.cli import plan
 from cplus.robot import RobotTask, refine
-from cplus.robot.refine import DEFAULT_MAX_HORIZON
+from cplus.robot.refine import DEFAULT_MAX_HORIZON, REFINE_SOLVER
 from cplus.sat.horizon import QuerySession
-from cplus.sat.solver import DEFAULT_SOLVER
 import trajectory
 t2 = cpu()
 task = RobotTask.load(sys.argv[1], sys.argv[2])
@@ -101,7 +100,7 @@ t3 = cpu()
 theory = task.domain.theory
 t4 = cpu()
 query = task.domain.query("0")
-session = QuerySession(theory, query, DEFAULT_SOLVER, DEFAULT_MAX_HORIZON if query.hi is None else None)
+session = QuerySession(theory, query, REFINE_SOLVER, DEFAULT_MAX_HORIZON if query.hi is None else None)
 t5 = cpu()
 wall, time.perf_counter = time.perf_counter, cpu   # the loop's own timers: processor time here
 result = refine(task, "0", session=session)

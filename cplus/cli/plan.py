@@ -45,7 +45,8 @@ def build_parser() -> OneLineArgumentParser:
 
 
 def add_common(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--solver", default=None, metavar="NAME", help="pysat solver (default glucose4)")
+    p.add_argument("--solver", default=None, metavar="NAME",
+                   help="pysat solver (default glucose4; minisat22 for a robot task's refinement)")
     p.add_argument("--max-horizon", type=nonneg, default=None, metavar="N",
                    help="stop an open range N..infinity at this maxstep")
     p.add_argument("--extern", action="append", default=[], metavar="FILE.py",

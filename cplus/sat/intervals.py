@@ -5,7 +5,9 @@ A threshold law grounds to one clause per forbidden value:
     nonexecutable drive(D) if pos = P & spd = S where P + S * D > 300.
 
 gives, for each duration ``D`` and speed ``S``, a clause ``-drive(D) | -spd=S | -pos=P`` for
-every position ``P`` above ``300 - S*D`` (car-300: 20,000 clauses a step, for 300 pairs).
+every position ``P`` above ``300 - S*D``: tens of thousands of clauses a step for 300 pairs
+(car-300's constraints are 5,967 clauses a step once the values its start cannot reach are
+left out; written as below, 709).
 For each *rest* (the constraint's other literals) the forbidden positions are a few runs of
 consecutive values, and with *order variables* ``pos>=v`` a run ``lo..hi`` is one clause,
 ``-rest | -(pos>=lo) | (pos>=hi+1)``.  The order variables of a constant (at one step) are
@@ -15,9 +17,14 @@ defined once, four clauses a value:
 * ``pos>=v+1 -> pos>=v``, and ``pos>=v -> pos=v | pos>=v+1`` (the last: ``-> pos=v``),
 
 which makes each a function of the atoms whenever the constant has at most one value (in
-every model it has exactly one), so the models and their count do not move.  A constant is taken out of a body when it has the most values there;
-it is used only where it pays (:data:`MIN_ROWS`, :data:`GAIN`), otherwise the constraints stay
-one clause each (and :mod:`cplus.sat.products` may still take them).
+every model it has exactly one), so the models and their count do not move.  A constant is
+taken out of a body when it has the most values there; it is used only where it pays
+(:data:`MIN_ROWS`, :data:`GAIN`), otherwise the constraints stay one clause each.  :mod:`cplus.sat.products` takes its families first.  Values a query's
+start cannot reach (dead, false at every step) are left out of the order, so a run may step
+over them.
+
+car-300 went from 0.27 to 0.24 s for the whole command (solving 0.03 to 0.01 s); the payload
+arms' straight moves past obstacles (2,352 clauses a step) become 1,350.
 """
 from __future__ import annotations
 

@@ -94,6 +94,8 @@ class Layout:
         self._tids: dict[int, int] = {}
         self.tables: dict = {}        # decision diagrams built for these templates (tables.encode_table)
         self.cube_atoms: dict = {}    # template literal -> ((constant, slot), value), see _cube
+        self.atom_keys: dict = {}     # the same by constant id, see _atom_key
+        self.constant_keys: dict = {}  # template literal -> (constant id, slot), see _constant_key
 
     def tid(self, code: int) -> int:
         """Template id of a template literal code (see :func:`template_lit`)."""
@@ -245,32 +247,33 @@ def _factored(b: _Builder, ts: list[int], heads: dict) -> dict[int, Sequence[PF]
 
 def _constant_key(layout: Layout) -> Callable[[int], tuple | None]:
     """``key_of(lit)``: the (constant, slot) whose value the template literal ``lit`` states;
-    None for a negated value or an auxiliary variable (through the layout's memo of cube
-    atoms).  Constants are given by their ids, so that keys sort."""
-    memo = layout.cube_atoms
+    None for a negated value or an auxiliary variable (memoized on the layout).  Constants are
+    given by their ids, so that keys sort."""
+    memo = layout.constant_keys
+    atom_of = _atom_key(layout)
 
     def key_of(lit: int) -> tuple | None:
-        atom = memo.get(lit)
-        if atom is None:
-            if lit in memo:
-                return None
-            atom = memo[lit] = _cube_atom(layout, lit)
-        return None if atom is None else (atom[0][0].id, atom[0][1])
+        try:
+            return memo[lit]
+        except KeyError:
+            atom = atom_of(lit)
+            key = memo[lit] = None if atom is None else atom[0]
+            return key
     return key_of
 
 
 def _atom_key(layout: Layout) -> Callable[[int], tuple | None]:
     """``atom_of(lit)``: ``((constant id, slot), value)`` of a template literal stating a
-    constant's value (:func:`_constant_key`, with the value)."""
-    memo = layout.cube_atoms
+    constant's value, else None (:func:`_cube_atom`, memoized on the layout)."""
+    memo = layout.atom_keys
 
     def atom_of(lit: int) -> tuple | None:
-        atom = memo.get(lit)
-        if atom is None:
-            if lit in memo:
-                return None
-            atom = memo[lit] = _cube_atom(layout, lit)
-        return None if atom is None else ((atom[0][0].id, atom[0][1]), atom[1])
+        try:
+            return memo[lit]
+        except KeyError:
+            atom = _cube_atom(layout, lit)
+            out = memo[lit] = None if atom is None else ((atom[0][0].id, atom[0][1]), atom[1])
+            return out
     return atom_of
 
 
