@@ -7,7 +7,7 @@ from collections import Counter
 from pathlib import Path
 
 import pytest
-from hypothesis import given, settings
+from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
 from cplus import Domain
@@ -103,16 +103,22 @@ def domains(draw):
             + "\n".join(laws) + f"\nnoconcurrency.\n:- query maxstep :: {m}; 0: {' & '.join(fix)}.\n")
 
 
+HISTORIES = 2000
+
+
 @settings(max_examples=80, deadline=None)
 @given(domains())
 def test_restricted_grounding_keeps_rules_values_and_histories(text):
     compare(lambda: load_text(text))
     restricted = Domain.from_text(text)
-    pruned = restricted.solve(solutions=0)
+    # every history is enumerated, and a draw with free fluents over a wide range has
+    # millions (one took minutes and gigabytes): those are left out
+    pruned = restricted.solve(solutions=HISTORIES + 1)
+    assume(len(pruned.histories) <= HISTORIES)
     assert restricted._theory is None          # solve did not need the full grounding
     full = Domain.from_text(text)
     assert full.theory.initial is None
-    every = full.solve(solutions=0)
+    every = full.solve(solutions=HISTORIES + 1)
     assert pruned.maxstep == every.maxstep
     assert sorted(h.key() for h in pruned.histories) == sorted(h.key() for h in every.histories)
 
