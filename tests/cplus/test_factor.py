@@ -6,12 +6,9 @@ from __future__ import annotations
 
 from contextlib import contextmanager
 
-from cplus_oracle import first_histories
-from cplus_random import descriptions
-from hypothesis import assume, given, settings
+from hypothesis import given, settings
 from hypothesis import strategies as st
 from pysat.solvers import Solver
-from test_semantics import planner
 
 from cplus import Domain
 from cplus.ground.pf import neg
@@ -121,15 +118,3 @@ def test_the_planner_counts_the_same_histories_with_and_without_factoring(monkey
     assert len(factored.histories) == len(plain.histories) > 1
     assert {h.key() for h in factored.histories} == {h.key() for h in plain.histories}
     assert size < len(Domain.from_text(CAR).templates[3].clauses)
-
-
-@settings(max_examples=100, deadline=None)
-@given(descriptions())
-def test_the_planner_agrees_with_the_oracle_when_every_rule_set_is_factored(drawn):
-    """The oracle's random domains (tests/cplus/test_semantics.py) are too small for the
-    rewriting to pay; here it is applied wherever a group forms."""
-    desc, m = drawn
-    expected = first_histories(desc, m, m)
-    assume(len(expected[1]) <= 600)
-    with always_rewriting():
-        assert planner(desc.text(m, None)) == expected

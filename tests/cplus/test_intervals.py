@@ -6,12 +6,9 @@ from __future__ import annotations
 
 from contextlib import contextmanager
 
-from cplus_oracle import first_histories
-from cplus_random import descriptions
-from hypothesis import assume, given, settings
+from hypothesis import given, settings
 from hypothesis import strategies as st
 from pysat.solvers import Solver
-from test_semantics import planner
 
 from cplus import Domain
 from cplus.sat import intervals
@@ -140,18 +137,6 @@ def test_the_planner_counts_the_same_histories_with_and_without_order_variables(
     assert len(histories) == len(want) > 1
     assert {h.key() for h in histories} == {h.key() for h in want}
     assert size < len(plain.templates[3].clauses)
-
-
-@settings(max_examples=60, deadline=None)
-@given(descriptions())
-def test_the_planner_agrees_with_the_oracle_when_every_constraint_is_ordered(drawn):
-    """The oracle's random domains (tests/cplus/test_semantics.py) are too small for order
-    variables to pay; here they are used wherever a constraint has an integer constant."""
-    desc, m = drawn
-    expected = first_histories(desc, m, m)
-    assume(len(expected[1]) <= 600)
-    with always_ordering():
-        assert planner(desc.text(m, None)) == expected
 
 
 def test_order_variables_are_functions_of_the_atoms():

@@ -7,12 +7,9 @@ from __future__ import annotations
 from contextlib import contextmanager
 from itertools import product
 
-from cplus_oracle import first_histories
-from cplus_random import descriptions
-from hypothesis import assume, given, settings
+from hypothesis import given, settings
 from hypothesis import strategies as st
 from pysat.solvers import Solver
-from test_semantics import planner
 
 from cplus import Domain
 from cplus.sat import products
@@ -129,15 +126,3 @@ def test_the_planner_counts_the_same_histories_with_and_without_products(monkeyp
     assert len(histories) == len(want) > 1
     assert {h.key() for h in histories} == {h.key() for h in want}
     assert size < len(plain.templates[2].extra[0][0].clauses)
-
-
-@settings(max_examples=60, deadline=None)
-@given(descriptions())
-def test_the_planner_agrees_with_the_oracle_when_every_family_is_factored(drawn):
-    """The oracle's random domains (tests/cplus/test_semantics.py) are too small for the
-    classes to pay; here they are used wherever two assignments are alike."""
-    desc, m = drawn
-    expected = first_histories(desc, m, m)
-    assume(len(expected[1]) <= 600)
-    with always_factoring():
-        assert planner(desc.text(m, None)) == expected

@@ -7,6 +7,8 @@ per law form and constant kind, and random domains that mix them all (``cplus_ra
 """
 from __future__ import annotations
 
+import math
+
 import pytest
 from cplus_oracle import (
     FALSE,
@@ -27,6 +29,7 @@ from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
 from cplus import Domain
+from cplus.sat import factor, intervals, products
 
 
 def count(text: str, label: str = "0") -> tuple[int | None, int]:
@@ -332,3 +335,24 @@ def test_planner_agrees_with_the_oracle_on_random_domains(drawn, ranged):
     expected = first_histories(desc, lo, m)
     assume(len(expected[1]) <= 600)      # bounds the run time; about 1 domain in 250 is larger
     assert planner(text) == expected, text
+
+
+# the encodings that apply only where they pay, applied wherever they can (the random
+# domains are too small for them to pay)
+FORCED = {"shared rests (cplus.sat.factor)": (factor, {"_FROM": 0, "_GAIN": math.inf}),
+          "pair classes (cplus.sat.products)": (products, {"MIN_ROWS": 0, "GAIN": math.inf}),
+          "order variables (cplus.sat.intervals)": (intervals, {"MIN_ROWS": 0, "GAIN": math.inf})}
+
+
+@pytest.mark.parametrize("encoding", FORCED)
+@settings(max_examples=80, deadline=None)
+@given(drawn=descriptions())
+def test_planner_agrees_with_the_oracle_when_an_encoding_is_forced(encoding, drawn):
+    desc, m = drawn
+    expected = first_histories(desc, m, m)
+    assume(len(expected[1]) <= 600)
+    module, values = FORCED[encoding]
+    with pytest.MonkeyPatch.context() as patch:
+        for name, value in values.items():
+            patch.setattr(module, name, value)
+        assert planner(desc.text(m, None)) == expected
