@@ -18,7 +18,6 @@ from __future__ import annotations
 import os
 import re
 from functools import lru_cache
-from pathlib import Path
 from typing import TYPE_CHECKING
 
 from cplus import ast, lalr
@@ -48,22 +47,28 @@ CCALC files may use them as names."""
 _CHAIN_MIN = 9
 """Chains of one associative operator longer than this are regrouped into a balanced tree."""
 
-_GRAMMAR = Path(__file__).with_name("grammar") / "cplus.lark"
+_GRAMMAR = os.path.join(os.path.dirname(__file__), "grammar", "cplus.lark")
+"""The grammar (paths are strings here: importing pathlib would cost every command 5 ms)."""
 
 _SCAN = re.compile(r"%|/\*|'|\.")
 _BLOCK_START = re.compile(r"\s*(?::-\s*|#)begin_(asp|lua|f2lp|python)\s*$")
 _WORD = re.compile(r"[A-Za-z][A-Za-z0-9_]*")
 
 
-def _cache_dir() -> Path | None:
+def _cache_dir() -> str | None:
     """Where the parse tables are kept (None: there is no home directory to keep them in)."""
     base = os.environ.get("XDG_CACHE_HOME")
     if not base:
-        try:
-            base = str(Path.home() / ".cache")
-        except RuntimeError:
+        home = os.path.expanduser("~")
+        if home == "~":
             return None
-    return Path(base) / "cplus"
+        base = os.path.join(home, ".cache")
+    return os.path.join(base, "cplus")
+
+
+def _read(path: str) -> str:
+    with open(path, encoding="utf-8") as f:
+        return f.read()
 
 
 @lru_cache(maxsize=1)
@@ -74,13 +79,13 @@ def _lark() -> Lark:
     writable the tables are simply built each time."""
     from lark import Lark
 
-    text = _GRAMMAR.read_text(encoding="utf-8")
+    text = _read(_GRAMMAR)
     options = dict(parser="lalr", propagate_positions=True, maybe_placeholders=False)
     cache_dir = _cache_dir()
     if cache_dir is not None:
         try:
-            cache_dir.mkdir(parents=True, exist_ok=True)
-            return Lark(text, cache=str(cache_dir / f"grammar-{_lark_version()}.cache"), **options)
+            os.makedirs(cache_dir, exist_ok=True)
+            return Lark(text, cache=os.path.join(cache_dir, f"grammar-{_lark_version()}.cache"), **options)
         except OSError:
             pass
     return Lark(text, **options)
@@ -90,7 +95,7 @@ def _lark_version() -> str:
     import hashlib
 
     import lark
-    digest = hashlib.sha256(_GRAMMAR.read_bytes() + lark.__version__.encode()).hexdigest()
+    digest = hashlib.sha256(_read(_GRAMMAR).encode() + lark.__version__.encode()).hexdigest()
     return digest[:16]
 
 
@@ -103,26 +108,28 @@ def _parser() -> lalr.Parser:
     import sys
     import zlib
 
-    grammar = _GRAMMAR.read_text(encoding="utf-8")
+    grammar = _read(_GRAMMAR)
     cache_dir = _cache_dir()
     if cache_dir is None:
         return lalr.Parser(lalr.tables_of(_lark()))
-    path = cache_dir / f"tables-{sys.implementation.cache_tag}-{zlib.crc32(grammar.encode()):08x}.marshal"
+    path = os.path.join(cache_dir, f"tables-{sys.implementation.cache_tag}-{zlib.crc32(grammar.encode()):08x}.marshal")
     try:
-        fmt, text, tables = marshal.loads(path.read_bytes())
+        with open(path, "rb") as f:
+            fmt, text, tables = marshal.loads(f.read())
         if fmt == lalr.FORMAT and text == grammar:
             return lalr.Parser(tables)
     except (OSError, ValueError, EOFError, TypeError, KeyError):   # unreadable or damaged: rebuilt
         pass
     tables = lalr.tables_of(_lark())
-    tmp = path.with_name(f"{path.name}.{os.getpid()}.tmp")
+    tmp = f"{path}.{os.getpid()}.tmp"
     try:
-        cache_dir.mkdir(parents=True, exist_ok=True)
-        tmp.write_bytes(marshal.dumps((lalr.FORMAT, grammar, tables)))
+        os.makedirs(cache_dir, exist_ok=True)
+        with open(tmp, "wb") as f:
+            f.write(marshal.dumps((lalr.FORMAT, grammar, tables)))
         os.replace(tmp, path)
     except OSError:
         try:
-            tmp.unlink(missing_ok=True)
+            os.unlink(tmp)
         except OSError:
             pass
     return lalr.Parser(tables)
