@@ -7,7 +7,8 @@ compilers do.  Library code raises; only the CLI prints and picks exit codes.
 from __future__ import annotations
 
 import bisect
-from dataclasses import dataclass, field
+
+from cplus.record import Record
 
 __all__ = [
     "Source", "Location", "Diagnostic", "Diagnostics",
@@ -55,13 +56,21 @@ class Source:
         return f"Source({self.path!r})"
 
 
-@dataclass(frozen=True, slots=True)
-class Location:
+class Location(Record):
     """A span of a source file (character offsets; line and column are derived)."""
 
-    source: Source = field(compare=False, repr=False)
+    _fields = ('source', 'start', 'end')
+    _compare = ('start', 'end')
+    __slots__ = _fields
+
+    source: Source
     start: int
     end: int
+
+    def __init__(self, source: Source, start: int, end: int) -> None:
+        self.source = source
+        self.start = start
+        self.end = end
 
     @property
     def path(self) -> str:
@@ -152,12 +161,18 @@ class QueryError(CPlusError):
     """A malformed query, or a query label that does not exist."""
 
 
-@dataclass(frozen=True, slots=True)
-class Diagnostic:
+class Diagnostic(Record):
     """A warning: something accepted but probably not what the author meant."""
 
+    _fields = ('message', 'loc')
+    __slots__ = _fields
+
     message: str
-    loc: Location | None = None
+    loc: Location | None
+
+    def __init__(self, message: str, loc: Location | None = None) -> None:
+        self.message = message
+        self.loc = loc
 
     def render(self) -> str:
         if self.loc is None:

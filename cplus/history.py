@@ -5,8 +5,7 @@ value) and the actions 0..m-1 (every action constant's value), keyed by ground c
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
-
+from cplus.record import Record
 from cplus.signature import GroundConst, render_value
 
 __all__ = ["History", "decode_history", "executed_actions", "json_value"]
@@ -23,16 +22,28 @@ def json_value(gc: GroundConst, v: object):
     return render_value(v)  # type: ignore[arg-type]
 
 
-@dataclass(frozen=True)
-class History:
+class History(Record):
     """The tables are keyed by ground constants and hold objects as the grounder knows them
     (``"true"``/``"false"`` for Booleans); :meth:`value` and :meth:`state_text` speak by name
     and give values as the JSON output does."""
+
+    _fields = ('maxstep', 'rigid', 'states', 'actions')
 
     maxstep: int
     rigid: dict[GroundConst, object]
     states: tuple[dict[GroundConst, object], ...]
     actions: tuple[dict[GroundConst, object], ...]
+
+    def __init__(
+            self,
+            maxstep: int,
+            rigid: dict[GroundConst, object],
+            states: tuple[dict[GroundConst, object], ...],
+            actions: tuple[dict[GroundConst, object], ...]) -> None:
+        self.maxstep = maxstep
+        self.rigid = rigid
+        self.states = states
+        self.actions = actions
 
     def value(self, text: str, step: int | None = None) -> object:
         """Value of a ground constant given by its text (``"loc(d1)"``) at a step (rigid

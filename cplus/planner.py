@@ -13,12 +13,12 @@
 from __future__ import annotations
 
 from collections.abc import Callable, Iterator
-from dataclasses import dataclass, field
 from enum import Enum
 
 from cplus.ground.theory import GroundTheory
 from cplus.history import History, decode_history
 from cplus.program import QuerySpec
+from cplus.record import Record
 from cplus.sat.horizon import HorizonStats, QuerySession
 from cplus.sat.solver import DEFAULT_SOLVER
 
@@ -32,17 +32,39 @@ class PlanStatus(Enum):
     HORIZON_LIMIT = "horizon_limit"   # an open range stopped at --max-horizon
 
 
-@dataclass
-class QueryResult:
+class QueryResult(Record):
+    _fields = ('label', 'status', 'maxstep', 'histories', 'failed', 'stats', 'template_s', 'complete', 'solutions')
+
     label: str
     status: PlanStatus
     maxstep: int | None
     histories: list[History]
-    failed: list[int] = field(default_factory=list)
-    stats: list[HorizonStats] = field(default_factory=list)
-    template_s: float = 0.0
-    complete: bool = True          # all requested solutions found (or all that exist)
-    solutions: int = 1             # how many were asked for (0 = all): 'Solution k:' headers unless 1
+    failed: list[int]
+    stats: list[HorizonStats]
+    template_s: float
+    complete: bool          # all requested solutions found (or all that exist)
+    solutions: int             # how many were asked for (0 = all): 'Solution k:' headers unless 1
+
+    def __init__(
+            self,
+            label: str,
+            status: PlanStatus,
+            maxstep: int | None,
+            histories: list[History],
+            failed: list[int] | None = None,
+            stats: list[HorizonStats] | None = None,
+            template_s: float = 0.0,
+            complete: bool = True,
+            solutions: int = 1) -> None:
+        self.label = label
+        self.status = status
+        self.maxstep = maxstep
+        self.histories = histories
+        self.failed = [] if failed is None else failed
+        self.stats = [] if stats is None else stats
+        self.template_s = template_s
+        self.complete = complete
+        self.solutions = solutions
 
 
 def states_query() -> QuerySpec:

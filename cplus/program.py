@@ -7,10 +7,9 @@ abnormalities) are left to the grounder, which knows each constant's kind.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field
-
 from cplus import ir
 from cplus.errors import Diagnostics, Location
+from cplus.record import Record
 from cplus.signature import ConstDecl, Signature
 
 __all__ = ["BasicLaw", "IncrementLaw", "QuerySpec", "Pattern", "Program", "LAW_CLASSES"]
@@ -18,8 +17,7 @@ __all__ = ["BasicLaw", "IncrementLaw", "QuerySpec", "Pattern", "Program", "LAW_C
 LAW_CLASSES = ("static", "action", "dynamic", "rigid")
 
 
-@dataclass(frozen=True)
-class BasicLaw:
+class BasicLaw(Record):
     """``caused head if body after after where where`` in one time class.
 
     * ``static``: head and body at every step 0..m;
@@ -33,6 +31,8 @@ class BasicLaw:
     -(c=v) after c=v).
     """
 
+    _fields = ('cls', 'head', 'body', 'after', 'where', 'loc', 'origin', 'frame', 'frame_cst')
+
     cls: str
     head: ir.Formula | None
     body: ir.Formula
@@ -40,13 +40,35 @@ class BasicLaw:
     where: ir.Formula | None
     loc: Location
     origin: str
-    frame: str | None = None
-    frame_cst: ir.Cst | None = None
+    frame: str | None
+    frame_cst: ir.Cst | None
+
+    def __init__(
+            self,
+            cls: str,
+            head: ir.Formula | None,
+            body: ir.Formula,
+            after: ir.Formula | None,
+            where: ir.Formula | None,
+            loc: Location,
+            origin: str,
+            frame: str | None = None,
+            frame_cst: ir.Cst | None = None) -> None:
+        self.cls = cls
+        self.head = head
+        self.body = body
+        self.after = after
+        self.where = where
+        self.loc = loc
+        self.origin = origin
+        self.frame = frame
+        self.frame_cst = frame_cst
 
 
-@dataclass(frozen=True)
-class IncrementLaw:
+class IncrementLaw(Record):
     """``action increments target by amount if cond where where`` (decrements: negated)."""
+
+    _fields = ('action', 'target', 'amount', 'cond', 'where', 'decrement', 'loc')
 
     action: ir.Formula
     target: ir.Cst
@@ -56,10 +78,28 @@ class IncrementLaw:
     decrement: bool
     loc: Location
 
+    def __init__(
+            self,
+            action: ir.Formula,
+            target: ir.Cst,
+            amount: ir.Term,
+            cond: ir.Formula,
+            where: ir.Formula | None,
+            decrement: bool,
+            loc: Location) -> None:
+        self.action = action
+        self.target = target
+        self.amount = amount
+        self.cond = cond
+        self.where = where
+        self.decrement = decrement
+        self.loc = loc
 
-@dataclass(frozen=True)
-class QuerySpec:
+
+class QuerySpec(Record):
     """A query: ``lo..hi`` (hi None = infinity) and its items (universal free variables)."""
+
+    _fields = ('label', 'lo', 'hi', 'items', 'loc')
 
     label: str
     lo: int
@@ -67,32 +107,79 @@ class QuerySpec:
     items: tuple[tuple[ir.Formula, Location], ...]
     loc: Location | None
 
+    def __init__(
+            self,
+            label: str,
+            lo: int,
+            hi: int | None,
+            items: tuple[tuple[ir.Formula, Location], ...],
+            loc: Location | None) -> None:
+        self.label = label
+        self.lo = lo
+        self.hi = hi
+        self.items = items
+        self.loc = loc
 
-@dataclass(frozen=True)
-class Pattern:
+
+class Pattern(Record):
     """A show/hide pattern ``c(args)`` or ``c(args)=v`` (variables match any object)."""
+
+    _fields = ('decl', 'args', 'value', 'negated')
 
     decl: ConstDecl
     args: tuple[object, ...]       # ir.Var or a value
     value: object | None           # ir.Var, a value, or None (any value)
-    negated: bool = False
+    negated: bool
+
+    def __init__(self, decl: ConstDecl, args: tuple[object, ...], value: object | None, negated: bool = False) -> None:
+        self.decl = decl
+        self.args = args
+        self.value = value
+        self.negated = negated
 
 
-@dataclass
-class Program:
+class Program(Record):
     """A resolved domain description and its queries."""
 
+    _fields = ('signature', 'laws', 'increments', 'queries', 'show', 'hide', 'hide_all', 'show_given',
+               'noconcurrency', 'diagnostics', 'files')
+
     signature: Signature
-    laws: list[BasicLaw] = field(default_factory=list)
-    increments: list[IncrementLaw] = field(default_factory=list)
-    queries: list[QuerySpec] = field(default_factory=list)
-    show: list[Pattern] = field(default_factory=list)
-    hide: list[Pattern] = field(default_factory=list)
-    hide_all: bool = False
-    show_given: bool = False
-    noconcurrency: list[tuple[bool, Location]] = field(default_factory=list)
-    diagnostics: Diagnostics = field(default_factory=Diagnostics)
-    files: list[str] = field(default_factory=list)
+    laws: list[BasicLaw]
+    increments: list[IncrementLaw]
+    queries: list[QuerySpec]
+    show: list[Pattern]
+    hide: list[Pattern]
+    hide_all: bool
+    show_given: bool
+    noconcurrency: list[tuple[bool, Location]]
+    diagnostics: Diagnostics
+    files: list[str]
+
+    def __init__(
+            self,
+            signature: Signature,
+            laws: list[BasicLaw] | None = None,
+            increments: list[IncrementLaw] | None = None,
+            queries: list[QuerySpec] | None = None,
+            show: list[Pattern] | None = None,
+            hide: list[Pattern] | None = None,
+            hide_all: bool = False,
+            show_given: bool = False,
+            noconcurrency: list[tuple[bool, Location]] | None = None,
+            diagnostics: Diagnostics | None = None,
+            files: list[str] | None = None) -> None:
+        self.signature = signature
+        self.laws = [] if laws is None else laws
+        self.increments = [] if increments is None else increments
+        self.queries = [] if queries is None else queries
+        self.show = [] if show is None else show
+        self.hide = [] if hide is None else hide
+        self.hide_all = hide_all
+        self.show_given = show_given
+        self.noconcurrency = [] if noconcurrency is None else noconcurrency
+        self.diagnostics = Diagnostics() if diagnostics is None else diagnostics
+        self.files = [] if files is None else files
 
     def query(self, label: str) -> QuerySpec | None:
         for q in self.queries:

@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import os
 from collections.abc import Callable, Iterable
-from dataclasses import dataclass
 
 from cplus import ast, ir
 from cplus.errors import DefinitenessError, Diagnostics, IncludeError, Location, QueryError, ResolveError, SortError
@@ -26,6 +25,7 @@ from cplus.limits import (
     count,
 )
 from cplus.program import BasicLaw, IncrementLaw, Pattern, Program, QuerySpec
+from cplus.record import Record
 from cplus.signature import (
     ACTION_KINDS,
     FLUENT_KINDS,
@@ -45,14 +45,21 @@ Reader = Callable[[str, Location | None], ast.ParsedFile]
 """``read(path, loc)`` returns the parsed statements of a file or raises a CPlusError."""
 
 
-@dataclass(frozen=True)
-class External:
+class External(Record):
     """``predicate`` True: formulas only; False: terms only; None: either."""
+
+    _fields = ('name', 'arity', 'fn', 'predicate')
 
     name: str
     arity: int
     fn: Callable[..., object]
     predicate: bool | None
+
+    def __init__(self, name: str, arity: int, fn: Callable[..., object], predicate: bool | None) -> None:
+        self.name = name
+        self.arity = arity
+        self.fn = fn
+        self.predicate = predicate
 
 
 class Externals:

@@ -15,10 +15,10 @@ terms), which is what ``@<`` compares and how CCALC prints argument tuples.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field
 from itertools import product
 
 from cplus.errors import Location
+from cplus.record import Record
 
 __all__ = [
     "Value", "SortExpr", "NamedSort", "RangeSort", "KindSort", "StepSort",
@@ -62,44 +62,67 @@ def render_value(v: Value) -> str:
 # --------------------------------------------------------------------------- sorts
 
 
-@dataclass(frozen=True, slots=True)
-class NamedSort:
+class NamedSort(Record):
     """A declared (or built-in) sort; ``star`` adds the object ``none``."""
 
+    _fields = ('name', 'star')
+    __slots__ = _fields
+
     name: str
-    star: bool = False
+    star: bool
+
+    def __init__(self, name: str, star: bool = False) -> None:
+        self.name = name
+        self.star = star
 
     def __str__(self) -> str:
         return self.name + ("*" if self.star else "")
 
 
-@dataclass(frozen=True, slots=True)
-class RangeSort:
+class RangeSort(Record):
     """An anonymous integer sort ``lo..hi``."""
+
+    _fields = ('lo', 'hi', 'star')
+    __slots__ = _fields
 
     lo: int
     hi: int
-    star: bool = False
+    star: bool
+
+    def __init__(self, lo: int, hi: int, star: bool = False) -> None:
+        self.lo = lo
+        self.hi = hi
+        self.star = star
 
     def __str__(self) -> str:
         return f"{self.lo}..{self.hi}"
 
 
-@dataclass(frozen=True, slots=True)
-class KindSort:
+class KindSort(Record):
     """Variables over a constant kind (``A :: exogenousAction``): Boolean ground constants."""
 
+    _fields = ('kind',)
+    __slots__ = _fields
+
     kind: str
+
+    def __init__(self, kind: str) -> None:
+        self.kind = kind
 
     def __str__(self) -> str:
         return self.kind
 
 
-@dataclass(frozen=True, slots=True)
-class StepSort:
+class StepSort(Record):
     """``step`` (0..maxstep) or ``astep`` (0..maxstep-1): only known per horizon."""
 
-    action: bool = False
+    _fields = ('action',)
+    __slots__ = _fields
+
+    action: bool
+
+    def __init__(self, action: bool = False) -> None:
+        self.action = action
 
     def __str__(self) -> str:
         return "astep" if self.action else "step"
@@ -108,35 +131,83 @@ class StepSort:
 SortExpr = NamedSort | RangeSort | KindSort | StepSort
 
 
-@dataclass(eq=False)
 class SortInfo:
+    _fields = ('name', 'loc', 'parents', 'children', 'objects', 'members')
+
     name: str
     loc: Location | None
-    parents: list[str] = field(default_factory=list)
-    children: list[str] = field(default_factory=list)
-    objects: list[Value] = field(default_factory=list)
-    members: set = field(default_factory=set)   # the same objects, for constant-time membership
+    parents: list[str]
+    children: list[str]
+    objects: list[Value]
+    members: set   # the same objects, for constant-time membership
+
+    def __init__(
+            self,
+            name: str,
+            loc: Location | None,
+            parents: list[str] | None = None,
+            children: list[str] | None = None,
+            objects: list[Value] | None = None,
+            members: set | None = None) -> None:
+        self.name = name
+        self.loc = loc
+        self.parents = [] if parents is None else parents
+        self.children = [] if children is None else children
+        self.objects = [] if objects is None else objects
+        self.members = set() if members is None else members
+
+    def __repr__(self) -> str:
+        return f"SortInfo(name={self.name!r}, loc={self.loc!r}, ...)"
 
 
 # --------------------------------------------------------------------------- constants
 
 
-@dataclass(eq=False)
 class ConstDecl:
     """A declared constant ``name(argsorts) :: kind(domain)``."""
+
+    _fields = ('name', 'argsorts', 'kind', 'domain', 'loc', 'parent', 'parent_args', 'hidden', 'auto_ab', 'order',
+               'instances', 'attributes')
 
     name: str
     argsorts: tuple[SortExpr, ...]
     kind: str
     domain: SortExpr
     loc: Location | None
-    parent: ConstDecl | None = None
-    parent_args: tuple[int, ...] = ()   # attribute: positions of the parent's arguments
-    hidden: bool = False                # internal constants (contributions, ...)
-    auto_ab: bool = False               # declared by an `unless` clause
-    order: int = 0                      # declaration order
-    instances: dict[tuple, GroundConst] = field(default_factory=dict)
-    attributes: list[ConstDecl] = field(default_factory=list)
+    parent: ConstDecl | None
+    parent_args: tuple[int, ...]   # attribute: positions of the parent's arguments
+    hidden: bool                # internal constants (contributions, ...)
+    auto_ab: bool               # declared by an `unless` clause
+    order: int                      # declaration order
+    instances: dict[tuple, GroundConst]
+    attributes: list[ConstDecl]
+
+    def __init__(
+            self,
+            name: str,
+            argsorts: tuple[SortExpr, ...],
+            kind: str,
+            domain: SortExpr,
+            loc: Location | None,
+            parent: ConstDecl | None = None,
+            parent_args: tuple[int, ...] = (),
+            hidden: bool = False,
+            auto_ab: bool = False,
+            order: int = 0,
+            instances: dict[tuple, GroundConst] | None = None,
+            attributes: list[ConstDecl] | None = None) -> None:
+        self.name = name
+        self.argsorts = argsorts
+        self.kind = kind
+        self.domain = domain
+        self.loc = loc
+        self.parent = parent
+        self.parent_args = parent_args
+        self.hidden = hidden
+        self.auto_ab = auto_ab
+        self.order = order
+        self.instances = {} if instances is None else instances
+        self.attributes = [] if attributes is None else attributes
 
     @property
     def arity(self) -> int:

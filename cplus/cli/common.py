@@ -155,12 +155,14 @@ def distinct_bricks(ports: dict[str, str], prog: str) -> dict[str, str]:
 
 
 def externals(files: list[str]):
-    """The built-in externals plus those of every ``--extern FILE.py``."""
-    from cplus.externals import load_extern_file
+    """The built-in externals plus those of every ``--extern FILE.py`` (loading them needs
+    :mod:`inspect`, 3 ms of import: only when there are any)."""
     from cplus.resolve import BUILTIN_EXTERNALS
     ext = BUILTIN_EXTERNALS.copy()
-    for f in files:
-        load_extern_file(f, ext)
+    if files:
+        from cplus.externals import load_extern_file
+        for f in files:
+            load_extern_file(f, ext)
     return ext
 
 

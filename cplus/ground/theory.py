@@ -19,7 +19,6 @@ from __future__ import annotations
 
 import time as _time
 from collections.abc import Callable
-from dataclasses import dataclass, field
 
 from cplus import ir, limits
 from cplus.errors import GroundingError, Location, SortError
@@ -39,6 +38,7 @@ from cplus.ground.pf import PF, mk_and, neg
 from cplus.ground.vector import ground_vectorized
 from cplus.limits import RULE_BYTES, count, too_large
 from cplus.program import BasicLaw, IncrementLaw, Program
+from cplus.record import Record
 from cplus.signature import SIMPLE_KINDS, ConstDecl, GroundConst, RangeSort, StepSort
 
 __all__ = ["GroundTheory", "AdditiveSum", "ground_program", "template_lit", "SLOT_NOW", "SLOT_NEXT",
@@ -52,45 +52,89 @@ def template_lit(aid: int, slot: int) -> int:
     return aid * 3 + slot + 1 if aid > 0 else -(-aid * 3 + slot + 1)
 
 
-@dataclass
-class AdditiveSum:
+class AdditiveSum(Record):
     """``target`` (at slot 1 for a fluent, slot 0 for an action) = base + sum of contributions."""
+
+    _fields = ('target', 'contributions')
 
     target: GroundConst
     contributions: list[GroundConst]
 
+    def __init__(self, target: GroundConst, contributions: list[GroundConst]) -> None:
+        self.target = target
+        self.contributions = contributions
 
-@dataclass
-class GroundTheory:
+
+class GroundTheory(Record):
+    _fields = ('program', 'atoms', 'rules', 'constraints', 'sums', 'noconcurrency', 'rule_count', 'seconds',
+               'initial', 'dead')
+
     program: Program
     atoms: AtomTable
-    rules: dict[str, list[tuple[int, PF]]] = field(default_factory=lambda: {c: [] for c in CLASSES})
-    constraints: dict[str, list[PF]] = field(default_factory=lambda: {c: [] for c in CLASSES})
-    sums: list[AdditiveSum] = field(default_factory=list)
-    noconcurrency: list[list[PF]] = field(default_factory=list)
-    rule_count: int = 0
-    seconds: float = 0.0
-    initial: frozenset[int] | None = None
+    rules: dict[str, list[tuple[int, PF]]]
+    constraints: dict[str, list[PF]]
+    sums: list[AdditiveSum]
+    noconcurrency: list[list[PF]]
+    rule_count: int
+    seconds: float
+    initial: frozenset[int] | None
     """Set when the theory was ground for one initial state (:mod:`cplus.ground.restrict`):
     the positive atoms fixed at step 0; rules that need an unreachable value are left out."""
-    dead: frozenset[int] = frozenset()
+    dead: frozenset[int]
     """With :attr:`initial`: the fluent values no history from that state can take."""
+
+    def __init__(
+            self,
+            program: Program,
+            atoms: AtomTable,
+            rules: dict[str, list[tuple[int, PF]]] | None = None,
+            constraints: dict[str, list[PF]] | None = None,
+            sums: list[AdditiveSum] | None = None,
+            noconcurrency: list[list[PF]] | None = None,
+            rule_count: int = 0,
+            seconds: float = 0.0,
+            initial: frozenset[int] | None = None,
+            dead: frozenset[int] = frozenset()) -> None:
+        self.program = program
+        self.atoms = atoms
+        self.rules = {c: [] for c in CLASSES} if rules is None else rules
+        self.constraints = {c: [] for c in CLASSES} if constraints is None else constraints
+        self.sums = [] if sums is None else sums
+        self.noconcurrency = [] if noconcurrency is None else noconcurrency
+        self.rule_count = rule_count
+        self.seconds = seconds
+        self.initial = initial
+        self.dead = dead
 
     @property
     def sig(self):
         return self.program.signature
 
 
-@dataclass
-class PreparedLaw:
+class PreparedLaw(Record):
     """A law ready to ground: ``leaf(env)`` appends the rules of one binding of
     ``variables`` that passes ``filters`` (see :meth:`_Grounder.prepare`)."""
+
+    _fields = ('law', 'variables', 'filters', 'leaf', 'head_slot')
 
     law: BasicLaw
     variables: dict[str, ir.Var]
     filters: list
     leaf: Callable[[dict], None]
     head_slot: int
+
+    def __init__(
+            self,
+            law: BasicLaw,
+            variables: dict[str, ir.Var],
+            filters: list,
+            leaf: Callable[[dict], None],
+            head_slot: int) -> None:
+        self.law = law
+        self.variables = variables
+        self.filters = filters
+        self.leaf = leaf
+        self.head_slot = head_slot
 
 
 class _Grounder:

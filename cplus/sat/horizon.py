@@ -13,7 +13,6 @@ from __future__ import annotations
 import sys
 import time
 from collections.abc import Callable, Iterator
-from dataclasses import dataclass
 
 from cplus import ir
 from cplus.errors import GroundingError, Location
@@ -23,6 +22,7 @@ from cplus.ground.restrict import fixed_at_zero, has_step_var
 from cplus.ground.theory import GroundTheory
 from cplus.limits import MAX_SOLVER_VARS, clause_bytes, count, memory_budget, too_large
 from cplus.program import QuerySpec
+from cplus.record import Record
 from cplus.sat.cnf import ClauseBuilder
 from cplus.sat.reach import unreachable
 from cplus.sat.solver import DEFAULT_SOLVER, SatSolver
@@ -33,15 +33,33 @@ __all__ = ["Horizon", "QuerySession", "HorizonStats"]
 _VECTORIZE_FROM = 20000   # clauses; below this numpy's set-up costs more than it saves (and its import always)
 
 
-@dataclass
-class HorizonStats:
+class HorizonStats(Record):
+    _fields = ('maxstep', 'variables', 'clauses', 'encode_s', 'solve_s', 'satisfiable', 'models')
+
     maxstep: int
     variables: int
     clauses: int
     encode_s: float
     solve_s: float
-    satisfiable: bool | None = None
-    models: int = 0
+    satisfiable: bool | None
+    models: int
+
+    def __init__(
+            self,
+            maxstep: int,
+            variables: int,
+            clauses: int,
+            encode_s: float,
+            solve_s: float,
+            satisfiable: bool | None = None,
+            models: int = 0) -> None:
+        self.maxstep = maxstep
+        self.variables = variables
+        self.clauses = clauses
+        self.encode_s = encode_s
+        self.solve_s = solve_s
+        self.satisfiable = satisfiable
+        self.models = models
 
 
 class Horizon:

@@ -19,9 +19,9 @@ defined once, four clauses a value:
 which makes each a function of the atoms whenever the constant has at most one value (in
 every model it has exactly one), so the models and their count do not move.  A constant is
 taken out of a body when it has the most values there; it is used only where it pays
-(:data:`MIN_ROWS`, :data:`GAIN`), otherwise the constraints stay one clause each.  :mod:`cplus.sat.products` takes its families first.  Values a query's
-start cannot reach (dead, false at every step) are left out of the order, so a run may step
-over them.
+(:data:`MIN_ROWS`, :data:`GAIN`), otherwise the constraints stay one clause each.
+:mod:`cplus.sat.products` takes its families first.  Values a query's start cannot reach
+(dead, false at every step) are left out of the order, so a run may step over them.
 
 car-300 went from 0.27 to 0.24 s for the whole command (solving 0.03 to 0.01 s); the payload
 arms' straight moves past obstacles (2,352 clauses a step) become 1,350.

@@ -13,11 +13,11 @@ offsets, so a longer horizon only appends clauses.
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
 from itertools import chain
 
 from cplus.ground.pf import PF, map_lits, mk_and
 from cplus.ground.theory import GroundTheory, initially_free
+from cplus.record import Record
 from cplus.sat.cnf import CONFLICT, ClauseBuilder, _without, compact
 from cplus.sat.factor import rewrite
 from cplus.sat.intervals import factor_intervals
@@ -28,18 +28,36 @@ from cplus.signature import GroundConst
 __all__ = ["Layout", "Template", "build_templates"]
 
 
-@dataclass
-class Template:
+class Template(Record):
+    _fields = ('clauses', 'top', 'name', 'extra', '_flat', '_literals', '_shifted')
+
     clauses: list[list[int]]
     top: int                      # highest template id used
     name: str
-    extra: list[tuple[Template, int]] = field(default_factory=list)
+    extra: list[tuple[Template, int]]
     """Templates over slot 0 that come with this one, each placed at the given slot of every
     instance (the part that is the same at every step is built once and placed at step 0
     by the initial template, at the next step by the transition)."""
-    _flat: tuple | None = None
-    _literals: int | None = None
-    _shifted: list | None = None
+    _flat: tuple | None
+    _literals: int | None
+    _shifted: list | None
+
+    def __init__(
+            self,
+            clauses: list[list[int]],
+            top: int,
+            name: str,
+            extra: list[tuple[Template, int]] | None = None,
+            _flat: tuple | None = None,
+            _literals: int | None = None,
+            _shifted: list | None = None) -> None:
+        self.clauses = clauses
+        self.top = top
+        self.name = name
+        self.extra = [] if extra is None else extra
+        self._flat = _flat
+        self._literals = _literals
+        self._shifted = _shifted
 
     def size(self, base: int) -> tuple[int, int, int]:
         """(clauses, literals, auxiliary variables) of one instance, extras included."""
