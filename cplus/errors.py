@@ -59,8 +59,8 @@ class Source:
 class Location(Record):
     """A span of a source file (character offsets; line and column are derived)."""
 
-    _fields = ('source', 'start', 'end')
-    _compare = ('start', 'end')
+    _fields = ("source", "start", "end")
+    _compare = ("start", "end")
     __slots__ = _fields
 
     source: Source
@@ -164,7 +164,7 @@ class QueryError(CPlusError):
 class Diagnostic(Record):
     """A warning: something accepted but probably not what the author meant."""
 
-    _fields = ('message', 'loc')
+    _fields = ("message", "loc")
     __slots__ = _fields
 
     message: str

@@ -27,7 +27,7 @@ class History(Record):
     (``"true"``/``"false"`` for Booleans); :meth:`value` and :meth:`state_text` speak by name
     and give values as the JSON output does."""
 
-    _fields = ('maxstep', 'rigid', 'states', 'actions')
+    _fields = ("maxstep", "rigid", "states", "actions")
 
     maxstep: int
     rigid: dict[GroundConst, object]

@@ -33,7 +33,7 @@ class PlanStatus(Enum):
 
 
 class QueryResult(Record):
-    _fields = ('label', 'status', 'maxstep', 'histories', 'failed', 'stats', 'template_s', 'complete', 'solutions')
+    _fields = ("label", "status", "maxstep", "histories", "failed", "stats", "template_s", "complete", "solutions")
 
     label: str
     status: PlanStatus

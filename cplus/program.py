@@ -31,7 +31,7 @@ class BasicLaw(Record):
     -(c=v) after c=v).
     """
 
-    _fields = ('cls', 'head', 'body', 'after', 'where', 'loc', 'origin', 'frame', 'frame_cst')
+    _fields = ("cls", "head", "body", "after", "where", "loc", "origin", "frame", "frame_cst")
 
     cls: str
     head: ir.Formula | None
@@ -68,7 +68,7 @@ class BasicLaw(Record):
 class IncrementLaw(Record):
     """``action increments target by amount if cond where where`` (decrements: negated)."""
 
-    _fields = ('action', 'target', 'amount', 'cond', 'where', 'decrement', 'loc')
+    _fields = ("action", "target", "amount", "cond", "where", "decrement", "loc")
 
     action: ir.Formula
     target: ir.Cst
@@ -99,7 +99,7 @@ class IncrementLaw(Record):
 class QuerySpec(Record):
     """A query: ``lo..hi`` (hi None = infinity) and its items (universal free variables)."""
 
-    _fields = ('label', 'lo', 'hi', 'items', 'loc')
+    _fields = ("label", "lo", "hi", "items", "loc")
 
     label: str
     lo: int
@@ -124,7 +124,7 @@ class QuerySpec(Record):
 class Pattern(Record):
     """A show/hide pattern ``c(args)`` or ``c(args)=v`` (variables match any object)."""
 
-    _fields = ('decl', 'args', 'value', 'negated')
+    _fields = ("decl", "args", "value", "negated")
 
     decl: ConstDecl
     args: tuple[object, ...]       # ir.Var or a value
@@ -141,8 +141,8 @@ class Pattern(Record):
 class Program(Record):
     """A resolved domain description and its queries."""
 
-    _fields = ('signature', 'laws', 'increments', 'queries', 'show', 'hide', 'hide_all', 'show_given',
-               'noconcurrency', 'diagnostics', 'files')
+    _fields = ("signature", "laws", "increments", "queries", "show", "hide", "hide_all", "show_given",
+               "noconcurrency", "diagnostics", "files")
 
     signature: Signature
     laws: list[BasicLaw]

@@ -48,7 +48,7 @@ Reader = Callable[[str, Location | None], ast.ParsedFile]
 class External(Record):
     """``predicate`` True: formulas only; False: terms only; None: either."""
 
-    _fields = ('name', 'arity', 'fn', 'predicate')
+    _fields = ("name", "arity", "fn", "predicate")
 
     name: str
     arity: int

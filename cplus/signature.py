@@ -65,7 +65,7 @@ def render_value(v: Value) -> str:
 class NamedSort(Record):
     """A declared (or built-in) sort; ``star`` adds the object ``none``."""
 
-    _fields = ('name', 'star')
+    _fields = ("name", "star")
     __slots__ = _fields
 
     name: str
@@ -82,7 +82,7 @@ class NamedSort(Record):
 class RangeSort(Record):
     """An anonymous integer sort ``lo..hi``."""
 
-    _fields = ('lo', 'hi', 'star')
+    _fields = ("lo", "hi", "star")
     __slots__ = _fields
 
     lo: int
@@ -101,7 +101,7 @@ class RangeSort(Record):
 class KindSort(Record):
     """Variables over a constant kind (``A :: exogenousAction``): Boolean ground constants."""
 
-    _fields = ('kind',)
+    _fields = ("kind",)
     __slots__ = _fields
 
     kind: str
@@ -116,7 +116,7 @@ class KindSort(Record):
 class StepSort(Record):
     """``step`` (0..maxstep) or ``astep`` (0..maxstep-1): only known per horizon."""
 
-    _fields = ('action',)
+    _fields = ("action",)
     __slots__ = _fields
 
     action: bool
@@ -132,8 +132,6 @@ SortExpr = NamedSort | RangeSort | KindSort | StepSort
 
 
 class SortInfo:
-    _fields = ('name', 'loc', 'parents', 'children', 'objects', 'members')
-
     name: str
     loc: Location | None
     parents: list[str]
@@ -165,9 +163,6 @@ class SortInfo:
 
 class ConstDecl:
     """A declared constant ``name(argsorts) :: kind(domain)``."""
-
-    _fields = ('name', 'argsorts', 'kind', 'domain', 'loc', 'parent', 'parent_args', 'hidden', 'auto_ab', 'order',
-               'instances', 'attributes')
 
     name: str
     argsorts: tuple[SortExpr, ...]

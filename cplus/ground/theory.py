@@ -55,7 +55,7 @@ def template_lit(aid: int, slot: int) -> int:
 class AdditiveSum(Record):
     """``target`` (at slot 1 for a fluent, slot 0 for an action) = base + sum of contributions."""
 
-    _fields = ('target', 'contributions')
+    _fields = ("target", "contributions")
 
     target: GroundConst
     contributions: list[GroundConst]
@@ -66,8 +66,8 @@ class AdditiveSum(Record):
 
 
 class GroundTheory(Record):
-    _fields = ('program', 'atoms', 'rules', 'constraints', 'sums', 'noconcurrency', 'rule_count', 'seconds',
-               'initial', 'dead')
+    _fields = ("program", "atoms", "rules", "constraints", "sums", "noconcurrency", "rule_count", "seconds",
+               "initial", "dead")
 
     program: Program
     atoms: AtomTable
@@ -115,7 +115,7 @@ class PreparedLaw(Record):
     """A law ready to ground: ``leaf(env)`` appends the rules of one binding of
     ``variables`` that passes ``filters`` (see :meth:`_Grounder.prepare`)."""
 
-    _fields = ('law', 'variables', 'filters', 'leaf', 'head_slot')
+    _fields = ("law", "variables", "filters", "leaf", "head_slot")
 
     law: BasicLaw
     variables: dict[str, ir.Var]

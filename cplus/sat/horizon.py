@@ -34,7 +34,7 @@ _VECTORIZE_FROM = 20000   # clauses; below this numpy's set-up costs more than i
 
 
 class HorizonStats(Record):
-    _fields = ('maxstep', 'variables', 'clauses', 'encode_s', 'solve_s', 'satisfiable', 'models')
+    _fields = ("maxstep", "variables", "clauses", "encode_s", "solve_s", "satisfiable", "models")
 
     maxstep: int
     variables: int

@@ -29,7 +29,7 @@ __all__ = ["Layout", "Template", "build_templates"]
 
 
 class Template(Record):
-    _fields = ('clauses', 'top', 'name', 'extra', '_flat', '_literals', '_shifted')
+    _fields = ("clauses", "top", "name", "extra", "_flat", "_literals", "_shifted")
 
     clauses: list[list[int]]
     top: int                      # highest template id used
