@@ -29,7 +29,7 @@ from collections.abc import Iterable
 from cplus import ir
 from cplus.ground.compile import Ctx, bind, binding_levels, compile_formula, domain_of
 from cplus.ground.pf import PF, mk_and
-from cplus.ground.vector import ground_vectorized
+from cplus.ground.vector import ground_vectorized, matching
 from cplus.signature import SIMPLE_KINDS, ConstDecl, StepSort
 
 __all__ = ["Reachability", "ground_reachable", "fixed_at_zero", "has_step_var"]
@@ -258,23 +258,7 @@ def _bind_joined(g, prep, gens: list[_Gen], doms: dict[str, set], pools: list, f
     for gen, pool in zip(gens, pools):
         pattern = gen.pattern
         names = list(dict.fromkeys(x for is_var, x in pattern if is_var))
-        rows = []
-        for args, value in pool:
-            row = (*args, value)
-            firsts: dict = {}
-            for (is_var, x), v in zip(pattern, row):
-                if not is_var:
-                    if v != x:
-                        break
-                elif x in firsts:
-                    if firsts[x] != v:
-                        break
-                elif v in doms[x]:
-                    firsts[x] = v
-                else:
-                    break
-            else:
-                rows.append(tuple(firsts[n] for n in names))
+        rows = matching(pattern, names, doms, ((*args, value) for args, value in pool))
         if not names:
             if not rows:
                 return

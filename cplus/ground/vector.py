@@ -347,10 +347,15 @@ def _at(vals: tuple, where: tuple[int, int]):
 
 
 def _relation(sig, variables: dict, pattern: tuple, names: list[str], rows: list) -> list[tuple]:
-    """The rows of a joined atom as an axis: the values of its variables (in ``names``
-    order) in every allowed atom that matches its objects, repeats and variable sorts."""
+    """The rows of a joined atom as an axis (:func:`matching`, over the variables' sorts)."""
     from cplus.ground.compile import domain_of
-    doms = {n: set(domain_of(sig, variables[n], {})) for n in names}
+    return matching(pattern, names, {n: set(domain_of(sig, variables[n], {})) for n in names}, rows)
+
+
+def matching(pattern: tuple, names: list[str], doms: dict, rows) -> list[tuple]:
+    """The values of an atom's variables (in ``names`` order) in every row (its arguments
+    and value) that matches its ``pattern`` of ``(is_var, variable or object)``: the
+    objects, a variable's repeats, and each variable's values ``doms[name]``."""
     out = []
     for row in rows:
         got: dict = {}
