@@ -206,33 +206,32 @@ def _node(children: list, name: str, expand1: bool, include) -> Tree | Token:
     res = kept[0] if expand1 and len(kept) == 1 else Tree(name, kept)
     if isinstance(res, Tree):
         meta = res.meta
-        for c in children:
-            if isinstance(c, Tree):
-                if not c.meta.empty:
-                    start = c.meta.cstart
-                    break
-            else:
-                start = c.start_pos
-                break
-        else:
+        start = _edge(children, "cstart", "start_pos")
+        if start is None:
             return res
         if meta.start_pos is None:
             meta.start_pos = start
             meta.empty = False
         meta.cstart = start
-        for c in reversed(children):
-            if isinstance(c, Tree):
-                if not c.meta.empty:
-                    end = c.meta.cend
-                    break
-            else:
-                end = c.end_pos
-                break
+        end = _edge(reversed(children), "cend", "end_pos")
+        assert end is not None       # the child that gave the start has an end
         if meta.end_pos is None:
             meta.end_pos = end
             meta.empty = False
         meta.cend = end
     return res
+
+
+def _edge(children, of_tree: str, of_token: str) -> int | None:
+    """The position of the first child (in the order given) that has one: a token's, or a
+    non-empty subtree's ``of_tree`` position, as lark's position propagation takes it."""
+    for c in children:
+        if isinstance(c, Tree):
+            if not c.meta.empty:
+                return getattr(c.meta, of_tree)
+        else:
+            return getattr(c, of_token)
+    return None
 
 
 # --------------------------------------------------------------------------- from lark
