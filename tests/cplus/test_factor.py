@@ -4,11 +4,10 @@ variables are functions of the atoms); a translation law shrinks; the planner's 
 not change when it is used."""
 from __future__ import annotations
 
-from contextlib import contextmanager
-
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from pysat.solvers import Solver
+from test_semantics import forced
 
 from cplus import Domain
 from cplus.ground.pf import neg
@@ -61,23 +60,12 @@ def models(rules, constraints, self_supporting, rewrite: bool, sizes=SIZES, valu
     return found, len(cb.clauses)
 
 
-@contextmanager
-def always_rewriting():
-    """Rewrite whatever can be grouped, however few the rules and whatever it costs."""
-    old = factor._FROM, factor._GAIN
-    factor._FROM, factor._GAIN = 0, float("inf")
-    try:
-        yield
-    finally:
-        factor._FROM, factor._GAIN = old
-
-
 @settings(max_examples=200, deadline=None)
 @given(rule_sets())
 def test_rewritten_rules_have_the_models_of_the_ordinary_completion(spec):
     rules, constraints, self_supporting = spec
     want, _ = models(rules, constraints, self_supporting, rewrite=False)
-    with always_rewriting():
+    with forced(factor):
         got, _ = models(rules, constraints, self_supporting, rewrite=True)
     assert set(got) == set(want)
 

@@ -4,28 +4,16 @@ constraint, one model each (the order variables are functions of the atoms); a t
 law shrinks; dead values may be stepped over; the planner's answers do not change."""
 from __future__ import annotations
 
-from contextlib import contextmanager
-
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from pysat.solvers import Solver
+from test_semantics import forced
 
 from cplus import Domain
 from cplus.sat import intervals
 from cplus.sat.cnf import ClauseBuilder
 
 SIZES = (2, 3, 7)     # a Boolean-like constant, a small one, the integer one (values 0..6)
-
-
-@contextmanager
-def always_ordering():
-    """Use order variables wherever a constraint has an integer constant, whatever it costs."""
-    old = intervals.MIN_ROWS, intervals.GAIN
-    intervals.MIN_ROWS, intervals.GAIN = 0, float("inf")
-    try:
-        yield
-    finally:
-        intervals.MIN_ROWS, intervals.GAIN = old
 
 
 def models(constraints: list[list[tuple[int, int]]], order: bool, sizes=SIZES, dead: frozenset = frozenset()
@@ -81,7 +69,7 @@ def constraint_sets(draw):
 def test_ordered_constraints_have_the_models_of_one_clause_each(spec):
     constraints, dead = spec
     want, _ = models(constraints, False, dead=dead)
-    with always_ordering():
+    with forced(intervals):
         got, _ = models(constraints, True, dead=dead)
     assert set(got) == set(want)
 
@@ -101,7 +89,7 @@ def test_a_dead_value_does_not_break_a_run():
     """Values 0..9, 5 dead: forbidding 3, 4, 6 and 7 is one run over the live values."""
     written: list = []
     lits = {v: 100 + v for v in range(10) if v != 5}
-    with always_ordering():
+    with forced(intervals):
         rest = intervals.factor_intervals([(1, lits[v]) for v in (3, 4, 6, 7)],
                                           lambda x: ("c", x - 100) if x >= 100 else None,
                                           lambda key: lits, written.append, iter(range(200, 300)).__next__)

@@ -4,29 +4,18 @@ class variables are functions of the atoms); a length law shrinks; the planner's
 not change when it is used."""
 from __future__ import annotations
 
-from contextlib import contextmanager
 from itertools import product
 
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from pysat.solvers import Solver
+from test_semantics import forced
 
 from cplus import Domain
 from cplus.sat import products
 from cplus.sat.cnf import ClauseBuilder
 
 SIZES = (3, 2, 3, 3)
-
-
-@contextmanager
-def always_factoring():
-    """Factor every family that has two alike assignments, however small and whatever it costs."""
-    old = products.MIN_ROWS, products.GAIN
-    products.MIN_ROWS, products.GAIN = 0, float("inf")
-    try:
-        yield
-    finally:
-        products.MIN_ROWS, products.GAIN = old
 
 
 def models(forbidden: list[tuple[int, ...]], factor: bool, sizes=SIZES, extra: list[tuple[int, ...]] = ()
@@ -75,7 +64,7 @@ def families(draw):
 def test_factored_families_have_the_models_of_one_clause_per_tuple(spec):
     rows, extra = spec
     want, _ = models(rows, False, extra=extra)
-    with always_factoring():
+    with forced(products):
         got, _ = models(rows, True, extra=extra)
     assert set(got) == set(want)
 
@@ -97,7 +86,7 @@ def test_unrelated_tuples_are_left_as_they_are():
     to share, nothing written."""
     rows = [(a, b, (a + b) % 3, (a + 2 * b) % 3) for a in range(3) for b in range(3)]
     written: list = []
-    with always_factoring():
+    with forced(products):
         rest = products.factor_products([tuple(10 * k + v for k, v in enumerate(r)) for r in rows],
                                         lambda x: x // 10, written.append, lambda: 99)
     assert written == [] and len(rest) == len(rows)

@@ -8,6 +8,7 @@ per law form and constant kind, and random domains that mix them all (``cplus_ra
 from __future__ import annotations
 
 import math
+from contextlib import contextmanager
 
 import pytest
 from cplus_oracle import (
@@ -339,20 +340,26 @@ def test_planner_agrees_with_the_oracle_on_random_domains(drawn, ranged):
 
 # the encodings that apply only where they pay, applied wherever they can (the random
 # domains are too small for them to pay)
-FORCED = {"shared rests (cplus.sat.factor)": (factor, {"_FROM": 0, "_GAIN": math.inf}),
-          "pair classes (cplus.sat.products)": (products, {"MIN_ROWS": 0, "GAIN": math.inf}),
-          "order variables (cplus.sat.intervals)": (intervals, {"MIN_ROWS": 0, "GAIN": math.inf})}
+THRESHOLDS = {factor: {"_FROM": 0, "_GAIN": math.inf},
+              products: {"MIN_ROWS": 0, "GAIN": math.inf},
+              intervals: {"MIN_ROWS": 0, "GAIN": math.inf}}
 
 
-@pytest.mark.parametrize("encoding", FORCED)
+@contextmanager
+def forced(module):
+    """Within the block, ``module``'s encoding is used wherever it can be, whatever it costs."""
+    with pytest.MonkeyPatch.context() as patch:
+        for name, value in THRESHOLDS[module].items():
+            patch.setattr(module, name, value)
+        yield
+
+
+@pytest.mark.parametrize("module", THRESHOLDS, ids=lambda m: m.__name__)
 @settings(max_examples=80, deadline=None)
 @given(drawn=descriptions())
-def test_planner_agrees_with_the_oracle_when_an_encoding_is_forced(encoding, drawn):
+def test_planner_agrees_with_the_oracle_when_an_encoding_is_forced(module, drawn):
     desc, m = drawn
     expected = first_histories(desc, m, m)
     assume(len(expected[1]) <= 600)
-    module, values = FORCED[encoding]
-    with pytest.MonkeyPatch.context() as patch:
-        for name, value in values.items():
-            patch.setattr(module, name, value)
+    with forced(module):
         assert planner(desc.text(m, None)) == expected
