@@ -10,6 +10,9 @@ the NXT link) keep their dataclasses.
 """
 from __future__ import annotations
 
+from collections.abc import Callable
+from operator import attrgetter
+
 __all__ = ["Record"]
 
 
@@ -20,17 +23,23 @@ class Record:
     __slots__ = ()
     _fields: tuple[str, ...] = ()
     _compare: tuple[str, ...] | None = None
+    _key: Callable[[object], object] = staticmethod(lambda record: ())
+    """A record's compared values, in one C call (an ``operator.attrgetter``; not a method)."""
 
-    def _values(self) -> tuple:
-        return tuple(getattr(self, f) for f in (self._compare if self._compare is not None else self._fields))
+    def __init_subclass__(cls, **kwargs) -> None:
+        super().__init_subclass__(**kwargs)
+        names = cls._compare if cls._compare is not None else cls._fields
+        if names:
+            cls._key = attrgetter(*names)
 
     def __eq__(self, other: object) -> bool:
         if type(other) is not type(self):
             return NotImplemented
-        return self._values() == other._values()
+        key = self._key
+        return key(self) == key(other)
 
     def __hash__(self) -> int:
-        return hash(self._values())
+        return hash(self._key(self))
 
     def __repr__(self) -> str:
         names = self._compare if self._compare is not None else self._fields
