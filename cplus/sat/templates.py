@@ -113,7 +113,6 @@ class Layout:
         self.tables: dict = {}        # decision diagrams built for these templates (tables.encode_table)
         self.cube_atoms: dict = {}    # template literal -> ((constant, slot), value), see _cube
         self.atom_keys: dict = {}     # the same by constant id, see _atom_key
-        self.constant_keys: dict = {}  # template literal -> (constant id, slot), see _constant_key
 
     def tid(self, code: int) -> int:
         """Template id of a template literal code (see :func:`template_lit`)."""
@@ -265,18 +264,13 @@ def _factored(b: _Builder, ts: list[int], heads: dict) -> dict[int, Sequence[PF]
 
 def _constant_key(layout: Layout) -> Callable[[int], tuple | None]:
     """``key_of(lit)``: the (constant, slot) whose value the template literal ``lit`` states;
-    None for a negated value or an auxiliary variable (memoized on the layout).  Constants are
-    given by their ids, so that keys sort."""
-    memo = layout.constant_keys
+    None for a negated value or an auxiliary variable (:func:`_atom_key` without the value).
+    Constants are given by their ids, so that keys sort."""
     atom_of = _atom_key(layout)
 
     def key_of(lit: int) -> tuple | None:
-        try:
-            return memo[lit]
-        except KeyError:
-            atom = atom_of(lit)
-            key = memo[lit] = None if atom is None else atom[0]
-            return key
+        atom = atom_of(lit)
+        return None if atom is None else atom[0]
     return key_of
 
 
