@@ -55,8 +55,8 @@ def factor_intervals(bodies: Sequence[tuple[int, ...]],
     rest: list[tuple[int, ...]] = []
     for body in bodies:
         best = None
-        for i, g in enumerate(body):
-            atom = atom_of(g) if g > 0 and len(body) > 1 else None
+        for i, g in enumerate(body if len(body) > 1 else ()):
+            atom = atom_of(g) if g > 0 else None
             if atom is None:
                 continue
             values = known.get(atom[0])
@@ -73,10 +73,11 @@ def factor_intervals(bodies: Sequence[tuple[int, ...]],
     for key, groups in by_key.items():
         rows = sum(map(len, groups.values()))
         values = known[key]
-        order = {v: k for k, v in enumerate(values)}
-        runs = {others: _runs(sorted(order[v] for v in set(vs))) for others, vs in groups.items()}
-        cost = 4 * len(values) + sum(map(len, runs.values()))
-        if rows < MIN_ROWS or cost > GAIN * rows:
+        runs: dict[tuple[int, ...], list[tuple[int, int]]] = {}
+        if rows >= MIN_ROWS:
+            order = {v: k for k, v in enumerate(values)}
+            runs = {others: _runs(sorted(order[v] for v in set(vs))) for others, vs in groups.items()}
+        if not runs or 4 * len(values) + sum(map(len, runs.values())) > GAIN * rows:
             rest.extend((*others, values[v]) for others, vs in groups.items() for v in vs)
             continue
         at_least = _order(list(values.values()), add_clause, new_var)
