@@ -7,7 +7,7 @@ the next step's actions (state estimate + monitor + re-plan when needed).
   the letter for the far end;
 * ``payload``: the payload arms of ``domains/payload``. A stalled arm is mapped back to the
   grid and the rest is re-planned with the refinement loop from there
-  (:func:`cplus.robot.payload_monitor.run_arms`, two emulated bricks in memory on a virtual
+  (:func:`cplus.robot.online.payload_monitor.run_arms`, two emulated bricks in memory on a virtual
   clock, robot r1 stalling at several points of the plan).
 
 Medians and maxima over several runs. Grounding happens once per run and is reported apart.
@@ -43,9 +43,9 @@ def _delivery_domain(landmarks: int):
 
 def delivery_run(landmarks: int) -> dict:
     """One run: grounding, then per-cycle decision times, re-planning cycles apart."""
-    from cplus.robot.estimation import OnlineModel, Roles
-    from cplus.robot.executors import SimulatedExecutor
-    from cplus.robot.online import OnlineLoop, OnlineStatus
+    from cplus.robot.online.estimation import OnlineModel, Roles
+    from cplus.robot.online.executors import SimulatedExecutor
+    from cplus.robot.online.loop import OnlineLoop, OnlineStatus
     from nxt_link.clock import VirtualClock
     t0 = time.perf_counter()
     domain = _delivery_domain(landmarks)
@@ -75,9 +75,9 @@ def payload_runs(runs: int) -> list[dict]:
     """The payload arms on two emulated bricks in memory (virtual clock), r1 stalling at
     different points of the plan: the time from the fault's stop to the new plan (reading the
     angles, mapping them to the nearest grid state, refining from there)."""
-    import cplus.robot.payload_monitor as pm
+    import cplus.robot.online.payload_monitor as pm
     from cplus.robot import RobotTask
-    from cplus.robot.online import OnlineStatus
+    from cplus.robot.online.loop import OnlineStatus
     from nxt_link import BrickEmulator, EmulatorConfig, LinkParams
     from nxt_link.clock import VirtualClock
     from nxt_link.memory_transport import MemoryTransport

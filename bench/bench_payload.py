@@ -53,7 +53,7 @@ def refine_once(scene: Path, form: str, pad: int = 0) -> dict:
     """One refinement as `cplus plan` runs it; ``pad`` binary clauses over fresh variables
     first (satisfiable, unrelated to the task) change nothing but the solver's path."""
     from cplus.robot import RobotTask, refine
-    from cplus.robot.refine import DEFAULT_MAX_HORIZON, REFINE_SOLVER
+    from cplus.robot.offline.refine import DEFAULT_MAX_HORIZON, REFINE_SOLVER
     from cplus.sat.horizon import QuerySession
     task = RobotTask.load(str(DOMAIN), str(scene))
     _ = task.domain.theory
@@ -91,7 +91,7 @@ import numpy, shapely
 t1 = cpu()
 from cplus.cli import plan
 from cplus.robot import RobotTask, refine
-from cplus.robot.refine import DEFAULT_MAX_HORIZON, REFINE_SOLVER
+from cplus.robot.offline.refine import DEFAULT_MAX_HORIZON, REFINE_SOLVER
 from cplus.sat.horizon import QuerySession
 import trajectory
 t2 = cpu()

@@ -105,9 +105,9 @@ class Stream:
 
 def run(name: str, total: int, seed: int, budget: int | None, solver: str | None = None) -> dict:
     from cplus.api import Domain
-    from cplus.robot.reactive import Server
-    from cplus.robot.standing import DEFAULT_BUDGET
-    from cplus.robot.vocabulary import load_requests
+    from cplus.robot.serving.reactive import Server
+    from cplus.robot.serving.standing import DEFAULT_BUDGET
+    from cplus.robot.serving.vocabulary import load_requests
     from nxt_link.clock import VirtualClock
     file, offices, in_flight, horizon = SCENARIOS[name]
     t0 = time.perf_counter()
@@ -120,7 +120,7 @@ def run(name: str, total: int, seed: int, budget: int | None, solver: str | None
     server.loop.observers.append(stream)
     if name == "mailbot":                      # Table I first: requests 1 and 2, a cancellation
         script = [(1, "deliver(office3,office2)"), (3, 1), (4, "deliver(office3,office4)")]
-        from cplus.robot.channels import RequestScript, ScriptEntry
+        from cplus.robot.serving.channels import RequestScript, ScriptEntry
         server.add_script(RequestScript([ScriptEntry(c, x if isinstance(x, str) else None,
                                                      x if isinstance(x, int) else None, i)
                                          for i, (c, x) in enumerate(script, 1)]))

@@ -84,6 +84,19 @@ class Location(Record):
     def col(self) -> int:
         return self.source.line_col(self.start)[1]
 
+    @classmethod
+    def of_token(cls, source: Source, line: int, col: int) -> Location:
+        """The span of the token that starts at a 1-based line and column, up to a space, ``=``,
+        a line end or ``]``: how TOML readers, which know only where a complaint starts, point
+        at the whole key or value."""
+        lines = source.text.splitlines(keepends=True)
+        offset = sum(len(x) for x in lines[:line - 1]) + col - 1
+        offset = max(0, min(offset, len(source.text)))
+        end = offset
+        while end < len(source.text) and source.text[end] not in " =\n\r]":
+            end += 1
+        return cls(source, offset, max(end, offset + 1))
+
     def __str__(self) -> str:
         line, col = self.source.line_col(self.start)
         return f"{self.source.path}:{line}:{col}"

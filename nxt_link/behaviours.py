@@ -30,7 +30,7 @@ another process)::
     from nxt_link import Brick, BrickEmulator, EmulatorConfig, PtyBrickServer, SerialTransport
     from nxt_link.behaviours import BehaviourClient, Behaviour
     from nxt_link.world import delivery_world      # a WorldSpec; from a world file (located
-    world = delivery_world()                        # errors): cplus.robot.world_file.load_world
+    world = delivery_world()                        # errors): cplus.robot.online.world_file.load_world
 
     emu = BrickEmulator(EmulatorConfig(name="robot", world=world))
     server = PtyBrickServer(emu)

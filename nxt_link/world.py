@@ -27,7 +27,7 @@ in PCT_FULL_SCALE mode (the firmware's input module turns the A/D value back int
 Positions along the track are arc lengths from its first point.
 
 :class:`WorldSpec` is the validated description (``cplus.world/1`` files are read by
-``cplus.robot.world_file``); :func:`delivery_world` is the default delivery track.
+``cplus.robot.online.world_file``); :func:`delivery_world` is the default delivery track.
 """
 from __future__ import annotations
 

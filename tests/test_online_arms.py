@@ -1,4 +1,4 @@
-"""Monitoring the payload arms (cplus.robot.payload_monitor): a stalled motor is seen through
+"""Monitoring the payload arms (cplus.robot.online.payload_monitor): a stalled motor is seen through
 the tracking error, both bricks stop, the arms are mapped to the nearest grid state and the rest
 is re-planned with the refinement loop; on emulated bricks in memory (virtual clock) and, end
 to end, through `cplus online` on pseudo-terminals."""
@@ -9,12 +9,12 @@ from pathlib import Path
 
 import pytest
 
-import cplus.robot.payload_monitor as pm
+import cplus.robot.online.payload_monitor as pm
 from cplus.cli import main
 from cplus.robot import RobotTask
-from cplus.robot.estimation import OnlineModel, Roles
-from cplus.robot.online import OnlineStatus, RunResult
-from cplus.robot.refine import RefineStatus
+from cplus.robot.offline.refine import RefineStatus
+from cplus.robot.online.estimation import OnlineModel, Roles
+from cplus.robot.online.loop import OnlineStatus, RunResult
 from nxt_link import BrickEmulator, EmulatorConfig, LinkParams
 from nxt_link.clock import VirtualClock
 from nxt_link.memory_transport import MemoryTransport

@@ -9,8 +9,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from cplus.api import Domain
-from cplus.robot.binding import BindingError, load_binding, parse_binding
-from cplus.robot.estimation import Act
+from cplus.robot.online.binding import BindingError, load_binding, parse_binding
+from cplus.robot.online.estimation import Act
 
 ROOT = Path(__file__).resolve().parent.parent
 DELIVERY = ROOT / "domains" / "delivery"

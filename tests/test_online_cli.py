@@ -192,7 +192,7 @@ def test_the_delivery_domain_alone_runs_on_its_emulated_world(tmp_path, capsys):
 def test_a_brick_given_by_its_port(tmp_path, capsys):
     """--brick robot=PTY: a brick served on a pseudo-terminal by another party (here, in the
     test; `cplus brick --world world.toml` does the same as a process)."""
-    from cplus.robot.world_file import load_world
+    from cplus.robot.online.world_file import load_world
     from nxt_link import BrickEmulator, EmulatorConfig, LinkParams, PtyBrickServer
     spec = load_world(DELIVERY / "world.toml")
     server = PtyBrickServer(BrickEmulator(EmulatorConfig(name="robot", world=spec, link=LinkParams.instant())),

@@ -1,4 +1,4 @@
-"""The online loop (cplus.robot.online) on a simulated robot, on simulated time: scripted
+"""The online loop (cplus.robot.online.loop) on a simulated robot, on simulated time: scripted
 events (a button press mid-run, a landmark missed), a contradicting observation, a lost robot,
 ambiguity, no plan, idle waiting for a standing goal, the cycle limit, stop()."""
 from __future__ import annotations
@@ -13,10 +13,10 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from cplus.api import Domain
-from cplus.robot.estimation import OnlineModel, Roles
-from cplus.robot.events import EventsError, LineEvents, ScriptedEvents, check_events, parse_events
-from cplus.robot.executors import SimulatedExecutor
-from cplus.robot.online import Observer, OnlineLoop, OnlineStatus, RunResult
+from cplus.robot.online.estimation import OnlineModel, Roles
+from cplus.robot.online.events import EventsError, LineEvents, ScriptedEvents, check_events, parse_events
+from cplus.robot.online.executors import SimulatedExecutor
+from cplus.robot.online.loop import Observer, OnlineLoop, OnlineStatus, RunResult
 from nxt_link.clock import VirtualClock
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -249,7 +249,7 @@ def test_an_idle_loop_waits_for_a_line_typed_later():
 def test_the_log_writes_every_record_and_takes_annotations(model):
     import io
 
-    from cplus.robot.online import JsonLinesLog
+    from cplus.robot.online.loop import JsonLinesLog
     out = io.StringIO()
     log = JsonLinesLog(out, {"who": "test"}, annotate=lambda rec, line: line.update(goals=[rec.cycle]))
     ex = simulate(model)

@@ -1,4 +1,4 @@
-"""State estimation and planning from a state (cplus.robot.estimation): the SAT side of the
+"""State estimation and planning from a state (cplus.robot.online.estimation): the SAT side of the
 online loop, on the delivery domain and on small inline domains."""
 from __future__ import annotations
 
@@ -7,10 +7,10 @@ from pathlib import Path
 
 import pytest
 
-import cplus.robot.estimation as estimation
+import cplus.robot.online.estimation as estimation
 from cplus.api import Domain
 from cplus.errors import QueryError
-from cplus.robot.estimation import EstimateStatus, OnlineModel, Roles
+from cplus.robot.online.estimation import EstimateStatus, OnlineModel, Roles
 
 ROOT = Path(__file__).resolve().parent.parent
 DELIVERY = ROOT / "domains" / "delivery" / "delivery.cp"

@@ -9,10 +9,10 @@ from pathlib import Path
 import pytest
 
 from cplus.api import Domain
-from cplus.robot.binding import load_binding
-from cplus.robot.estimation import OnlineModel
-from cplus.robot.nxt_executor import NxtExecutor
-from cplus.robot.online import Observer, OnlineLoop, OnlineStatus, RunResult
+from cplus.robot.online.binding import load_binding
+from cplus.robot.online.estimation import OnlineModel
+from cplus.robot.online.loop import Observer, OnlineLoop, OnlineStatus, RunResult
+from cplus.robot.online.nxt_executor import NxtExecutor
 from nxt_link.behaviours import BehaviourTiming
 from nxt_link.brick import RetryPolicy
 from nxt_link.clock import VirtualClock

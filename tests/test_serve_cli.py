@@ -122,14 +122,14 @@ def test_nothing_imports_ros_but_the_bridge():
     offenders = []
     for path in (ROOT / "cplus").rglob("*.py"):
         rel = path.relative_to(ROOT).as_posix()
-        if rel.startswith("cplus/robot/ros/") or rel == "cplus/robot/ros_bridge.py":
+        if rel.startswith("cplus/robot/serving/ros/") or rel == "cplus/robot/serving/ros_bridge.py":
             continue
         for m in imports.finditer(path.read_text()):
             names = " ".join(x for x in m.groups()[1:] if x)
             if re.search(r"\b(rospy|actionlib|genpy|genmsg|rosgraph|ros_bridge|cplus_msgs)\b", names):
                 offenders.append((rel, m.group(0).strip()))
-    assert offenders == [("cplus/cli/serve.py", "from cplus.robot import ros_bridge")] * 2
-    r = subprocess.run([sys.executable, "-c", "import sys, cplus.cli.serve, cplus.robot.reactive; "
+    assert offenders == [("cplus/cli/serve.py", "from cplus.robot.serving import ros_bridge")] * 2
+    r = subprocess.run([sys.executable, "-c", "import sys, cplus.cli.serve, cplus.robot.serving.reactive; "
                         "print(sorted(m for m in sys.modules if m.split('.')[0] in ('rospy', 'actionlib', 'genpy')))"],
                        capture_output=True, text=True, timeout=60)
     assert r.stdout.strip() == "[]"

@@ -12,11 +12,11 @@ from pathlib import Path
 import pytest
 
 from cplus.api import Domain
-from cplus.robot.channels import ScriptError, parse_script
-from cplus.robot.goals import GoalStatus, GoalWatcher
-from cplus.robot.online import OnlineStatus
-from cplus.robot.reactive import ServeLog, Server
-from cplus.robot.vocabulary import Rejected, RequestsError, load_requests, parse_requests
+from cplus.robot.online.loop import OnlineStatus
+from cplus.robot.serving.channels import ScriptError, parse_script
+from cplus.robot.serving.goals import GoalStatus, GoalWatcher
+from cplus.robot.serving.reactive import ServeLog, Server
+from cplus.robot.serving.vocabulary import Rejected, RequestsError, load_requests, parse_requests
 from nxt_link.clock import VirtualClock
 
 MAILBOT = Path(__file__).resolve().parent.parent / "domains" / "mailbot"
@@ -301,8 +301,8 @@ def test_a_request_becomes_the_events_of_its_slot(domain):
 
 
 def test_a_binding_must_take_the_request_events_from_input(domain, tmp_path):
-    from cplus.robot.binding import parse_binding
-    from cplus.robot.reactive import serve_roles
+    from cplus.robot.online.binding import parse_binding
+    from cplus.robot.serving.reactive import serve_roles
     text = ('format = "cplus.robot/1"\n[bricks.robot]\n[actions.move]\nbrick = "robot"\nbehaviour = 1\n'
             '[actions.pickup]\nbrick = "robot"\nbehaviour = 2\n[actions.deliver]\nbrick = "robot"\nbehaviour = 3\n'
             '[events.request]\nsource = "input"\n[events.address]\nsource = "input"\n[events.cancel]\n'

@@ -1,4 +1,4 @@
-"""The standing-goal planner (cplus.robot.standing): one solver per run, the shortest plan
+"""The standing-goal planner (cplus.robot.serving.standing): one solver per run, the shortest plan
 within a conflict budget (the same length as a fresh search finds), the oldest goal first
 beyond it, partial plans followed by a re-plan in the loop, one grounding per run."""
 from __future__ import annotations
@@ -11,23 +11,23 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-import cplus.robot.standing
-import cplus.robot.vocabulary
+import cplus.robot.serving.standing
+import cplus.robot.serving.vocabulary
 from cplus.api import Domain
-from cplus.robot.estimation import OnlineModel, State
-from cplus.robot.executors import SimulatedExecutor
-from cplus.robot.goals import GoalBoard
-from cplus.robot.online import OnlineLoop, OnlineStatus
-from cplus.robot.reactive import serve_roles
-from cplus.robot.standing import GoalLiteral, StandingModel
-from cplus.robot.vocabulary import load_requests
+from cplus.robot.online.estimation import OnlineModel, State
+from cplus.robot.online.executors import SimulatedExecutor
+from cplus.robot.online.loop import OnlineLoop, OnlineStatus
+from cplus.robot.serving.goals import GoalBoard
+from cplus.robot.serving.reactive import serve_roles
+from cplus.robot.serving.standing import GoalLiteral, StandingModel
+from cplus.robot.serving.vocabulary import load_requests
 from nxt_link.clock import VirtualClock
 
 MAILBOT = Path(__file__).resolve().parent.parent / "domains" / "mailbot"
 OFFICES = [f"office{i}" for i in range(1, 5)]
 
 
-@pytest.mark.parametrize("module", [cplus.robot.standing, cplus.robot.vocabulary])
+@pytest.mark.parametrize("module", [cplus.robot.serving.standing, cplus.robot.serving.vocabulary])
 def test_docstring_examples(module):
     result = doctest.testmod(module, optionflags=doctest.ELLIPSIS)
     assert result.failed == 0 and result.attempted > 0
@@ -119,7 +119,7 @@ def test_a_run_grounds_once_and_encodes_each_step_once(mailbot, monkeypatch):
     import cplus.api
     import cplus.sat.horizon
     import cplus.sat.templates
-    from cplus.robot.reactive import Server
+    from cplus.robot.serving.reactive import Server
     calls = {"ground": 0, "templates": 0, "horizons": 0}
 
     def counting(name, fn):

@@ -20,7 +20,7 @@ import pytest
 ROOT = Path(__file__).resolve().parent.parent
 MAILBOT = ROOT / "domains" / "mailbot"
 DIST = "/usr/lib/python3/dist-packages"
-MSG_PATH = str(ROOT / "cplus" / "robot" / "ros")
+MSG_PATH = str(ROOT / "cplus" / "robot" / "serving" / "ros")
 
 ROS_INSTALLED = shutil.which("roscore") is not None and Path(DIST, "rospy").is_dir()
 

@@ -15,10 +15,10 @@ from pathlib import Path
 import pytest
 
 from cplus.api import Domain
-from cplus.robot.channels import parse_listen
-from cplus.robot.online import OnlineStatus
-from cplus.robot.reactive import Server
-from cplus.robot.vocabulary import load_requests
+from cplus.robot.online.loop import OnlineStatus
+from cplus.robot.serving.channels import parse_listen
+from cplus.robot.serving.reactive import Server
+from cplus.robot.serving.vocabulary import load_requests
 
 ROOT = Path(__file__).resolve().parent.parent
 MAILBOT = ROOT / "domains" / "mailbot"

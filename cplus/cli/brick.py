@@ -159,7 +159,7 @@ def config_from_args(args: argparse.Namespace) -> EmulatorConfig:
     motors = MotorParams(supply_v=args.battery_mv / 1000.0, backlash_deg=args.backlash_deg)
     world = None
     if getattr(args, "world", None):
-        from cplus.robot.world_file import load_world
+        from cplus.robot.online.world_file import load_world
 
         world = load_world(args.world)
     return EmulatorConfig(

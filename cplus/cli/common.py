@@ -210,7 +210,7 @@ def query(domain, label: str, path: str):
 
 def scene_beside(domain_path: str) -> str | None:
     """The ``scene.toml`` beside a domain file, if there is one: it makes the file a robot
-    task.  The rule of :func:`cplus.robot.task.scene_beside`, here so that a command can
+    task.  The rule of :func:`cplus.robot.offline.task.scene_beside`, here so that a command can
     tell a plain domain without importing the robot stack."""
     import os
     beside = os.path.join(os.path.dirname(os.path.abspath(domain_path)), "scene.toml")

@@ -28,7 +28,7 @@ def build_parser() -> OneLineArgumentParser:
 
 def main(args: argparse.Namespace) -> int:
     from cplus.api import Domain
-    from cplus.robot.task import RobotTask, scene_beside
+    from cplus.robot.offline.task import RobotTask, scene_beside
     from cplus.sat.dimacs import horizon_cnf, write_dimacs
     if args.dimacs != "-":   # before grounding, which may take a while
         problem = _unwritable(args.dimacs)

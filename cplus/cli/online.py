@@ -2,7 +2,7 @@
 
 Plans from the current state, sends the first step's actions to the robot, reads its sensing
 values and the events that happened, estimates the new state, re-plans when it differs from the
-prediction, until the goal holds (:mod:`cplus.robot.online`). The robot is described by the
+prediction, until the goal holds (:mod:`cplus.robot.online.loop`). The robot is described by the
 binding file ``robot.toml`` beside the domain (or ``--robot``). Its bricks are opened at
 ``--brick NAME=PORT``; without ``--brick`` they are emulated on pseudo-terminals, in the world
 file the binding names. ``--simulate`` uses no brick at all: the world does what the model
@@ -84,8 +84,8 @@ def build_parser() -> OneLineArgumentParser:
 
 
 def exit_code(status) -> int:
-    """The exit code of an :class:`~cplus.robot.online.OnlineStatus`."""
-    from cplus.robot.online import OnlineStatus as S
+    """The exit code of an :class:`~cplus.robot.online.loop.OnlineStatus`."""
+    from cplus.robot.online.loop import OnlineStatus as S
     return {S.GOAL_REACHED: EXIT_OK, S.NO_PLAN: EXIT_NO_PLAN, S.MAX_CYCLES: EXIT_LIMIT,
             S.CONTRADICTED: EXIT_CONTRADICTED, S.AMBIGUOUS: EXIT_AMBIGUOUS, S.ROBOT_LOST: EXIT_ROBOT_LOST,
             S.STOPPED: EXIT_INTERRUPTED}[status]
@@ -159,8 +159,8 @@ def _v(value: object) -> str:
 def main(args: argparse.Namespace) -> int:
     """``cplus online``; returns the exit code."""
     from cplus.cli.common import CliError
-    from cplus.robot.binding import binding_beside
-    from cplus.robot.task import scene_beside
+    from cplus.robot.offline.task import scene_beside
+    from cplus.robot.online.binding import binding_beside
     err = sys.stderr
     try:
         ports = parse_bricks(args.brick, "cplus online")
@@ -215,7 +215,7 @@ class _Log:
         return True
 
     def observer(self, extra: dict) -> list:
-        from cplus.robot.online import JsonLinesLog
+        from cplus.robot.online.loop import JsonLinesLog
         return [] if self.file is None else [JsonLinesLog(self.file, extra)]
 
     def close(self, quiet: bool) -> None:
@@ -228,10 +228,10 @@ class _Log:
 def _behaviours(args: argparse.Namespace, robot: str, ports: dict[str, str]) -> int:
     """A robot whose actions are behaviours of bricks (a binding file)."""
     from cplus.api import Domain
-    from cplus.robot.binding import load_binding
-    from cplus.robot.estimation import OnlineModel
-    from cplus.robot.events import LineEvents, ScriptedEvents, check_events, parse_events
-    from cplus.robot.online import EventSource, OnlineLoop
+    from cplus.robot.online.binding import load_binding
+    from cplus.robot.online.estimation import OnlineModel
+    from cplus.robot.online.events import LineEvents, ScriptedEvents, check_events, parse_events
+    from cplus.robot.online.loop import EventSource, OnlineLoop
     err = sys.stderr
     domain = Domain.load(args.domain)
     label = _domain_and_goal(args, domain)
@@ -280,18 +280,18 @@ def _behaviours(args: argparse.Namespace, robot: str, ports: dict[str, str]) -> 
 
 
 def _executor(args: argparse.Namespace, model, binding, ports: dict[str, str]):
-    from cplus.robot.executors import SimulatedExecutor
+    from cplus.robot.online.executors import SimulatedExecutor
     if args.simulate:
         return SimulatedExecutor.from_binding(model, binding, default_s=args.action_time)
-    from cplus.robot.nxt_executor import NxtExecutor
+    from cplus.robot.online.nxt_executor import NxtExecutor
     return NxtExecutor(model, binding, ports or None, latency=not args.no_latency, time_scale=args.time_scale)
 
 
 def _arms(args: argparse.Namespace, scene: str, ports: dict[str, str]) -> int:
     """The payload arms of a robot task: trajectories, monitored; re-planned after a fault."""
     from cplus.cli.common import CliError
-    from cplus.robot.payload_monitor import ArmsExecutor, run_arms
-    from cplus.robot.task import RobotTask
+    from cplus.robot.offline.task import RobotTask
+    from cplus.robot.online.payload_monitor import ArmsExecutor, run_arms
     err = sys.stderr
     task = RobotTask.load(args.domain, scene)
     label = _domain_and_goal(args, task.domain)

@@ -1,7 +1,7 @@
 """``cplus plan FILE``: answer the queries of a C+ file, as CCALC prints them or as JSON.
 
 A file with a ``scene.toml`` beside it (or ``--scene``) is a robot task: its plans are refined
-until collision-free (:func:`cplus.robot.refine`) and may be exported as trajectories.
+until collision-free (:func:`cplus.robot.offline.refine`) and may be exported as trajectories.
 """
 from __future__ import annotations
 

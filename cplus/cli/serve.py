@@ -3,7 +3,7 @@
 Goal requests and cancellations arrive from a script (``--script``), a JSON-lines socket on
 the loopback interface (``--listen``), and ROS actionlib (``--ros``); each is an event of the
 domain (``requests.toml`` beside it), and the online loop plans, acts and re-plans
-(:mod:`cplus.robot.reactive`). Without a channel option it listens on 127.0.0.1:7070.
+(:mod:`cplus.robot.serving.reactive`). Without a channel option it listens on 127.0.0.1:7070.
 
 Runs until interrupted (SIGINT or SIGTERM: the goals in flight are aborted, exit 0), or until
 a script has delivered everything and every goal is final (exit 0). Exit codes otherwise as
@@ -30,7 +30,7 @@ from cplus.cli.common import (
     seconds,
 )
 from cplus.cli.online import Progress
-from cplus.robot.goals import GoalWatcher
+from cplus.robot.serving.goals import GoalWatcher
 
 __all__ = ["build_parser", "main", "DEFAULT_LISTEN"]
 
@@ -111,8 +111,8 @@ def main(args: argparse.Namespace) -> int:
     """``cplus serve``; returns the exit code."""
     from cplus.api import Domain
     from cplus.cli.common import query
-    from cplus.robot.channels import load_script, parse_listen
-    from cplus.robot.vocabulary import load_requests, requests_beside
+    from cplus.robot.serving.channels import load_script, parse_listen
+    from cplus.robot.serving.vocabulary import load_requests, requests_beside
     err = sys.stderr
 
     def fail(message: str) -> int:
@@ -145,7 +145,7 @@ def main(args: argparse.Namespace) -> int:
     script = load_script(args.script) if args.script else None
     binding = None
     if args.robot:
-        from cplus.robot.binding import load_binding
+        from cplus.robot.online.binding import load_binding
         binding = load_binding(args.robot, domain)
         unknown = sorted(set(ports) - set(binding.bricks))
         if unknown:
@@ -156,7 +156,7 @@ def main(args: argparse.Namespace) -> int:
             return fail(f"no --brick for brick {missing[0]!r}: give one per brick, or none to emulate them")
     ros = None
     if args.ros:
-        from cplus.robot import ros_bridge
+        from cplus.robot.serving import ros_bridge
         try:
             ros = ros_bridge.RosSetup.check()
         except ros_bridge.RosUnavailable as exc:
@@ -180,13 +180,13 @@ def main(args: argparse.Namespace) -> int:
 def _run(args, domain, label, vocabulary, requests_path, script, binding, ports, listen, ros, log_file) -> int:
     """Build the server from checked inputs, open its channels, serve until the end."""
     from cplus.cli.online import exit_code
-    from cplus.robot.online import OnlineStatus
-    from cplus.robot.reactive import ServeLog, Server
-    from cplus.robot.standing import DEFAULT_BUDGET
+    from cplus.robot.online.loop import OnlineStatus
+    from cplus.robot.serving.reactive import ServeLog, Server
+    from cplus.robot.serving.standing import DEFAULT_BUDGET
     err = sys.stderr
     executor = None
     if binding is not None:
-        from cplus.robot.nxt_executor import NxtExecutor
+        from cplus.robot.online.nxt_executor import NxtExecutor
 
         def executor(model):
             return NxtExecutor(model, binding, ports or None, latency=not args.no_latency,
@@ -208,7 +208,7 @@ def _run(args, domain, label, vocabulary, requests_path, script, binding, ports,
             print(f"cplus serve: listening on {host}:{port} (JSON lines; requests: {vocabulary.usage()})", file=err,
                   flush=True)
         if ros is not None:
-            from cplus.robot import ros_bridge
+            from cplus.robot.serving import ros_bridge
             channel = ros_bridge.ActionChannel(server.board, args.ros_name, ros)
             server.add_channel(channel)
             channel.start()

@@ -20,7 +20,7 @@ from hypothesis import strategies as st
 import trajectory
 from cplus.planner import iter_histories
 from cplus.robot import RefineStatus, RobotTask, TaskError, refine
-from cplus.robot.nogoods import Nogood, NogoodStore, position_nogood
+from cplus.robot.offline.nogoods import Nogood, NogoodStore, position_nogood
 from cplus.sat.horizon import QuerySession
 
 sys.path.insert(0, str(Path(__file__).parent))

@@ -13,7 +13,7 @@ Without ports, each brick is emulated in-process on a pseudo-terminal: a
 through the same serial path as a real brick.
 
 A behaviour that reports failure (stuck, line lost) is the step's ``failure``. A brick that
-stops answering is :class:`~cplus.robot.online.RobotLost`.
+stops answering is :class:`~cplus.robot.online.loop.RobotLost`.
 """
 from __future__ import annotations
 
@@ -23,9 +23,9 @@ from contextlib import ExitStack
 from dataclasses import dataclass, field
 
 import nxt_link
-from cplus.robot.binding import BindingError, RobotBinding
-from cplus.robot.estimation import Act, OnlineModel
-from cplus.robot.online import Executor, Outcome, RobotLost, Step
+from cplus.robot.online.binding import BindingError, RobotBinding
+from cplus.robot.online.estimation import Act, OnlineModel
+from cplus.robot.online.loop import Executor, Outcome, RobotLost, Step
 from nxt_link.behaviours import BehaviourClient, BehaviourError, BehaviourFailed, BehaviourTiming
 from nxt_link.clock import MONOTONIC, Clock
 from nxt_link.errors import LinkError
@@ -46,7 +46,7 @@ def load_world(binding: RobotBinding, brick: str):
                            f"[bricks.{brick}], or its port with --brick {brick}=PORT", spec.location)
     if not spec.world.is_file():
         raise BindingError(f"no world file {spec.world}", spec.world_location)
-    from cplus.robot.world_file import load_world as load_world_file  # the schema cplus.world/1
+    from cplus.robot.online.world_file import load_world as load_world_file  # the schema cplus.world/1
     return load_world_file(spec.world)
 
 

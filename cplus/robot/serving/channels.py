@@ -1,7 +1,7 @@
 """Request channels of a server: a script of requests by cycle, and JSON lines on a socket.
 
-Both feed a :class:`~cplus.robot.goals.GoalBoard`. The ROS actionlib channel is
-:mod:`cplus.robot.ros_bridge` (an optional extra).
+Both feed a :class:`~cplus.robot.serving.goals.GoalBoard`. The ROS actionlib channel is
+:mod:`cplus.robot.serving.ros_bridge` (an optional extra).
 
 **The script** (``--script FILE``) is JSON lines, one per request or cancellation::
 
@@ -48,7 +48,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from cplus.errors import CPlusError, Location, Source
-from cplus.robot.goals import FINAL, Feedback, Goal, GoalBoard, GoalStatus, GoalWatcher
+from cplus.robot.serving.goals import FINAL, Feedback, Goal, GoalBoard, GoalStatus, GoalWatcher
 
 __all__ = ["MAX_LINE", "RequestScript", "ScriptEntry", "ScriptError", "SocketChannel", "load_script",
            "parse_listen", "parse_script"]

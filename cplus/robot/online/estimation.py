@@ -1,6 +1,6 @@
 """State estimation and planning from a state: the SAT side of the online loop.
 
-The online loop (:mod:`cplus.robot.online`) keeps one state ``s_k`` (every fluent with a
+The online loop (:mod:`cplus.robot.online.loop`) keeps one state ``s_k`` (every fluent with a
 value) and asks an :class:`OnlineModel` three questions. All of them are answered with the
 domain's ground theory and step templates, built once per run:
 
@@ -227,7 +227,7 @@ class Plan:
     (``states[0]`` is the state planned from, ``states[i+1]`` the prediction after step i).
 
     A ``partial`` plan reaches only part of the goal (a planner that serves goals one at a
-    time, :mod:`cplus.robot.standing`): when it has been carried out, the loop plans again."""
+    time, :mod:`cplus.robot.serving.standing`): when it has been carried out, the loop plans again."""
 
     steps: list[list[Act]]
     states: list[State]

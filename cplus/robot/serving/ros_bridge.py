@@ -21,7 +21,7 @@ under the namespace ``--ros-name`` (default ``/cplus_serve``): any actionlib cli
 (``actionlib.SimpleActionClient(ns, ServeAction)``), and so do ROS's command-line tools once
 the message package is on ``PYTHONPATH`` (:data:`MSG_PATH`)::
 
-    export PYTHONPATH=$(python -c 'import cplus.robot.ros_bridge as r; print(r.MSG_PATH)')
+    export PYTHONPATH=$(python -c 'import cplus.robot.serving.ros_bridge as r; print(r.MSG_PATH)')
     rostopic pub -1 /cplus_serve/goal cplus_msgs/ServeActionGoal '{goal: {request: "deliver(office3,office2)"}}'
     rostopic echo /cplus_serve/feedback
     rostopic pub -1 /cplus_serve/cancel actionlib_msgs/GoalID '{id: ""}'    # every goal
@@ -39,7 +39,7 @@ import threading
 from dataclasses import dataclass
 from typing import Any
 
-from cplus.robot.goals import Feedback, Goal, GoalBoard, GoalStatus, GoalWatcher
+from cplus.robot.serving.goals import Feedback, Goal, GoalBoard, GoalStatus, GoalWatcher
 
 __all__ = ["DEBIAN_DIST", "INSTALL_HINT", "MSG_PATH", "ActionChannel", "RosSetup", "RosUnavailable", "import_ros"]
 

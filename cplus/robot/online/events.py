@@ -29,7 +29,7 @@ from dataclasses import dataclass
 from typing import TextIO
 
 from cplus.errors import CPlusError, Location, Source
-from cplus.robot.online import EventSource
+from cplus.robot.online.loop import EventSource
 
 __all__ = ["EventLine", "EventsError", "LineEvents", "ScriptedEvents", "check_events", "parse_events",
            "parse_line"]

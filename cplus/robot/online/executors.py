@@ -6,14 +6,14 @@ report their values in the simulated world. Faults can be scheduled by cycle: an
 happens, observed or not (a button press, a missed landmark); a sensor that reads a wrong
 value; an action that fails; a robot that stops answering. The loop's tests use it, and so
 does a server whose requests need no robot. The NXT executor is
-:mod:`cplus.robot.nxt_executor`.
+:mod:`cplus.robot.online.nxt_executor`.
 """
 from __future__ import annotations
 
 from collections.abc import Iterable, Mapping
 
-from cplus.robot.estimation import OnlineModel, Roles, State, json_value
-from cplus.robot.online import Executor, Outcome, RobotLost, Step
+from cplus.robot.online.estimation import OnlineModel, Roles, State, json_value
+from cplus.robot.online.loop import Executor, Outcome, RobotLost, Step
 from cplus.signature import GroundConst
 from nxt_link.clock import MONOTONIC, Clock
 
@@ -21,7 +21,7 @@ __all__ = ["SimulatedExecutor"]
 
 
 class SimulatedExecutor(Executor):
-    """A simulated robot for :class:`~cplus.robot.online.OnlineLoop`.
+    """A simulated robot for :class:`~cplus.robot.online.loop.OnlineLoop`.
 
     Args:
         model: the loop's model (the simulated world uses its domain and roles).

@@ -32,7 +32,7 @@ as the literal that says it is done (``pending(3)`` false). Without an agenda th
 only ever plans for the whole goal, exactly (no budget).
 
 >>> from cplus.api import Domain
->>> from cplus.robot.estimation import OnlineModel, Roles
+>>> from cplus.robot.online import OnlineModel, Roles
 >>> d = Domain.from_text('''
 ... :- constants lit :: inertialFluent; flip, kick :: exogenousAction.
 ... flip causes lit.  kick causes -lit.
@@ -51,7 +51,7 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 from cplus.history import History
-from cplus.robot.estimation import OnlineModel, Plan, Roles, State
+from cplus.robot.online import OnlineModel, Plan, Roles, State
 from cplus.sat.horizon import QuerySession
 from cplus.sat.solver import DEFAULT_SOLVER
 from cplus.signature import GroundConst

@@ -3,7 +3,7 @@
 The scene provides the ``collision`` external to the grounder and says which fluents give
 each end-effector's and each payload end's coordinates; :class:`RobotTask` checks those
 bindings against the domain and turns a history into :class:`trajectory.StepState` s.  The
-refinement loop that uses it is :mod:`cplus.robot.refine`.
+refinement loop that uses it is :mod:`cplus.robot.offline.refine`.
 """
 from __future__ import annotations
 

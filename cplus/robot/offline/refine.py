@@ -33,8 +33,8 @@ from enum import StrEnum
 
 from cplus.history import History, decode_history
 from cplus.program import QuerySpec
-from cplus.robot.nogoods import Nogood, NogoodStore, action_nogood, position_nogood
-from cplus.robot.task import RobotTask, TaskError
+from cplus.robot.offline.nogoods import Nogood, NogoodStore, action_nogood, position_nogood
+from cplus.robot.offline.task import RobotTask, TaskError
 from cplus.sat.horizon import HorizonStats, QuerySession
 
 __all__ = ["DEFAULT_MAX_HORIZON", "Iteration", "NogoodForm", "Precheck", "RefineStatus",

@@ -1,15 +1,15 @@
 """A C+ domain served: the online loop kept running on a standing goal, fed by request channels.
 
 ROSoClingo keeps a planner running while goal requests and cancellations arrive; here that is
-the online loop of :mod:`cplus.robot.online` with three parts added, and nothing else:
+the online loop of :mod:`cplus.robot.online.loop` with three parts added, and nothing else:
 
-* a :class:`~cplus.robot.goals.GoalBoard`: clients' requests and cancellations become events
-  of the domain (:mod:`cplus.robot.vocabulary`, ``requests.toml``), and each goal follows the
+* a :class:`~cplus.robot.serving.goals.GoalBoard`: clients' requests and cancellations become events
+  of the domain (:mod:`cplus.robot.serving.vocabulary`, ``requests.toml``), and each goal follows the
   actionlib states as the estimated state closes it;
-* a :class:`~cplus.robot.standing.StandingModel`: one solver for the run, the shortest plan
+* a :class:`~cplus.robot.serving.standing.StandingModel`: one solver for the run, the shortest plan
   within a budget, the oldest goal first beyond it;
-* the channels: a script (:class:`~cplus.robot.channels.RequestScript`), a JSON-lines socket
-  (:class:`~cplus.robot.channels.SocketChannel`), ROS actionlib (:mod:`cplus.robot.ros_bridge`).
+* the channels: a script (:class:`~cplus.robot.serving.channels.RequestScript`), a JSON-lines socket
+  (:class:`~cplus.robot.serving.channels.SocketChannel`), ROS actionlib (:mod:`cplus.robot.serving.ros_bridge`).
 
 The goal is a query of the domain whose step-0 conditions are where the robot starts and whose
 ``maxstep`` conditions say that nothing is pending. The run waits when nothing is to be done,
@@ -21,8 +21,8 @@ aborted.
 Python API::
 
     from cplus.api import Domain
-    from cplus.robot.reactive import Server
-    from cplus.robot.vocabulary import load_requests
+    from cplus.robot.serving.reactive import Server
+    from cplus.robot.serving.vocabulary import load_requests
 
     domain = Domain.load("domains/mailbot/mailbot.cp")
     server = Server(domain, load_requests("domains/mailbot/requests.toml", domain))
@@ -35,12 +35,20 @@ from __future__ import annotations
 from collections.abc import Callable, Iterable
 from typing import TextIO
 
-from cplus.robot.channels import RequestScript, SocketChannel
-from cplus.robot.estimation import Roles, user_actions
-from cplus.robot.goals import Goal, GoalBoard
-from cplus.robot.online import Executor, JsonLinesLog, Observer, OnlineLoop, RunResult
-from cplus.robot.standing import DEFAULT_BUDGET, StandingModel
-from cplus.robot.vocabulary import RequestsError, RequestVocabulary
+from cplus.robot.online import (
+    Executor,
+    JsonLinesLog,
+    Observer,
+    OnlineLoop,
+    Roles,
+    RunResult,
+    SimulatedExecutor,
+    user_actions,
+)
+from cplus.robot.serving.channels import RequestScript, SocketChannel
+from cplus.robot.serving.goals import Goal, GoalBoard
+from cplus.robot.serving.standing import DEFAULT_BUDGET, StandingModel
+from cplus.robot.serving.vocabulary import RequestsError, RequestVocabulary
 from cplus.sat.solver import DEFAULT_SOLVER
 from nxt_link.clock import MONOTONIC, Clock
 
@@ -83,9 +91,9 @@ class Server:
 
     Args:
         domain: the C+ domain (:class:`cplus.api.Domain`).
-        vocabulary: its requests (:func:`~cplus.robot.vocabulary.load_requests`).
+        vocabulary: its requests (:func:`~cplus.robot.serving.vocabulary.load_requests`).
         goal: the query label of the standing goal (default: the domain's first query).
-        binding: a ``robot.toml`` (:class:`~cplus.robot.binding.RobotBinding`), for the roles.
+        binding: a ``robot.toml`` (:class:`~cplus.robot.online.binding.RobotBinding`), for the roles.
         executor: the robot, or a function that makes it from the server's model (default: a
             simulated robot whose actions take ``action_time`` seconds).
         budget: unit propagations for the shortest plan per re-plan (None: always the shortest).
@@ -107,7 +115,6 @@ class Server:
                                    budget=budget, agenda=self.board.agenda, solver=solver or DEFAULT_SOLVER,
                                    horizon=horizon)
         if executor is None:
-            from cplus.robot.executors import SimulatedExecutor
             executor = SimulatedExecutor(self.model, default_s=action_time, clock=clock)
         elif not isinstance(executor, Executor):
             executor = executor(self.model)

@@ -41,7 +41,7 @@ says what would be accepted. Errors in the file itself are :class:`RequestsError
 >>> v.events("fetch(c)", 1)
 Traceback (most recent call last):
 ...
-cplus.robot.vocabulary.Rejected: c is not an office (a, b)
+cplus.robot.serving.vocabulary.Rejected: c is not an office (a, b)
 """
 from __future__ import annotations
 
@@ -53,7 +53,6 @@ from pathlib import Path
 from typing import Any
 
 from cplus.errors import CPlusError, Location, Source
-from cplus.robot.binding import _loc
 from cplus.signature import ConstDecl, GroundConst, NamedSort, render_value
 from trajectory.toml_locations import KeyPath, locate_keys, nearest_location, toml_error
 
@@ -217,7 +216,7 @@ def parse_requests(text: str, path: str, domain) -> RequestVocabulary:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         message, line, col = toml_error(exc)
-        raise RequestsError(message, _loc(source, line, col)) from None
+        raise RequestsError(message, Location.of_token(source, line, col)) from None
     return _Reader(source, data, locate_keys(text), domain).vocabulary()
 
 
@@ -233,7 +232,7 @@ class _Reader:
         return RequestsError(message, self.loc(path))
 
     def loc(self, path: KeyPath) -> Location:
-        return _loc(self.source, *nearest_location(self.locations, path))
+        return Location.of_token(self.source, *nearest_location(self.locations, path))
 
     def string(self, path: KeyPath) -> str:
         node: Any = self.data

@@ -1,12 +1,12 @@
 """Goals of a server: requests and cancellations from clients, as events of the online loop.
 
 A :class:`GoalBoard` sits between the request channels (a script, a socket, ROS actionlib)
-and the online loop (:mod:`cplus.robot.online`). Clients :meth:`~GoalBoard.submit` requests
+and the online loop (:mod:`cplus.robot.online.loop`). Clients :meth:`~GoalBoard.submit` requests
 in the domain's terms and :meth:`~GoalBoard.cancel` goals by id, from any thread. The loop
-polls the board as an :class:`~cplus.robot.online.EventSource`: each request becomes the
-events its vocabulary says (:mod:`cplus.robot.vocabulary`), with a free *slot* of the domain
+polls the board as an :class:`~cplus.robot.online.loop.EventSource`: each request becomes the
+events its vocabulary says (:mod:`cplus.robot.serving.vocabulary`), with a free *slot* of the domain
 (a package), and each cancellation the cancellation's events. The board also watches the
-loop as an :class:`~cplus.robot.online.Observer`: a goal is done when the fluent that says
+loop as an :class:`~cplus.robot.online.loop.Observer`: a goal is done when the fluent that says
 it is open is false in the estimated state, and every watcher of the goal hears its status,
 the feedback of each cycle (the actions executed and the plan that remains), and its result.
 
@@ -36,10 +36,9 @@ from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
 from enum import StrEnum
 
-from cplus.robot.estimation import State
-from cplus.robot.online import CycleRecord, EventSource, Observer, RunResult
-from cplus.robot.standing import GoalLiteral
-from cplus.robot.vocabulary import Rejected, RequestVocabulary
+from cplus.robot.online import CycleRecord, EventSource, Observer, RunResult, State
+from cplus.robot.serving.standing import GoalLiteral
+from cplus.robot.serving.vocabulary import Rejected, RequestVocabulary
 from cplus.signature import render_value
 
 __all__ = ["FINAL", "Feedback", "Goal", "GoalBoard", "GoalStatus", "GoalWatcher"]

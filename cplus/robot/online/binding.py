@@ -39,7 +39,7 @@ from pathlib import Path
 from typing import Any
 
 from cplus.errors import CPlusError, Location, Source
-from cplus.robot.estimation import Act, Roles, user_actions
+from cplus.robot.online.estimation import Act, Roles, user_actions
 from cplus.signature import GroundConst, render_value
 from trajectory.toml_locations import KeyPath, KeyPathReader, kind_of, locate_keys, nearest_location, toml_error
 
@@ -208,18 +208,8 @@ def parse_binding(text: str, path: str, domain) -> RobotBinding:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         message, line, col = toml_error(exc)
-        raise BindingError(message, _loc(source, line, col)) from None
+        raise BindingError(message, Location.of_token(source, line, col)) from None
     return _Reader(source, data, locate_keys(text), domain).binding()
-
-
-def _loc(source: Source, line: int, col: int) -> Location:
-    lines = source.text.splitlines(keepends=True)
-    offset = sum(len(x) for x in lines[:line - 1]) + col - 1
-    offset = max(0, min(offset, len(source.text)))
-    end = offset
-    while end < len(source.text) and source.text[end] not in " =\n\r]":
-        end += 1
-    return Location(source, offset, max(end, offset + 1))
 
 
 class _Reader(KeyPathReader):
@@ -235,7 +225,7 @@ class _Reader(KeyPathReader):
 
     # -- helpers ---------------------------------------------------------------------------
     def loc(self, path: KeyPath) -> Location:
-        return _loc(self.source, *nearest_location(self.locations, path))
+        return Location.of_token(self.source, *nearest_location(self.locations, path))
 
     def fail(self, path: KeyPath, message: str) -> BindingError:
         return BindingError(message, self.loc(path))

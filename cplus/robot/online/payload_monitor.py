@@ -5,7 +5,7 @@ The arms do not run one C+ step at a time as the delivery robot does. A refined 
 one joint trajectory, and the bricks follow it with their P-controllers
 (:func:`nxt_link.execute_streams`). :func:`run_arms` watches that execution:
 
-1. plan from the current state with the refinement loop (:func:`cplus.robot.refine`, in a
+1. plan from the current state with the refinement loop (:func:`cplus.robot.offline.refine`, in a
    solver prepared by :meth:`OnlineModel.session`, with the clauses that earlier refinements
    learned: a motion that collided once is never proposed again);
 2. build the trajectory and stream it to the bricks. At every progress report of the
@@ -44,11 +44,10 @@ from dataclasses import dataclass, field
 from itertools import product
 
 import nxt_link
-from cplus.robot.estimation import OnlineModel, Plan, Roles, State
 from cplus.robot.execution import streams_from_trajectory
-from cplus.robot.online import CycleRecord, Observer, OnlineStatus, Replan, RunResult
-from cplus.robot.refine import RefineStatus, refine
-from cplus.robot.task import RobotTask, TaskError
+from cplus.robot.offline import RefineStatus, RobotTask, TaskError, refine
+from cplus.robot.online.estimation import OnlineModel, Plan, Roles, State
+from cplus.robot.online.loop import CycleRecord, Observer, OnlineStatus, Replan, RunResult
 from cplus.signature import GroundConst
 from nxt_link.clock import MONOTONIC, Clock
 from nxt_link.errors import LinkError, NoActiveProgramError, SetpointError, StreamError

@@ -8,7 +8,7 @@ from __future__ import annotations
 import os
 from collections.abc import Callable
 
-from cplus.robot.task import RobotTask, TaskError
+from cplus.robot.offline.task import RobotTask, TaskError
 
 __all__ = ["check_outputs", "export_plan"]
 

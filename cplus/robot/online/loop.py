@@ -28,9 +28,9 @@ re-plan and its reason, the remaining plan, and the actions executed from it.
 Python API::
 
     from cplus.api import Domain
-    from cplus.robot.estimation import OnlineModel, Roles
-    from cplus.robot.online import OnlineLoop
-    from cplus.robot.executors import SimulatedExecutor
+    from cplus.robot.online.estimation import OnlineModel, Roles
+    from cplus.robot.online.loop import OnlineLoop
+    from cplus.robot.online.executors import SimulatedExecutor
 
     domain = Domain.load("domains/delivery/delivery.cp")
     model = OnlineModel(domain, "deliver", Roles.of(domain, observed=["press"], inferred=["missed"]))
@@ -39,7 +39,7 @@ Python API::
     result.status                # OnlineStatus.GOAL_REACHED
 
 The pieces are interfaces, so that other front ends reuse the loop: an :class:`Executor` does
-the robot's actions (:mod:`cplus.robot.executors`: a simulated one whose actions take a
+the robot's actions (:mod:`cplus.robot.online.executors`: a simulated one whose actions take a
 configurable time; NXT bricks through the behaviour protocol), an :class:`EventSource` brings
 events from outside (a script, standard input, a request channel), and an :class:`Observer` is
 told about each step (progress lines, the JSON-lines log, a server's feedback). :meth:`OnlineLoop.stop`
@@ -56,7 +56,7 @@ from dataclasses import dataclass, field
 from datetime import UTC, datetime
 from enum import StrEnum
 
-from cplus.robot.estimation import Act, Estimate, EstimateStatus, OnlineModel, Plan, State, json_value
+from cplus.robot.online.estimation import Act, Estimate, EstimateStatus, OnlineModel, Plan, State, json_value
 from cplus.signature import GroundConst, render_value
 from nxt_link.clock import MONOTONIC, Clock
 

@@ -1,0 +1,41 @@
+"""Serving goals while the robot runs (ROSoClingo's reactive goals): requests and cancellations
+from clients become events of the domain, and one standing planner keeps the robot's plan for
+the goals that are open.
+
+* :class:`Server` — the online loop with a goal board, a standing model and channels
+  (:mod:`.reactive`);
+* :class:`GoalBoard` — each goal's life, from pending to a final status (:mod:`.goals`);
+* :class:`StandingModel` — one solver for the run, goals as assumptions (:mod:`.standing`);
+* the requests a domain accepts — ``requests.toml`` (:mod:`.vocabulary`);
+* channels — a script, a JSON-lines socket (:mod:`.channels`), ROS actionlib
+  (:mod:`.ros_bridge`, imported only when asked for: ROS is optional).
+
+This package builds on :mod:`cplus.robot.online`, never the other way round.
+"""
+from __future__ import annotations
+
+from cplus.robot.serving.channels import (
+    RequestScript,
+    ScriptEntry,
+    ScriptError,
+    SocketChannel,
+    load_script,
+    parse_listen,
+    parse_script,
+)
+from cplus.robot.serving.goals import Goal, GoalBoard, GoalStatus, GoalWatcher
+from cplus.robot.serving.reactive import ServeLog, Server, serve_roles
+from cplus.robot.serving.standing import DEFAULT_BUDGET, GoalLiteral, StandingModel
+from cplus.robot.serving.vocabulary import (
+    Rejected,
+    RequestsError,
+    RequestVocabulary,
+    load_requests,
+    parse_requests,
+    requests_beside,
+)
+
+__all__ = ["DEFAULT_BUDGET", "Goal", "GoalBoard", "GoalLiteral", "GoalStatus", "GoalWatcher", "Rejected",
+           "RequestScript", "RequestVocabulary", "RequestsError", "ScriptEntry", "ScriptError", "ServeLog", "Server",
+           "SocketChannel", "StandingModel", "load_requests", "load_script", "parse_listen", "parse_requests",
+           "parse_script", "requests_beside", "serve_roles"]
