@@ -66,6 +66,37 @@ def test_arrows_point_one_way(rel, names):
         assert not any(n.startswith("cplus.") for n in names), rel
 
 
+#: The concerns of ``cplus/robot/`` and which others each may use: serving builds on the online
+#: loop, the online loop re-plans with the offline task and streams through execution, and the
+#: offline task and execution stand alone.
+CONCERNS = {"offline": set(), "execution": set(), "online": {"offline", "execution"}, "serving": {"online"}}
+
+
+def test_robot_is_split_by_concern():
+    loose = {p.name for p in (ROOT / "cplus/robot").glob("*.py")}
+    assert loose == {"__init__.py"}, loose
+    packages = {p.name for p in (ROOT / "cplus/robot").iterdir() if (p / "__init__.py").is_file()}
+    assert packages == set(CONCERNS), packages
+
+
+@pytest.mark.parametrize("rel, names", [(r, n) for r, n in modules("cplus") if r.startswith("cplus/robot/")])
+def test_robot_concerns_use_each_other_through_their_faces(rel, names):
+    """A module may use another concern only as that concern's face (its ``__init__``) gives it,
+    and only the concerns :data:`CONCERNS` allows; the face of :mod:`cplus.robot` is the offline
+    task's."""
+    parts = rel.split("/")
+    own = parts[2] if len(parts) > 3 else None
+    for name in names:
+        if not name.startswith("cplus.robot."):
+            continue
+        other = name.split(".")[2]
+        if other == own:
+            continue
+        allowed = {"offline"} if own is None else CONCERNS[own]
+        assert other in allowed, f"{rel} uses {other} ({name})"
+        assert name == f"cplus.robot.{other}", f"{rel} reaches into {name}: import it from cplus.robot.{other}"
+
+
 def test_no_import_cycles_between_modules():
     """Module-level imports (those that run at import time) form no cycle."""
     graph: dict[str, set[str]] = {}
