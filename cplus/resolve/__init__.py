@@ -10,7 +10,7 @@ included file's parsed statements.
 from __future__ import annotations
 
 import os
-from collections.abc import Callable, Iterable
+from collections.abc import Callable
 
 from cplus import ast, ir
 from cplus.errors import DefinitenessError, Diagnostics, IncludeError, Location, QueryError, ResolveError, SortError
@@ -25,7 +25,7 @@ from cplus.limits import (
     count,
 )
 from cplus.program import BasicLaw, IncrementLaw, Pattern, Program, QuerySpec
-from cplus.record import Record
+from cplus.resolve.registry import BUILTIN_EXTERNALS, External, Externals
 from cplus.signature import (
     ACTION_KINDS,
     FLUENT_KINDS,
@@ -43,49 +43,6 @@ __all__ = ["resolve", "External", "Externals", "BUILTIN_EXTERNALS", "Reader"]
 
 Reader = Callable[[str, Location | None], ast.ParsedFile]
 """``read(path, loc)`` returns the parsed statements of a file or raises a CPlusError."""
-
-
-class External(Record):
-    """``predicate`` True: formulas only; False: terms only; None: either."""
-
-    _fields = ("name", "arity", "fn", "predicate")
-
-    name: str
-    arity: int
-    fn: Callable[..., object]
-    predicate: bool | None
-
-    def __init__(self, name: str, arity: int, fn: Callable[..., object], predicate: bool | None) -> None:
-        self.name = name
-        self.arity = arity
-        self.fn = fn
-        self.predicate = predicate
-
-
-class Externals:
-    """Registry of external functions and predicates usable in laws (``collision/4``)."""
-
-    def __init__(self, items: Iterable[External] = ()) -> None:
-        self._items: dict[tuple[str, int], External] = {(e.name, e.arity): e for e in items}
-
-    def add(self, ext: External) -> None:
-        self._items[(ext.name, ext.arity)] = ext
-
-    def add_predicate(self, name: str, arity: int, fn: Callable[..., object]) -> None:
-        self.add(External(name, arity, fn, True))
-
-    def get(self, name: str, arity: int) -> External | None:
-        return self._items.get((name, arity))
-
-    def copy(self) -> Externals:
-        return Externals(self._items.values())
-
-
-def _between(lo: object, hi: object, x: object) -> bool:
-    return isinstance(lo, int) and isinstance(hi, int) and isinstance(x, int) and lo <= x <= hi
-
-
-BUILTIN_EXTERNALS = Externals([External("between", 3, _between, True)])
 
 _KIND_ALIASES = {k: k for k in USER_KINDS}
 _ARITH_FUNS = {("abs", 1): "abs", ("min", 2): "min", ("max", 2): "max"}
