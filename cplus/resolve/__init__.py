@@ -10,7 +10,6 @@ included file's parsed statements.
 from __future__ import annotations
 
 import os
-from collections.abc import Callable
 
 from cplus import ast, ir
 from cplus.errors import DefinitenessError, Diagnostics, IncludeError, Location, QueryError, ResolveError, SortError
@@ -25,6 +24,7 @@ from cplus.limits import (
     count,
 )
 from cplus.program import BasicLaw, IncrementLaw, Pattern, Program, QuerySpec
+from cplus.resolve.core import _KIND_ALIASES, Reader, _ast_text, _Core, _is_boolean, _no_sort_here, _Scope, _show
 from cplus.resolve.registry import BUILTIN_EXTERNALS, External, Externals
 from cplus.signature import (
     ACTION_KINDS,
@@ -41,10 +41,6 @@ from cplus.signature import (
 
 __all__ = ["resolve", "External", "Externals", "BUILTIN_EXTERNALS", "Reader"]
 
-Reader = Callable[[str, Location | None], ast.ParsedFile]
-"""``read(path, loc)`` returns the parsed statements of a file or raises a CPlusError."""
-
-_KIND_ALIASES = {k: k for k in USER_KINDS}
 _ARITH_FUNS = {("abs", 1): "abs", ("min", 2): "min", ("max", 2): "max"}
 _INCLUDE_LIMIT = 64
 
@@ -57,57 +53,12 @@ def resolve(main: ast.ParsedFile, read: Reader, externals: Externals | None = No
     return r.program
 
 
-class _Scope:
-    """Variables visible in an expression: declared ones plus quantified ones."""
-
-    __slots__ = ("local", "query", "law")
-
-    def __init__(self, query: bool = False, law: str = "") -> None:
-        self.local: dict[str, ir.Var] = {}
-        self.query = query
-        self.law = law
-
-    def with_var(self, var: ir.Var) -> _Scope:
-        s = _Scope(self.query, self.law)
-        s.local = dict(self.local)
-        s.local[var.name] = var
-        return s
-
-
-class _Resolver:
-    def __init__(self, read: Reader, externals: Externals, diagnostics: Diagnostics) -> None:
-        self.read = read
-        self.externals = externals
-        self.sig = Signature()
-        self.program = Program(self.sig, diagnostics=diagnostics)
-        self.diag = diagnostics
-        self.macros: dict[tuple[str, int], ast.MacroDef] = {}
-        self.measured: dict[tuple, tuple[int, int]] = {}   # (macro, argument sizes) -> (size, depth)
-        self.macro_seen = False    # the last measured expression calls a macro
-        self.expanded = 0          # nodes produced by expanding macros so far
-        self.variables: dict[str, ir.Var] = {}
-        self.objects: dict[str, Location | None] = {"true": None, "false": None, "none": None}
-        self.included: set[str] = set()
-        self.stack: list[str] = []
-        self.const_order = 0
-
+class _Resolver(_Core):
     # ------------------------------------------------------------------ driver
     def run(self, main: ast.ParsedFile) -> None:
         path = main.source.path  # type: ignore[attr-defined]
         self._file(main, os.path.abspath(path) if not path.startswith("<") else path)
         self._finish()
-
-    def _file(self, parsed: ast.ParsedFile, key: str) -> None:
-        self.included.add(key)
-        self.program.files.append(parsed.source.path)  # type: ignore[attr-defined]
-        self.stack.append(key)
-        for stmt in parsed.statements:
-            self._statement(stmt)
-        self.stack.pop()
-
-    def _statement(self, stmt: ast.Statement) -> None:
-        handler = getattr(self, "_st_" + type(stmt).__name__)
-        handler(stmt)
 
     # ------------------------------------------------------------------ includes
     def _st_Include(self, stmt: ast.Include) -> None:
@@ -1022,15 +973,6 @@ class _TooDeep(Exception):
     """Measuring a macro expansion went past MAX_NESTING levels."""
 
 
-def _no_sort_here(e) -> None:
-    """A range or a star sort where a term or formula is expected: say where they belong."""
-    if isinstance(e, ast.Range):
-        raise ResolveError("a range 'lo..hi' may only occur in declarations (objects, the sorts of "
-                           "constants and variables, macros used there) and in 'maxstep ::'", e.loc)
-    if isinstance(e, ast.SortRef):
-        raise ResolveError(f"the sort '{e.name}*' may only occur in declarations", e.loc)
-
-
 def _substitute(e: ast.Expr, args: tuple) -> ast.Expr:
     if isinstance(e, ast.Param):
         if e.index > len(args):
@@ -1077,10 +1019,6 @@ def _has_stamp(e) -> bool:
     return False
 
 
-def _is_boolean(sort: SortExpr) -> bool:
-    return isinstance(sort, NamedSort) and sort.name == "boolean" and not sort.star
-
-
 def _kind(c) -> str:
     return c.sort.kind if isinstance(c, ir.Var) else c.decl.kind  # type: ignore[union-attr]
 
@@ -1099,19 +1037,6 @@ def _describe(f) -> str:
     return {ir.Or: "a disjunction", ir.Imp: "an implication", ir.Iff: "an equivalence",
             ir.Quant: "a quantifier", ir.Cmp: "a comparison", ir.Not: "a negated formula",
             ir.ExtPred: "an external predicate"}.get(type(f), "a formula")
-
-
-def _show(v) -> str:
-    from cplus.signature import render_value
-    return render_value(v)
-
-
-def _ast_text(e: ast.Expr) -> str:
-    if isinstance(e, ast.Num):
-        return str(e.value)
-    if isinstance(e, ast.Name):
-        return e.name + (f"({','.join(_ast_text(a) for a in e.args)})" if e.args else "")
-    return "?"
 
 
 class _Validator:
