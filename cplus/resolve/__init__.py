@@ -12,7 +12,7 @@ from __future__ import annotations
 import os
 
 from cplus import ast, ir
-from cplus.errors import DefinitenessError, Diagnostics, IncludeError, Location, QueryError, ResolveError, SortError
+from cplus.errors import DefinitenessError, Diagnostics, Location, QueryError, ResolveError, SortError
 from cplus.limits import (
     MAX_OBJECTS,
     count,
@@ -20,6 +20,7 @@ from cplus.limits import (
 from cplus.program import BasicLaw, IncrementLaw, Pattern, Program, QuerySpec
 from cplus.resolve.core import _KIND_ALIASES, Reader, _is_boolean, _Scope
 from cplus.resolve.formulas import _Formulas
+from cplus.resolve.includes import _Includes
 from cplus.resolve.registry import BUILTIN_EXTERNALS, External, Externals
 from cplus.resolve.validate import _EndChecks
 from cplus.signature import (
@@ -33,8 +34,6 @@ from cplus.signature import (
 
 __all__ = ["resolve", "External", "Externals", "BUILTIN_EXTERNALS", "Reader"]
 
-_INCLUDE_LIMIT = 64
-
 
 def resolve(main: ast.ParsedFile, read: Reader, externals: Externals | None = None,
             diagnostics: Diagnostics | None = None) -> Program:
@@ -44,37 +43,12 @@ def resolve(main: ast.ParsedFile, read: Reader, externals: Externals | None = No
     return r.program
 
 
-class _Resolver(_Formulas, _EndChecks):
+class _Resolver(_Includes, _Formulas, _EndChecks):
     # ------------------------------------------------------------------ driver
     def run(self, main: ast.ParsedFile) -> None:
         path = main.source.path  # type: ignore[attr-defined]
         self._file(main, os.path.abspath(path) if not path.startswith("<") else path)
         self._finish()
-
-    # ------------------------------------------------------------------ includes
-    def _st_Include(self, stmt: ast.Include) -> None:
-        base_dir = os.path.dirname(self.stack[-1]) if not self.stack[-1].startswith("<") else os.getcwd()
-        for name, loc in stmt.paths:
-            path = self._find_include(name, base_dir)
-            if path is None:
-                raise IncludeError(f"cannot find included file '{name}'", loc)
-            key = os.path.abspath(path)
-            if key in self.stack:
-                chain = " -> ".join(os.path.basename(p) for p in self.stack[self.stack.index(key):])
-                raise IncludeError(f"include cycle: {chain} -> {os.path.basename(key)}", loc)
-            if key in self.included:
-                continue
-            if len(self.stack) > _INCLUDE_LIMIT:
-                raise IncludeError("includes nested too deeply", loc)
-            self._file(self.read(path, loc), key)
-
-    @staticmethod
-    def _find_include(name: str, base_dir: str) -> str | None:
-        candidates = [os.path.join(base_dir, name), name, os.path.join(base_dir, name + ".cp"), name + ".cp"]
-        for c in candidates:
-            if os.path.isfile(c):
-                return c
-        return None
 
     # ------------------------------------------------------------------ sorts, objects
     def _st_Sorts(self, stmt: ast.Sorts) -> None:
