@@ -13,12 +13,13 @@ import os
 
 from cplus import ast, ir
 from cplus.errors import DefinitenessError, Diagnostics, Location, QueryError, ResolveError, SortError
-from cplus.program import BasicLaw, IncrementLaw, Pattern, Program, QuerySpec
+from cplus.program import BasicLaw, IncrementLaw, Program, QuerySpec
 from cplus.resolve.core import Reader, _is_boolean, _Scope
 from cplus.resolve.declarations import _Declarations
 from cplus.resolve.formulas import _Formulas
 from cplus.resolve.includes import _Includes
 from cplus.resolve.registry import BUILTIN_EXTERNALS, External, Externals
+from cplus.resolve.show import _Show
 from cplus.resolve.validate import _EndChecks
 from cplus.signature import (
     ACTION_KINDS,
@@ -40,7 +41,7 @@ def resolve(main: ast.ParsedFile, read: Reader, externals: Externals | None = No
     return r.program
 
 
-class _Resolver(_Includes, _Declarations, _Formulas, _EndChecks):
+class _Resolver(_Includes, _Declarations, _Show, _Formulas, _EndChecks):
     # ------------------------------------------------------------------ driver
     def run(self, main: ast.ParsedFile) -> None:
         path = main.source.path  # type: ignore[attr-defined]
@@ -49,39 +50,6 @@ class _Resolver(_Includes, _Declarations, _Formulas, _EndChecks):
 
     def _st_NoConcurrency(self, stmt: ast.NoConcurrency) -> None:
         self.program.noconcurrency.append((stmt.strong, stmt.loc))
-
-    # ------------------------------------------------------------------ show / hide
-    def _st_ShowHide(self, stmt: ast.ShowHide) -> None:
-        if stmt.all_:
-            self.program.hide_all = stmt.hide
-        pats = [self._pattern(p) for p in stmt.patterns]
-        if stmt.hide:
-            self.program.hide.extend(pats)
-        else:
-            self.program.show.extend(pats)
-            self.program.show_given = True
-
-    def _pattern(self, e: ast.Expr) -> Pattern:
-        e = self._expand(e)
-        negated = False
-        if isinstance(e, ast.Unary) and e.op == "not":
-            negated, e = True, e.arg
-        value = None
-        if isinstance(e, ast.Binary) and e.op == "=":
-            value = self._pattern_arg(e.right)
-            e = e.left
-        if not isinstance(e, ast.Name):
-            raise ResolveError("a show/hide pattern is an atom 'c(args)' or 'c(args)=v'", e.loc)
-        decl = self.sig.lookup(e.name, len(e.args))
-        if decl is None:
-            raise ResolveError(f"unknown constant '{e.name}/{len(e.args)}' in show/hide", e.loc)
-        return Pattern(decl, tuple(self._pattern_arg(a) for a in e.args), value, negated)
-
-    def _pattern_arg(self, a: ast.Expr):
-        t = self._term(a, _Scope())
-        if isinstance(t, (ir.Lit, ir.Var)):
-            return t if isinstance(t, ir.Var) else t.value
-        raise ResolveError("show/hide arguments are objects or variables", a.loc)
 
     # ------------------------------------------------------------------ queries
     def _st_Query(self, stmt: ast.Query) -> None:
