@@ -6,6 +6,17 @@ tree, so precedence is kept), includes are followed (relative to the including f
 repeats are ignored, cycles are errors), names are bound, and each law is classified and
 expanded into basic laws.  The only I/O is through the ``read`` callback that returns an
 included file's parsed statements.
+
+One module per kind of statement (``declarations``, ``macros``, ``includes``, ``laws``,
+``queries``, ``show``), over the expressions they share (``terms``, ``formulas``) and one
+state (``core``); the checks on the finished domain are in ``validate``, the external
+functions a law may call in ``registry``. The resolvers are mixins of one object rather than
+classes passing a context around because they are not independent: every statement reads and
+extends the same signature, macros and variables, and terms, sorts and integer expressions
+call one another (``var(s, k)`` names a sort, a sort ``lo..hi`` has integer bounds). As
+mixins each keeps its methods and ``self.sig`` exactly as one class had them, a statement
+still reaches its ``_st_<Kind>`` method by one ``getattr``, and nothing is added to a call
+on the path every law takes.
 """
 from __future__ import annotations
 
@@ -35,7 +46,9 @@ def resolve(main: ast.ParsedFile, read: Reader, externals: Externals | None = No
 
 
 class _Resolver(_Includes, _Declarations, _Laws, _Queries, _Show, _EndChecks):
-    # ------------------------------------------------------------------ driver
+    """All the statement resolvers over one state: the main file is read like an included one,
+    then the domain is checked as a whole."""
+
     def run(self, main: ast.ParsedFile) -> None:
         path = main.source.path  # type: ignore[attr-defined]
         self._file(main, os.path.abspath(path) if not path.startswith("<") else path)
