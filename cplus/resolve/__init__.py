@@ -9,18 +9,16 @@ included file's parsed statements.
 
 One module per kind of statement (``declarations``, ``macros``, ``includes``, ``laws``,
 ``queries``, ``show``), over the expressions they share (``terms``, ``formulas``) and one
-state (``core``); the checks on the finished domain are in ``validate``, the external
-functions a law may call in ``registry``. The resolvers are mixins of one object rather than
-classes passing a context around because they are not independent: every statement reads and
-extends the same signature, macros and variables, and terms, sorts and integer expressions
-call one another (``var(s, k)`` names a sort, a sort ``lo..hi`` has integer bounds). As
-mixins each keeps its methods and ``self.sig`` exactly as one class had them, a statement
-still reaches its ``_st_<Kind>`` method by one ``getattr``, and nothing is added to a call
-on the path every law takes.
+state (``core``, which also checks the finished domain); the external functions a law may
+call are in ``registry``. The resolvers are mixins of one object rather than classes passing
+a context around because they are not independent: every statement reads and extends the
+same signature, macros and variables, and terms, sorts and integer expressions call one
+another (``var(s, k)`` names a sort, a sort ``lo..hi`` has integer bounds). As mixins each
+keeps its methods and ``self.sig`` exactly as one class had them, a statement still reaches
+its ``_st_<Kind>`` method by one ``getattr``, and nothing is added to a call on the path
+every law takes.
 """
 from __future__ import annotations
-
-import os
 
 from cplus import ast
 from cplus.errors import Diagnostics
@@ -32,7 +30,6 @@ from cplus.resolve.laws import _Laws
 from cplus.resolve.queries import _Queries
 from cplus.resolve.registry import BUILTIN_EXTERNALS, External, Externals
 from cplus.resolve.show import _Show
-from cplus.resolve.validate import _EndChecks
 
 __all__ = ["resolve", "External", "Externals", "BUILTIN_EXTERNALS", "Reader"]
 
@@ -45,11 +42,5 @@ def resolve(main: ast.ParsedFile, read: Reader, externals: Externals | None = No
     return r.program
 
 
-class _Resolver(_Includes, _Declarations, _Laws, _Queries, _Show, _EndChecks):
-    """All the statement resolvers over one state: the main file is read like an included one,
-    then the domain is checked as a whole."""
-
-    def run(self, main: ast.ParsedFile) -> None:
-        path = main.source.path  # type: ignore[attr-defined]
-        self._file(main, os.path.abspath(path) if not path.startswith("<") else path)
-        self._finish()
+class _Resolver(_Includes, _Declarations, _Laws, _Queries, _Show):
+    """Every statement resolver, over the one state of :class:`~cplus.resolve.core._Core`."""
