@@ -29,7 +29,7 @@ import sys
 
 __all__ = ["EXIT_OK", "EXIT_NO_PLAN", "EXIT_LINK", "EXIT_INPUT", "EXIT_LIMIT", "EXIT_NO_SAFE_PLAN",
            "EXIT_GAVE_UP", "EXIT_CONTRADICTED", "EXIT_AMBIGUOUS", "EXIT_ROBOT_LOST", "EXIT_UNSAFE",
-           "EXIT_INTERRUPTED", "CliError", "OneLineArgumentParser", "nonneg", "positive", "positive_int", "externals",
+           "EXIT_INTERRUPTED", "CliError", "OneLineArgumentParser", "nonneg", "number", "positive", "positive_int", "externals",
            "Warnings", "horizon_progress", "clear_progress", "query", "file_loc", "robot_exit_code"]
 
 EXIT_OK = 0
@@ -88,11 +88,16 @@ def nonneg(text: str) -> int:
     return v
 
 
-def positive(text: str) -> float:
+def number(text: str) -> float:
+    """``text`` as a float, or the one usage error every number option gives for anything else."""
     try:
-        v = float(text)
+        return float(text)
     except ValueError:
         raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
+
+
+def positive(text: str) -> float:
+    v = number(text)
     if not v > 0:
         raise argparse.ArgumentTypeError("must be > 0")
     if not math.isfinite(v):
@@ -102,10 +107,7 @@ def positive(text: str) -> float:
 
 def seconds(text: str) -> float:
     """A duration: a finite number of seconds, 0 allowed."""
-    try:
-        v = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
+    v = number(text)
     if not v >= 0 or v == float("inf"):
         raise argparse.ArgumentTypeError(f"expected seconds >= 0, got {text!r}")
     return v
