@@ -78,14 +78,19 @@ def terminal_columns() -> int:
     return columns or 80
 
 
-def nonneg(text: str) -> int:
+def _integer(text: str, least: int, what: str) -> int:
+    """``text`` as an integer >= ``least``; no integer and too small an integer are one error."""
     try:
         v = int(text)
     except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a non-negative integer, got '{text}'") from None
-    if v < 0:
-        raise argparse.ArgumentTypeError(f"expected a non-negative integer, got '{text}'")
+        v = least - 1
+    if v < least:
+        raise argparse.ArgumentTypeError(f"expected a {what} integer, got '{text}'")
     return v
+
+
+def nonneg(text: str) -> int:
+    return _integer(text, 0, "non-negative")
 
 
 def number(text: str) -> float:
@@ -114,13 +119,7 @@ def seconds(text: str) -> float:
 
 
 def positive_int(text: str) -> int:
-    try:
-        v = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a positive integer, got '{text}'") from None
-    if v < 1:
-        raise argparse.ArgumentTypeError(f"expected a positive integer, got '{text}'")
-    return v
+    return _integer(text, 1, "positive")
 
 
 def parse_bricks(items: list[str], prog: str) -> dict[str, str]:
