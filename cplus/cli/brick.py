@@ -34,7 +34,7 @@ import sys
 import threading
 from dataclasses import replace
 
-from cplus.cli.common import EXIT_INPUT, EXIT_LINK, EXIT_OK, CliError, OneLineArgumentParser
+from cplus.cli.common import EXIT_INPUT, EXIT_LINK, EXIT_OK, CliError, OneLineArgumentParser, number
 from nxt_link.emulator import (
     BrickEmulator,
     EmulatorConfig,
@@ -55,20 +55,14 @@ __all__ = ["build_parser", "config_from_args", "main"]
 
 
 def _probability(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
+    value = number(text)
     if not 0.0 <= value < 1.0:
         raise argparse.ArgumentTypeError(f"probability must be in [0, 1), got {text}")
     return value
 
 
 def _non_negative(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
+    value = number(text)
     if value < 0:
         raise argparse.ArgumentTypeError(f"must be >= 0, got {text}")
     return value

@@ -29,7 +29,7 @@ import sys
 
 __all__ = ["EXIT_OK", "EXIT_NO_PLAN", "EXIT_LINK", "EXIT_INPUT", "EXIT_LIMIT", "EXIT_NO_SAFE_PLAN",
            "EXIT_GAVE_UP", "EXIT_CONTRADICTED", "EXIT_AMBIGUOUS", "EXIT_ROBOT_LOST", "EXIT_UNSAFE",
-           "EXIT_INTERRUPTED", "CliError", "OneLineArgumentParser", "nonneg", "positive", "positive_int", "externals",
+           "EXIT_INTERRUPTED", "CliError", "OneLineArgumentParser", "nonneg", "number", "positive", "positive_int", "externals",
            "Warnings", "horizon_progress", "clear_progress", "query", "file_loc", "robot_exit_code"]
 
 EXIT_OK = 0
@@ -78,21 +78,31 @@ def terminal_columns() -> int:
     return columns or 80
 
 
-def nonneg(text: str) -> int:
+def _integer(text: str, least: int, what: str) -> int:
+    """``text`` as an integer >= ``least``; no integer and too small an integer are one error."""
     try:
         v = int(text)
     except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a non-negative integer, got '{text}'") from None
-    if v < 0:
-        raise argparse.ArgumentTypeError(f"expected a non-negative integer, got '{text}'")
+        v = least - 1
+    if v < least:
+        raise argparse.ArgumentTypeError(f"expected a {what} integer, got '{text}'")
     return v
 
 
-def positive(text: str) -> float:
+def nonneg(text: str) -> int:
+    return _integer(text, 0, "non-negative")
+
+
+def number(text: str) -> float:
+    """``text`` as a float, or the one usage error every number option gives for anything else."""
     try:
-        v = float(text)
+        return float(text)
     except ValueError:
         raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
+
+
+def positive(text: str) -> float:
+    v = number(text)
     if not v > 0:
         raise argparse.ArgumentTypeError("must be > 0")
     if not math.isfinite(v):
@@ -102,23 +112,14 @@ def positive(text: str) -> float:
 
 def seconds(text: str) -> float:
     """A duration: a finite number of seconds, 0 allowed."""
-    try:
-        v = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
+    v = number(text)
     if not v >= 0 or v == float("inf"):
         raise argparse.ArgumentTypeError(f"expected seconds >= 0, got {text!r}")
     return v
 
 
 def positive_int(text: str) -> int:
-    try:
-        v = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a positive integer, got '{text}'") from None
-    if v < 1:
-        raise argparse.ArgumentTypeError(f"expected a positive integer, got '{text}'")
-    return v
+    return _integer(text, 1, "positive")
 
 
 def parse_bricks(items: list[str], prog: str) -> dict[str, str]:
