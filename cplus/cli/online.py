@@ -39,6 +39,10 @@ from cplus.cli.common import (
 
 __all__ = ["build_parser", "main", "exit_code"]
 
+MAX_EVENTS_FILE = 16 * 1024 * 1024
+"""The largest ``--events FILE`` read (characters): a script of a few hundred thousand lines,
+read and checked in seconds; anything larger is a mistake (a device, a log)."""
+
 
 def build_parser() -> OneLineArgumentParser:
     p = OneLineArgumentParser(
@@ -256,9 +260,13 @@ def _behaviours(args: argparse.Namespace, robot: str, ports: dict[str, str]) -> 
     elif args.events:
         try:
             with open(args.events, encoding="utf-8") as f:
-                text = f.read()
+                text = f.read(MAX_EVENTS_FILE + 1)     # bounded: --events /dev/zero is an error, not a hang
         except (OSError, UnicodeDecodeError) as exc:
             print(f"cplus online: error: cannot read {args.events}: {getattr(exc, 'strerror', None) or exc}",
+                  file=err)
+            return EXIT_INPUT
+        if len(text) > MAX_EVENTS_FILE:
+            print(f"cplus online: error: {args.events}: an event file has at most {MAX_EVENTS_FILE} characters",
                   file=err)
             return EXIT_INPUT
         lines = parse_events(text, args.events)
