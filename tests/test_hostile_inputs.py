@@ -93,3 +93,178 @@ def test_every_cycle_in_range_is_read_and_every_other_refused(n):
         assert not 1 <= n <= ev.MAX_CYCLE
     else:
         assert line is not None and line.cycle == n
+
+
+# -- world.toml, scene.toml, robot.toml: numbers ---------------------------------------------
+
+BIG = "9" * 5000
+
+
+def edit(path: Path, old: str, new: str) -> None:
+    text = path.read_text()
+    assert old in text, old
+    path.write_text(text.replace(old, new, 1))
+
+
+def line_of(path: Path, needle: str) -> int:
+    return next(i for i, line in enumerate(path.read_text().splitlines(), 1) if needle in line)
+
+
+@pytest.mark.parametrize("old, new, message", [
+    ("seed = 1", f"seed = {BIG}", "invalid TOML: a number of more than 4300 digits"),
+    ("seed = 1", "seed = 100000000000000000000", "seed = an integer of 21 digits is outside"),
+    ("at_mm = 400", "at_mm = 1e300", "landmarks[0].at_mm = 1e+300 is outside"),
+    ("noise_percent = 1.0", "noise_percent = nan", "noise_percent must be finite, not nan"),
+])
+def test_a_number_of_the_world_file_out_of_range_is_located(delivery, capsys, old, new, message):
+    world = delivery.parent / "world.toml"
+    edit(world, old, new)
+    code, _, err = run(["online", str(delivery), "--max-cycles", "0"], capsys)
+    assert code == 2 and err.startswith(f"{world}:{line_of(world, new[:12])}:") and message in err, err
+
+
+def test_a_negative_distance_in_the_world_file_is_located(delivery, capsys):
+    world = delivery.parent / "world.toml"
+    world.write_text(world.read_text() + "\n[[presses]]\nat_landmark = 3\nnear_mm = -5\n")
+    code, _, err = run(["online", str(delivery), "--max-cycles", "0"], capsys)
+    assert code == 2 and err.startswith(f"{world}:{line_of(world, 'near_mm = -5')}:")
+    assert "near_mm = -5 is outside 0..1e+09" in err
+
+
+@pytest.mark.parametrize("old, new, message", [
+    ('event = "button"', 'event = "buton"', "events.press.event = 'buton': a brick reports button (or 'event N'"),
+    ('value = "landmark"', 'value = "landmrk"', "sensed.atLandmark.value = 'landmrk': a brick reports landmark, light"),
+    ("args = [30]", "args = [100000]", "actions.follow.args[0] = 100000 is outside -32768..32767"),
+    ("args = [30]", f"args = [{BIG}]", "invalid TOML: a number of more than 4300 digits"),
+    ("args = [30]", "args = [1, 2, 3, 4, 5, 6, 7, 8, 9]", "9 arguments: a behaviour takes at most 8"),
+    ("ignore = [0]", "ignore = [0]\nmap = { \"٣\" = 3 }", "map key '٣' must be an integer reading, written in ASCII"),
+])
+def test_a_binding_that_could_never_work_is_located_at_load(delivery, capsys, old, new, message):
+    """Found at load, before anything moves: not at the first action (exit 8, "robot lost"), nor
+    as presses silently ignored (exit 0) or a fluent never sensed (exit 7)."""
+    robot = delivery.parent / "robot.toml"
+    edit(robot, old, new)
+    code, _, err = run(["online", str(delivery), "--simulate"], capsys)
+    needle = new.splitlines()[-1][:10]
+    assert code == 2 and err.startswith(f"{robot}:{line_of(robot, needle)}:") and message in err, err
+
+
+def test_a_scene_number_too_large_is_located(tmp_path, capsys):
+    for name in ("payload.cp", "scene.toml"):
+        shutil.copy(ROOT / "domains" / "payload" / name, tmp_path / name)
+    scene = tmp_path / "scene.toml"
+    text = scene.read_text()
+    first = next(line for line in text.splitlines() if line.startswith("arm_length"))
+    scene.write_text(text.replace(first, "arm_length = 1" + "0" * 400, 1))
+    code, _, err = run(["plan", str(tmp_path / "payload.cp")], capsys)
+    assert code == 2 and err.startswith(f"{scene}:{line_of(scene, 'arm_length = 1000')}:")
+    assert "arm_length = an integer of 401 digits is outside -1e+09..1e+09" in err, err
+
+
+# -- the trajectory JSON -------------------------------------------------------------------------
+
+@pytest.fixture(scope="module")
+def trajectory_json(tmp_path_factory) -> Path:
+    out = tmp_path_factory.mktemp("traj") / "t.json"
+    assert main(["plan", str(ROOT / "domains" / "payload" / "payload.cp"), "--trajectory", str(out)]) == 0
+    return out
+
+
+@pytest.mark.parametrize("old, new, message", [
+    ('"turns": 0', '"turns": 1000000000000000000000000000000',
+     "robots[0].kinematics.turns: expected an integer in -4..4, got an integer of 31 digits"),
+    ('"arm_length": 7,', '"arm_length": 1' + "0" * 400 + ",",
+     "robots[0].kinematics.arm_length: expected a number in -1e+09..1e+09, got an integer of 401 digits"),
+    ('"arm_length": 7,', '"arm_length": NaN,', "robots[0].kinematics.arm_length: expected a finite number, got nan"),
+    ('"tick_ms": 100', '"tick_ms": 1' + "0" * 5000, "invalid JSON: Exceeds the limit (4300 digits)"),
+])
+def test_a_trajectory_number_out_of_range_is_one_line(trajectory_json, tmp_path, capsys, old, new, message):
+    edited = tmp_path / "t.json"
+    text = trajectory_json.read_text()
+    assert old in text, old
+    edited.write_text(text.replace(old, new, 1))
+    code, _, err = run(["execute", str(edited), "--scene", str(ROOT / "domains" / "payload" / "scene.toml")], capsys)
+    assert code == 2 and message in err and len(err.strip().splitlines()) == 1, err
+
+
+# -- any text where a number goes: a located error or a value ----------------------------------
+
+NUMBERISH = st.text(st.sampled_from("0123456789-+._eEinfa ²٣\u0966x\"'"), max_size=12) | st.text(max_size=8) | \
+    st.integers(min_value=-10 ** 30, max_value=10 ** 30).map(str) | st.just("9" * 4400)
+
+
+@given(NUMBERISH)
+def test_any_world_number_is_a_value_or_a_located_error(text):
+    from cplus.robot.online.world_file import WorldFileError, parse_world
+    source = (DELIVERY / "world.toml").read_text()
+    for old in ("noise_percent = 1.0", "seed = 1", "at_mm = 400"):
+        edited = source.replace(old, f"{old.split(' =')[0]} = {text}", 1)
+        try:
+            parse_world(edited, "w.toml")
+        except WorldFileError as exc:
+            assert exc.loc is not None and exc.render().startswith("w.toml:")
+
+
+@given(NUMBERISH)
+def test_any_binding_number_is_a_value_or_a_located_error(text):
+    from cplus.api import Domain
+    from cplus.robot.online.binding import BindingError, parse_binding
+    domain = _delivery_domain()
+    source = (DELIVERY / "robot.toml").read_text()
+    for edited in (source.replace("args = [30]", f"args = [{text}]"),
+                   source.replace("ignore = [0]", f"ignore = [{text}]"),
+                   source.replace("ignore = [0]", f"map = {{ {_toml_string(text)} = 3 }}")):
+        try:
+            b = parse_binding(edited, "r.toml", domain)
+        except BindingError as exc:
+            assert exc.loc is not None and exc.render().startswith("r.toml:")
+        else:
+            for s in b.sensed.values():
+                assert all(isinstance(k, int) and -2 ** 31 <= k < 2 ** 31 for k in s.table)
+            for a in b.actions.values():
+                assert all(-2 ** 15 <= x < 2 ** 15 for x in a.args if isinstance(x, int))
+    assert Domain is not None
+
+
+@given(NUMBERISH)
+def test_any_trajectory_turns_is_a_value_or_a_one_line_error(text):
+    import json
+
+    from trajectory import TrajectoryError
+    from trajectory.export import trajectory_from_dict
+    base = json.loads(_payload_trajectory_text())
+    try:
+        value = json.loads(text)
+    except ValueError:
+        return                                  # not JSON: the loader's own JSON error, tested above
+    base["robots"][0]["kinematics"]["turns"] = value
+    try:
+        traj = trajectory_from_dict(base, "t.json")
+    except TrajectoryError as exc:
+        assert "\n" not in str(exc) and exc.message.startswith("t.json: robots[0].kinematics.turns")
+    else:
+        assert -4 <= traj.robots[0].branch.turns <= 4
+
+
+_CACHE: dict[str, object] = {}
+
+
+def _delivery_domain():
+    from cplus.api import Domain
+    if "domain" not in _CACHE:
+        _CACHE["domain"] = Domain.load(str(DELIVERY / "delivery.cp"))
+    return _CACHE["domain"]
+
+
+def _payload_trajectory_text() -> str:
+    if "traj" not in _CACHE:
+        import tempfile
+        with tempfile.TemporaryDirectory() as d:
+            out = Path(d) / "t.json"
+            assert main(["plan", str(ROOT / "domains" / "payload" / "payload.cp"), "--trajectory", str(out)]) == 0
+            _CACHE["traj"] = out.read_text()
+    return _CACHE["traj"]  # type: ignore[return-value]
+
+
+def _toml_string(text: str) -> str:
+    return '"' + text.replace("\\", "\\\\").replace('"', '\\"') + '"'
