@@ -268,3 +268,39 @@ def _payload_trajectory_text() -> str:
 
 def _toml_string(text: str) -> str:
     return '"' + text.replace("\\", "\\\\").replace('"', '\\"') + '"'
+
+
+# -- command-line options ------------------------------------------------------------------------
+
+@pytest.mark.parametrize("argv, message", [
+    (["--delay", "inf"], "--delay: must be a finite number >= 0, got inf"),
+    (["--delay", "nan"], "--delay: must be a finite number >= 0, got nan"),
+    (["--time-scale", "inf"], "--time-scale: must be a finite number >= 0, got inf"),
+    (["--backlash-deg", "nan"], "--backlash-deg: must be a finite number >= 0, got nan"),
+])
+def test_a_non_finite_brick_option_is_one_line(capsys, argv, message):
+    code, _, err = run(["brick", "--name", "r1", *argv], capsys)
+    assert code == 2 and message in err and len(err.strip().splitlines()) == 1, err
+
+
+def test_two_stalls_on_one_motor_are_one_line(capsys):
+    code, _, err = run(["online", str(ROOT / "domains" / "payload" / "payload.cp"), "--stall", "r1:A@4+2",
+                        "--stall", "r1:a@5"], capsys)
+    assert code == 2 and len(err.strip().splitlines()) == 1
+    assert "--stall r1:a@5 and --stall r1:A@4+2 are both on r1's motor A: give one stall per motor" in err
+
+
+@pytest.mark.parametrize("kind", ["file", "directory", "symlink"])
+def test_brick_link_never_replaces_what_it_did_not_make(tmp_path, capsys, kind):
+    link = tmp_path / "f"
+    if kind == "file":
+        link.write_text("precious")
+    elif kind == "directory":
+        link.mkdir()
+    else:
+        (tmp_path / "target").write_text("precious")
+        link.symlink_to(tmp_path / "target")
+    code, out, err = run(["brick", "--name", "r1", "--link", str(link)], capsys)
+    assert code == 2 and out == "" and err.startswith(f"cplus brick: error: --link {link}: ")
+    assert "choose another path, or remove it" in err
+    assert link.is_dir() if kind == "directory" else link.read_text() == "precious"

@@ -348,7 +348,12 @@ def _stalls(items: Sequence[str], robots: Sequence[str]) -> dict:
             raise CliError(f"cplus online: error: --stall expects ROBOT:PORT@SECONDS[+DURATION] with ROBOT one of "
                            f"{', '.join(robots)}, got {item!r}")
         try:
-            out.setdefault(name, []).append(Stall.parse(spec))
+            stall = Stall.parse(spec)
         except ValueError as exc:
             raise CliError(f"cplus online: error: --stall: {exc}") from None
+        earlier = [s for s in out.get(name, []) if s.port == stall.port]
+        if earlier:        # the emulator holds one stall per motor: say so now, not in a traceback later
+            raise CliError(f"cplus online: error: --stall {item} and --stall {name}:{earlier[0]} are both on "
+                           f"{name}'s motor {'ABC'[stall.port]}: give one stall per motor")
+        out.setdefault(name, []).append(stall)
     return out
