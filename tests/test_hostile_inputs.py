@@ -304,3 +304,58 @@ def test_brick_link_never_replaces_what_it_did_not_make(tmp_path, capsys, kind):
     assert code == 2 and out == "" and err.startswith(f"cplus brick: error: --link {link}: ")
     assert "choose another path, or remove it" in err
     assert link.is_dir() if kind == "directory" else link.read_text() == "precious"
+
+
+# -- cplus brick as a process ----------------------------------------------------------------------
+
+def _brick(argv: list[str], **kw):
+    import subprocess
+    import sys
+    return subprocess.Popen([sys.executable, "-m", "cplus", "brick", "--no-latency", *argv], stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True, cwd=ROOT, **kw)
+
+
+def _end(proc) -> tuple[int, str]:
+    import signal
+    proc.send_signal(signal.SIGTERM)
+    try:
+        _, err = proc.communicate(timeout=20)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+    return proc.returncode, err
+
+
+@pytest.mark.slow
+def test_a_press_on_standard_input_that_is_not_a_duration_is_refused_and_the_next_counts():
+    import subprocess
+    proc = _brick(["--name", "robot", "--world", str(DELIVERY / "world.toml")], stdin=subprocess.PIPE)
+    assert proc.stdout.readline().strip()                       # type: ignore[union-attr]
+    proc.stdin.write("press nan\npress inf\npress 0.5\n")       # type: ignore[union-attr]
+    proc.stdin.flush()                                          # type: ignore[union-attr]
+    seen = ""
+    while "pressed for 0.5 s" not in seen:
+        line = proc.stderr.readline()                           # type: ignore[union-attr]
+        assert line, seen
+        seen += line
+    code, err = _end(proc)
+    assert code == 0 and "Traceback" not in seen + err
+    assert "ignored standard input line 1: 'press nan': a press lasts more than 0 and at most 60 s" in seen
+    assert "ignored standard input line 2: 'press inf'" in seen
+
+
+@pytest.mark.slow
+def test_brick_link_replaces_a_stale_link_refuses_a_live_one_and_removes_only_its_own(tmp_path):
+    import os
+    link = tmp_path / "tty"
+    os.symlink("/dev/pts/987654", link)                         # left by a brick killed with SIGKILL
+    first = _brick(["--name", "r1", "--link", str(link)])
+    assert first.stdout.readline().strip() == str(link)         # type: ignore[union-attr]
+    assert os.readlink(link).startswith("/dev/pts/") and os.path.exists(os.readlink(link))
+    second = _brick(["--name", "r2", "--link", str(link)])
+    _, err = second.communicate(timeout=20)
+    assert second.returncode == 2 and f"--link {link}: it is the link of /dev/pts/" in err and "in use" in err
+    assert os.path.exists(os.readlink(link))                    # the first brick's link is untouched
+    code, _ = _end(first)
+    assert code == 0 and not os.path.lexists(link)
