@@ -17,7 +17,9 @@ Exit codes (the README's table):
 7    ``online``: the observed state is ambiguous (the fluents left open are named)
 8    ``online``: a robot was lost (a brick stopped answering)
 9    ``--no-refine``: the plan shown is not collision-free
-130  interrupted
+124  a second SIGINT/SIGTERM ended a command that moves robots at once (:mod:`cplus.cli.signals`)
+130  interrupted (SIGINT)
+143  SIGTERM (``online``, ``execute``, ``run``: the bricks stopped and the logs written first)
 ==== ==================================================================================
 """
 from __future__ import annotations
