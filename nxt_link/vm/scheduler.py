@@ -1,0 +1,141 @@
+"""The run loop: one millisecond time slice of clumps, turn by turn.
+
+This is the fetch-and-dispatch loop, the only code that runs per instruction
+besides the instructions themselves, so it is written for speed: locals for
+everything it reads, one call per fused block (or per instruction when a
+block does not fit the rest of the turn), and the queue bookkeeping only when
+a turn ends. :mod:`nxt_link.vm.machine` describes the scheduling it models.
+"""
+from __future__ import annotations
+
+from nxt_link.vm.core import DONE, NEVER, ROTATE, STOP, SUSPEND, Fault, VMCore
+from nxt_link.vm.errors import VMError
+from nxt_link.vm.spin import SPIN_AFTER, SPIN_SOON
+
+__all__ = ["Scheduler", "INSTRUCTIONS_PER_TURN"]
+
+#: instructions one clump runs before the run queue rotates (``gInstrsToExecute``)
+INSTRUCTIONS_PER_TURN = 20
+
+
+class Scheduler(VMCore):
+    """:meth:`run_slice`, the queues' wake-up, and whether the program still runs."""
+
+    @property
+    def running(self) -> bool:
+        return not self.finished
+
+    def run_slice(self, tick: int) -> bool:
+        """Run the program's time slice of millisecond ``tick``; False once it ended.
+
+        Raises :class:`VMError` for a fatal error (the program is then over)."""
+        if self.finished:
+            return False
+        self.tick = tick
+        rq = self.runq
+        restq = self.restq
+        if restq and tick >= self._next_wake:
+            self._wake(tick)
+        if not rq:
+            if restq:
+                return True  # every clump sleeps: nothing to run this millisecond
+            self.finished = True
+            return False
+        budget = self.budget
+        executed = 0
+        code = self._code
+        pcs = self.pcs
+        solo_ok = self._solo_ok
+        spin_from = ((SPIN_SOON if self._spent else SPIN_AFTER) if self._skip_busy_waits
+                     else NEVER)
+        if spin_from != NEVER:
+            self._polled = False
+            self._spin.reset()
+        try:
+            while rq:
+                if executed >= spin_from and self._polled:
+                    skip = self._spin.check(self, executed, budget)
+                    if skip:  # whole cycles of a busy-wait: counted, not run
+                        executed += skip
+                        self.skipped += skip
+                        spin_from = NEVER
+                c = rq[0]
+                fns, lens, ops = code[c]
+                pc = pcs[c]
+                # the turn: 20 instructions, fewer when the slice is nearly used up; at
+                # least one even past the end of the slice (as after a clump switch).
+                # A clump alone in the run queue runs on to the end of the slice: the
+                # turn boundaries would hand the CPU back to itself (except that a long
+                # slice comes back to them to look for a busy-wait)
+                k = budget - executed
+                if k < INSTRUCTIONS_PER_TURN:
+                    k = k if k > 0 else 1
+                elif not solo_ok or len(rq) > 1:
+                    k = INSTRUCTIONS_PER_TURN
+                elif executed >= spin_from:
+                    k = INSTRUCTIONS_PER_TURN if self._polled else min(k, SPIN_AFTER)
+                elif k > spin_from - executed:
+                    k = spin_from - executed
+                left = k
+                try:
+                    while True:
+                        n = lens[pc]
+                        if n <= left:
+                            nxt = fns[pc]()
+                            left -= n
+                        else:  # a block longer than the rest of the turn: one instruction
+                            nxt = ops[pc]()
+                            left -= 1
+                        if nxt < 0:
+                            break
+                        pc = nxt
+                        if not left:
+                            break
+                except Fault as f:
+                    ran = 1
+                    if lens[pc] <= left and lens[pc] > 1:
+                        where = self._fuser.locate(f.__traceback__)
+                        if where is not None:
+                            pc, ran = where
+                    executed += k - left + ran
+                    self.finished = True
+                    self.error = VMError(f.args[0], pc=self.exe.clumps[c].code_start + pc, clump=c)
+                    raise self.error from None
+                executed += k - left
+                if nxt >= 0:  # the turn is over (or the slice): rotate
+                    pcs[c] = pc
+                    if len(rq) > 1 and rq[0] == c:
+                        rq.append(rq.pop(0))
+                    if executed >= budget:
+                        return True
+                    continue
+                event = self._event
+                if event == SUSPEND:
+                    pcs[c] = ~nxt
+                elif event == DONE:
+                    pcs[c] = 0
+                    self.fire[c] = self._fire_counts[c]
+                elif event == ROTATE:
+                    pcs[c] = ~nxt
+                    if len(rq) > 1 and rq[0] == c:
+                        rq.append(rq.pop(0))
+                elif event == STOP:
+                    self.finished = True
+                    return False
+            if not restq:
+                self.finished = True
+                return False
+            return True
+        finally:
+            self.instructions += executed
+            self._spent = executed >= budget
+
+    def _wake(self, tick: int) -> None:
+        """Move the clumps whose wait is over to the run queue, in the rest queue's order."""
+        restq = self.restq
+        awaken = self.awaken
+        for c in list(restq):
+            if awaken[c] <= tick:
+                restq.remove(c)
+                self.runq.append(c)
+        self._next_wake = min((awaken[c] for c in restq), default=NEVER)
