@@ -5,6 +5,19 @@ besides the instructions themselves, so it is written for speed: locals for
 everything it reads, one call per fused block (or per instruction when a
 block does not fit the rest of the turn), and the queue bookkeeping only when
 a turn ends. :mod:`nxt_link.vm.machine` describes the scheduling it models.
+
+A slice ends at the first turn boundary after its budget (the firmware's
+``TIMES_UP``). A turn that ends in an event (a clump finishing, calling a
+subroutine, waiting) does not end the millisecond: the firmware's ``cCmdCtrl``
+goes on with the next clump, and so does this loop, so that the end of a slice
+is the firmware's. A program whose every turn is such an event, though (two
+tasks handing over to each other with ``ExitTo``, one instruction each), would
+then never give the CPU back: the emulator would answer no command and could
+not be stopped. So past its budget a slice goes through such turns for at most
+:data:`MAX_OVERRUN` instructions: one slice runs at most ``budget +
+MAX_OVERRUN + INSTRUCTIONS_PER_TURN`` instructions, whatever the program does,
+and a program whose turns end normally is not affected (its slice ends at the
+first turn past the budget that does not end in an event, as before).
 """
 from __future__ import annotations
 
@@ -12,10 +25,12 @@ from nxt_link.vm.core import DONE, NEVER, ROTATE, STOP, SUSPEND, Fault, VMCore
 from nxt_link.vm.errors import VMError
 from nxt_link.vm.spin import SPIN_AFTER, SPIN_SOON
 
-__all__ = ["Scheduler", "INSTRUCTIONS_PER_TURN"]
+__all__ = ["Scheduler", "INSTRUCTIONS_PER_TURN", "MAX_OVERRUN"]
 
 #: instructions one clump runs before the run queue rotates (``gInstrsToExecute``)
 INSTRUCTIONS_PER_TURN = 20
+#: instructions a slice may run past its budget through turns that end in an event
+MAX_OVERRUN = INSTRUCTIONS_PER_TURN
 
 
 class Scheduler(VMCore):
@@ -42,6 +57,7 @@ class Scheduler(VMCore):
             self.finished = True
             return False
         budget = self.budget
+        overrun_end = budget + MAX_OVERRUN
         executed = 0
         code = self._code
         pcs = self.pcs
@@ -122,6 +138,8 @@ class Scheduler(VMCore):
                 elif event == STOP:
                     self.finished = True
                     return False
+                if executed >= overrun_end:  # every turn ends in an event: yield anyway
+                    return True
             if not restq:
                 self.finished = True
                 return False

@@ -108,6 +108,18 @@ def test_cplus_brick_without_nbc_runs_the_model_and_says_so():
     assert "nbc not found: running the Python model of cplus_follow.nxc" in err
 
 
+def test_cplus_brick_serves_a_program_that_never_gives_the_cpu_back(tmp_path):
+    """Two tasks handing over to each other with ExitTo: the brick keeps its milliseconds
+    (so it answers), and SIGTERM stops it (``_brick_process`` asserts exit code 0)."""
+    src = tmp_path / "pingpong.nxc"
+    src.write_text("task b();\ntask a() { ExitTo(b); }\ntask b() { ExitTo(a); }\n"
+                   "task main() { ExitTo(a); }\n")
+    prog = tmp_path / "pingpong.rxe"
+    prog.write_bytes(compile_nxc(src).rxe)
+    path, err = _brick_process("--program", str(prog))
+    assert path.endswith("tty") and "aborted" not in err
+
+
 @pytest.mark.parametrize("make, text", [
     (lambda d: (d / "x.rxe", b"junk"), "x.rxe: not an NXT executable"),
     (lambda d: (d / "a_very_long_program_name.rxe", b""), "at most 19 characters"),

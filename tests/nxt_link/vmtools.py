@@ -11,8 +11,11 @@ commanded state, applied duty and counters. The first difference raises
 """
 from __future__ import annotations
 
+import contextlib
 import shutil
+import signal
 import subprocess
+from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
@@ -218,9 +221,33 @@ task main()
 """)
 
 
+class Hung(BaseException):
+    """The guard of :func:`bounded` went off (a BaseException, so that no ``except
+    Exception`` in the code under test can swallow it)."""
+
+
+@contextlib.contextmanager
+def bounded(seconds: float = 60.0) -> Iterator[None]:
+    """Fail with :class:`Hung` instead of hanging if the block runs longer than ``seconds``.
+
+    A guard against a regression that would loop forever, not a measure: the bound is
+    far above what the block needs on any machine, and what the tests assert is counted
+    (instructions, slices), never timed."""
+    def expire(signum: int, frame: Any) -> None:
+        raise Hung(f"still running after {seconds} s")
+
+    previous = signal.signal(signal.SIGALRM, expire)
+    signal.setitimer(signal.ITIMER_REAL, seconds)
+    try:
+        yield
+    finally:
+        signal.setitimer(signal.ITIMER_REAL, 0)
+        signal.signal(signal.SIGALRM, previous)
+
+
 def nbc_version() -> str:
     return subprocess.run(["nbc"], capture_output=True, text=True).stdout.splitlines()[0]
 
 
 __all__ = ["Twin", "Disagreement", "make_twin", "run_program", "results", "compile_test_program",
-           "VMError", "output_state", "templates_program"]
+           "VMError", "output_state", "templates_program", "Hung", "bounded"]
