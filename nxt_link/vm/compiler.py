@@ -55,6 +55,10 @@ class Compiler(ArithOps, CompareOps, DataOps, StringOps, ControlOps, PortOps):
             except Fault as f:
                 ops[local] = raiser(f.args[0])
                 ends, goto = True, None
+            except Exception as exc:  # operands no check foresaw: the same, when it runs
+                ops[local] = raiser(f"{self._opname(ins.pc)}: the interpreter cannot compile it "
+                                    f"({type(exc).__name__}: {exc})")
+                ends, goto = True, None
             steps.append(Step(local, local + ins.words, ops[local], ends, targets, goto))
         return ops, steps
 
@@ -86,6 +90,9 @@ class Compiler(ArithOps, CompareOps, DataOps, StringOps, ControlOps, PortOps):
             raise Fault(f"opcode 0x{op:02X} ({name}) is not an instruction of firmware 1.28 "
                         f"with {ins.words - 1} argument words")
         a = ins.args
+        if size is None and len(a) < 2:
+            raise Fault(f"{name}: a variable-size instruction of {2 * ins.words} bytes, without "
+                        f"its first operand")
         cc = ins.cc
         if op in (0x00, 0x01, 0x03, 0x04, 0x05, 0x06, 0x07, 0x08):
             return self._binop(op, a[0], a[1], a[2], nxt, name)

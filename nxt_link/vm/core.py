@@ -21,7 +21,7 @@ from typing import TYPE_CHECKING, Any
 
 from nxt_link.vm.errors import VMError
 from nxt_link.vm.iomap import BrickIO
-from nxt_link.vm.opcodes import TC
+from nxt_link.vm.opcodes import OPCODE_NAMES, SHORT_OPCODE_NAMES, TC
 from nxt_link.vm.rxe import POOL_SIZE, Executable
 from nxt_link.vm.values import DType, int_of
 
@@ -193,6 +193,15 @@ class VMCore:
 
     def _set_checked(self, i: int, v: Any) -> None:
         self.set(i, v)
+
+    def _opname(self, pc: int) -> str:
+        """The name of the instruction at codespace word ``pc``."""
+        if not 0 <= pc < len(self.exe.code):
+            return "the instruction past the end of the code"
+        w = self.exe.code[pc]
+        if w & 0x0800:
+            return SHORT_OPCODE_NAMES.get((w >> 8) & 0x07, "short instruction")
+        return OPCODE_NAMES.get(w & 0xFF, f"opcode 0x{w & 0xFF:02X}")
 
 
 def port_fault(what: str, p: int) -> None:

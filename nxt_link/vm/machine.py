@@ -49,7 +49,8 @@ from __future__ import annotations
 
 from nxt_link.vm import poly
 from nxt_link.vm.compiler import Compiler
-from nxt_link.vm.core import NEVER, index_fault, port_fault
+from nxt_link.vm.core import NEVER, Fault, index_fault, port_fault
+from nxt_link.vm.errors import VMError
 from nxt_link.vm.fuse import Fuser
 from nxt_link.vm.iomap import BrickIO
 from nxt_link.vm.opcodes import TC
@@ -80,6 +81,11 @@ class VM(Scheduler, Compiler):
         skip_busy_waits: count the whole cycles of a slice that provably goes
             round in circles without running them (:mod:`nxt_link.vm.spin`);
             the results are the same.
+
+    Raises:
+        VMError: the initial arrays do not fit the brick's memory (``load_rxe``
+            refuses such files already), or the program cannot be compiled (an
+            instruction that cannot be is compiled to a fault, raised if it runs).
 
     Attributes:
         instructions: instructions the program has executed, as the brick counts
@@ -125,9 +131,12 @@ class VM(Scheduler, Compiler):
         pool += (-pool) % 4
         self._fixed_bytes = pool + exe.static_size
         self.memory_used = 0
-        for i in exe.slots:
-            if exe.types[i].tc == TC.ARRAY:
-                self._account(i, self.mem[i])
+        try:
+            for i in exe.slots:
+                if exe.types[i].tc == TC.ARRAY:
+                    self._account(i, self.mem[i])
+        except Fault as f:  # the loader refuses such files; an Executable made otherwise
+            raise VMError(f"cannot start: {f.args[0]}") from None
         self._event = 0
         self._fuser = Fuser({"m": self.mem, "vm": self, "wrap": wrap, "store": store,
                              "s32": poly.s32, "int_of": int_of, "index_fault": index_fault,
@@ -140,7 +149,11 @@ class VM(Scheduler, Compiler):
         # it, a clump alone in the queue stays alone until its turn ends with an event
         self._solo_ok = not any(ins.opcode == (2 if ins.short else 0x2D)
                                 for c in exe.clumps for ins in decode_clump(exe.code, c))
-        fns, lens = self._fuser.build(compiled, blocks=fused)
+        try:
+            fns, lens = self._fuser.build(compiled, blocks=fused)
+        except Exception as exc:  # a template the operands broke: refuse, never crash
+            raise VMError(f"cannot start: the interpreter cannot compile the program "
+                          f"({type(exc).__name__}: {exc})") from exc
         #: per clump: block functions (or instructions) and lengths by offset, instructions
         self._code = [(f, n, ops) for f, n, ops in zip(fns, lens, self.ops)]
 

@@ -92,7 +92,8 @@ class PortOps(VMCore):
             # a value that always fits the field needs no wrap
             st = self.types[src].tc if src != NOT_A_DS_ID else ft
             pairs.append((fld, value if fits(st, ft) else wrap_expr(ft, value)))
-        sets = "".join(f"    io_set(p, {fld}, {value})\n" for fld, value in pairs)
+        # no field at all still names the ports (and counts as output): a body of "pass"
+        sets = "".join(f"    io_set(p, {fld}, {value})\n" for fld, value in pairs) or "    pass\n"
         tp = self.types[port]
         if tp.tc != TC.ARRAY:
             return self._fuser.template(

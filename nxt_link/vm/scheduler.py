@@ -18,6 +18,12 @@ not be stopped. So past its budget a slice goes through such turns for at most
 MAX_OVERRUN + INSTRUCTIONS_PER_TURN`` instructions, whatever the program does,
 and a program whose turns end normally is not affected (its slice ends at the
 first turn past the budget that does not end in an event, as before).
+
+Whatever an instruction raises ends the program with a
+:class:`~nxt_link.vm.errors.VMError` naming it: a ``Fault`` with the
+firmware's reason, anything else (a value the interpreter cannot handle) as
+"the interpreter cannot execute it". The caller (the firmware) reports the
+program as aborted; nothing else escapes a slice.
 """
 from __future__ import annotations
 
@@ -107,16 +113,14 @@ class Scheduler(VMCore):
                         pc = nxt
                         if not left:
                             break
-                except Fault as f:
+                except Exception as exc:  # a Fault, or anything an instruction let escape
                     ran = 1
                     if lens[pc] <= left and lens[pc] > 1:
-                        where = self._fuser.locate(f.__traceback__)
+                        where = self._fuser.locate(exc.__traceback__)
                         if where is not None:
                             pc, ran = where
                     executed += k - left + ran
-                    self.finished = True
-                    self.error = VMError(f.args[0], pc=self.exe.clumps[c].code_start + pc, clump=c)
-                    raise self.error from None
+                    raise self._abort(c, pc, exc) from (None if isinstance(exc, Fault) else exc)
                 executed += k - left
                 if nxt >= 0:  # the turn is over (or the slice): rotate
                     pcs[c] = pc
@@ -147,6 +151,21 @@ class Scheduler(VMCore):
         finally:
             self.instructions += executed
             self._spent = executed >= budget
+
+    def _abort(self, c: int, pc: int, exc: Exception) -> VMError:
+        """End the program for ``exc``, raised by the instruction at offset ``pc`` of
+        clump ``c``: the :class:`VMError` to raise. A :class:`Fault` is a fatal error the
+        firmware has too; anything else is a value the interpreter could not handle,
+        and the program stops all the same, with the instruction named."""
+        self.finished = True
+        where = self.exe.clumps[c].code_start + pc
+        if isinstance(exc, Fault):
+            message = exc.args[0]
+        else:
+            message = (f"{self._opname(where)}: the interpreter cannot execute it "
+                       f"({type(exc).__name__}: {exc})")
+        self.error = VMError(message, pc=where, clump=c)
+        return self.error
 
     def _wake(self, tick: int) -> None:
         """Move the clumps whose wait is over to the run queue, in the rest queue's order."""

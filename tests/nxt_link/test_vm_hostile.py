@@ -13,11 +13,14 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
-from vmtools import bounded
+from vmtools import FINCLUMP, bounded, tiny_rxe
 
+from nxt_link.errors import LinkError
 from nxt_link.firmware import Firmware, FirmwareParams
-from nxt_link.vm import compile_nxc
+from nxt_link.vm import RxeError, VMError, compile_nxc
+from nxt_link.vm.opcodes import TC
 from nxt_link.vm.scheduler import INSTRUCTIONS_PER_TURN, MAX_OVERRUN
+from nxt_link.vm.syscalls import SYSCALLS, Syscall
 
 # The issue's program; this nbc needs task b declared before a names it.
 PING_PONG = "task b();\ntask a() { ExitTo(b); }\ntask b() { ExitTo(a); }\ntask main() { ExitTo(a); }\n"
@@ -96,3 +99,67 @@ def test_nxt_python_talks_to_a_pty_brick_running_the_ping_pong(pty_server, ping_
             assert brick.get_battery_level() == 9000
     finally:
         brick.close()
+
+
+# -- instructions no compiler writes ---------------------------------------------------------
+
+
+def test_setout_without_fields_names_ports_and_does_nothing():
+    data = tiny_rxe((0xE031, 6, 0) + FINCLUMP, toc=[(TC.UBYTE, 0, 0)], static=b"\0")
+    fw = Firmware(flash_files={"t.rxe": data})
+    fw.start_program_now("t.rxe")
+    fw.tick()
+    assert fw.program is None and fw.program_errors == []
+
+
+def test_a_variable_size_instruction_without_operands_stops_the_program_naming_it():
+    data = tiny_rxe((0xE031, 4) + FINCLUMP, toc=[(TC.UBYTE, 0, 0)], static=b"\0")
+    fw = Firmware(flash_files={"t.rxe": data})
+    fw.start_program_now("t.rxe")
+    fw.tick()
+    assert fw.program is None
+    assert fw.program_errors == ["program t.rxe aborted: SETOUT: a variable-size instruction of "
+                                 "4 bytes, without its first operand at pc 0 (0x0000), clump 0"]
+    assert fw.handle(GET_PROGRAM_NAME)[:3] == b"\x02\x11\xec"  # the link says: no program
+
+
+@pytest.mark.parametrize("code, toc, static, text", [
+    # BRCMP.EQ +4, sword 0, sword[] 1: a scalar is no aggregate
+    ((0x8426, 4, 0, 1), [(TC.SWORD, 0, 0), (TC.ARRAY, 0, 2), (TC.SWORD, 0, 0)],
+     b"\0\0\x01\0", "BRCMP: comparing a sword with a sword[]"),
+    # NEG slong 0, mutex 1
+    ((0x6002, 0, 1), [(TC.SLONG, 0, 0), (TC.MUTEX, 0, 4)], bytes(4) + b"\xff\0\0\0",
+     "NEG: a mutex is no operand (slong destination, mutex source)"),
+])
+def test_operands_of_the_wrong_kind_stop_the_program_naming_them(code, toc, static, text):
+    data = tiny_rxe(code + FINCLUMP, toc=toc, static=static, dope_vectors=[(0, 2, 0)])
+    fw = Firmware(flash_files={"t.rxe": data})
+    fw.start_program_now("t.rxe")
+    fw.tick()
+    assert fw.program is None
+    assert fw.program_errors == [f"program t.rxe aborted: {text} at pc 0 (0x0000), clump 0"]
+
+
+@pytest.mark.parametrize("fused", [True, False])
+def test_anything_an_instruction_raises_stops_the_program_with_a_vm_error(tmp_path, monkeypatch,
+                                                                          fused):
+    """The last line of defence: a value the interpreter cannot handle ends the program
+    like any run-time error, with the instruction named, and the brick answers."""
+    def broken(vm, args):
+        raise KeyError("no such thing")
+
+    monkeypatch.setitem(SYSCALLS, 24, Syscall(broken, SYSCALLS[24].arity))  # RandomNumber
+    rxe = _compile(tmp_path, "rnd", "task main() { long a = 1; long b = a + 2; "
+                                    "int r = Random(); NumOut(0, 0, r + b); }\n")
+    fw = Firmware(FirmwareParams(vm_fused=fused), flash_files={"r.rxe": rxe})
+    fw.start_program_now("r.rxe")
+    fw.tick()
+    (error,) = fw.program_errors
+    assert error.startswith("program r.rxe aborted: SYSCALL: the interpreter cannot execute it "
+                            "(KeyError: 'no such thing') at pc ")
+    assert fw.program is None and fw.handle(GET_PROGRAM_NAME)[:3] == b"\x02\x11\xec"
+
+
+def test_the_vm_errors_are_the_packages_errors():
+    assert issubclass(RxeError, LinkError) and issubclass(RxeError, ValueError)
+    assert issubclass(VMError, LinkError) and issubclass(VMError, RuntimeError)
