@@ -51,6 +51,8 @@ class DType:
     #: bytes one element takes in the pool (arrays only; the firmware's layout)
     elem_size: int = 0
     string: bool = field(default=False)
+    #: arrays only: the elements hold arrays, whose contents take pool bytes of their own
+    nested: bool = False
 
     @property
     def is_scalar(self) -> bool:

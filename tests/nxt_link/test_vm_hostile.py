@@ -10,6 +10,7 @@ hang into a failure, far above what the test needs.
 """
 from __future__ import annotations
 
+import struct
 from pathlib import Path
 
 import pytest
@@ -17,8 +18,9 @@ from vmtools import FINCLUMP, bounded, tiny_rxe
 
 from nxt_link.errors import LinkError
 from nxt_link.firmware import Firmware, FirmwareParams
-from nxt_link.vm import RxeError, VMError, compile_nxc
+from nxt_link.vm import RxeError, VMError, compile_nxc, load_rxe
 from nxt_link.vm.opcodes import TC
+from nxt_link.vm.rxe import CLUMP_RECORD_POOL_BYTES, POOL_SIZE
 from nxt_link.vm.scheduler import INSTRUCTIONS_PER_TURN, MAX_OVERRUN
 from nxt_link.vm.syscalls import SYSCALLS, Syscall
 
@@ -99,6 +101,83 @@ def test_nxt_python_talks_to_a_pty_brick_running_the_ping_pong(pty_server, ping_
             assert brick.get_battery_level() == 9000
     finally:
         brick.close()
+
+
+# -- files that claim more than the brick has -----------------------------------------------
+
+# sword[][] at static offset 0, its dope vector index 1 as its default
+_GRID_TOC = [(TC.ARRAY, 0, 0), (TC.ARRAY, 0, 0), (TC.SWORD, 0, 0)]
+_AFTER_TWO_DVS = 2 + 10 * 3  # dataspace offset of the contents after dope vectors 0..2
+
+
+def dope_vector_bomb() -> bytes:
+    """The issue's file: dope vectors of zero-byte elements claim 65,535 rows of 65,535."""
+    return tiny_rxe(FINCLUMP, toc=_GRID_TOC, static=struct.pack("<H", 1),
+                    dope_vectors=[(_AFTER_TWO_DVS, 0, 0xFFFF), (_AFTER_TWO_DVS, 0, 0xFFFF)],
+                    contents=struct.pack("<H", 2))
+
+
+def _shared_rows() -> bytes:
+    """Well-formed dope vectors, 1000 rows all pointing at the same 1000-element row: 2 KB
+    of file for 2 MB of arrays."""
+    return tiny_rxe(FINCLUMP, toc=_GRID_TOC, static=struct.pack("<H", 1),
+                    dope_vectors=[(_AFTER_TWO_DVS, 2, 1000), (_AFTER_TWO_DVS, 2, 1000)],
+                    contents=struct.pack("<H", 2) * 1000)
+
+
+def _flat(count: int) -> bytes:
+    """One sword[] of ``count`` elements; the header understates the dataspace."""
+    return tiny_rxe(FINCLUMP, toc=[(TC.ARRAY, 0, 0), (TC.SWORD, 0, 0)], static=struct.pack("<H", 1),
+                    dope_vectors=[(2 + 20, 2, count)], contents=bytes(2 * count), dataspace_size=24)
+
+
+#: what one clump and the 2-byte static dataspace leave of the pool for the arrays
+_ROOM = POOL_SIZE - CLUMP_RECORD_POOL_BYTES - 2
+
+
+@pytest.mark.parametrize("data, text", [
+    (dope_vector_bomb(), "dope vector 1 gives 0-byte elements, the array's elements (sword[]) "
+                         "reach byte 2"),
+    (_shared_rows(), "dope vector 2 claims 1000 elements: the initial arrays need more than the "
+                     f"{_ROOM} bytes of RAM the brick has left for them (32768 less 30 of static "
+                     "data and clump records)"),
+    (_flat(_ROOM // 2 + 1), f"dope vector 1 claims {_ROOM // 2 + 1} elements"),
+])
+def test_a_file_claiming_more_memory_than_the_brick_has_is_refused_at_once(data, text):
+    with bounded(), pytest.raises(RxeError) as info:
+        load_rxe(data, "bomb.rxe")
+    assert str(info.value).startswith("bomb.rxe: array at dataspace entry 0: ")
+    assert text in str(info.value)
+    fw = Firmware(flash_files={"bomb.rxe": data})
+    fw.start_program_now("bomb.rxe")
+    assert fw.program is None and len(fw.program_errors) == 1
+
+
+@pytest.mark.parametrize("toc, text", [
+    # the element's member lies 40 bytes into 2-byte elements
+    ([(TC.ARRAY, 0, 0), (TC.SWORD, 0, 40)],
+     "array at dataspace entry 0: dope vector 1 gives 2-byte elements, the array's elements "
+     "(sword) reach byte 42"),
+    # the firmware cannot copy a mutex (or a void) out of an array element
+    ([(TC.ARRAY, 0, 0), (TC.CLUSTER, 0, 2), (TC.SWORD, 0, 0), (TC.MUTEX, 0, 2)],
+     "dataspace entry 0: array elements of type {sword, mutex} hold a mutex"),
+])
+def test_array_elements_the_firmware_could_not_hold_are_refused(toc, text):
+    data = tiny_rxe(FINCLUMP, toc=toc, static=struct.pack("<H", 1),
+                    dope_vectors=[(2 + 20, 2, 3)], contents=bytes(6))
+    with pytest.raises(RxeError) as info:
+        load_rxe(data, "t.rxe")
+    assert str(info.value) == "t.rxe: " + text
+
+
+def test_initial_arrays_that_fill_the_pool_exactly_still_load_and_run():
+    data = _flat(_ROOM // 2 - 1)  # 4-byte aligned: _ROOM - 2 bytes
+    exe = load_rxe(data)
+    assert len(exe.initial[0]) == _ROOM // 2 - 1
+    fw = Firmware(flash_files={"full.rxe": data})
+    fw.start_program_now("full.rxe")
+    fw.tick()
+    assert fw.program_errors == []
 
 
 # -- instructions no compiler writes ---------------------------------------------------------
