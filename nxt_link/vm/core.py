@@ -23,14 +23,14 @@ from nxt_link.vm.errors import VMError
 from nxt_link.vm.iomap import BrickIO
 from nxt_link.vm.opcodes import OPCODE_NAMES, SHORT_OPCODE_NAMES, TC
 from nxt_link.vm.rxe import POOL_SIZE, Executable
-from nxt_link.vm.values import DType, int_of
+from nxt_link.vm.values import DType, int_of, pool_bytes
 
 if TYPE_CHECKING:
     from nxt_link.vm.fuse import Fuser
     from nxt_link.vm.spin import SpinDetector
 
 __all__ = ["VMCore", "Fault", "Op", "NOT_A_DS_ID", "DONE", "SUSPEND", "ROTATE", "STOP",
-           "NEVER", "index_fault", "port_fault", "raiser"]
+           "NEVER", "index_fault", "port_fault", "raiser", "out_of_memory"]
 
 NOT_A_DS_ID = 0xFFFF
 #: a time no clump waits for (an empty rest queue's next wake-up)
@@ -105,17 +105,20 @@ class VMCore:
             self.mem[i] = v
 
     def _account(self, i: int, v: Any) -> None:
-        """Pool bytes of the top-level arrays; beyond the 32 KB pool: ERR_MEM."""
+        """Pool bytes of the top-level arrays, with the arrays their elements hold; beyond
+        the 32 KB pool: ERR_MEM. Counting the nested arrays too bounds what a program
+        can make the interpreter allocate, whatever it does."""
         t = self.types[i]
         size = len(v) * t.elem_size
         size += (-size) % 4
+        if t.nested:
+            size = pool_bytes(t, v)
         old = self.array_bytes.get(i, 0)
         if size != old:
             used = self.memory_used - old + size
             if used + self._fixed_bytes > POOL_SIZE and size > old:
-                raise Fault(f"out of memory: {used + self._fixed_bytes} bytes needed, the "
-                            f"brick's pool has {POOL_SIZE} (array at dataspace entry {i}, "
-                            f"{len(v)} elements)")
+                raise Fault(out_of_memory(used + self._fixed_bytes, f"array at dataspace entry "
+                                          f"{i}, {len(v)} elements"))
             self.array_bytes[i] = size
             self.memory_used = used
 
@@ -202,6 +205,11 @@ class VMCore:
         if w & 0x0800:
             return SHORT_OPCODE_NAMES.get((w >> 8) & 0x07, "short instruction")
         return OPCODE_NAMES.get(w & 0xFF, f"opcode 0x{w & 0xFF:02X}")
+
+
+def out_of_memory(needed: int, what: str) -> str:
+    """The message of the firmware's ERR_MEM."""
+    return f"out of memory: {needed} bytes needed, the brick's pool has {POOL_SIZE} ({what})"
 
 
 def port_fault(what: str, p: int) -> None:

@@ -12,10 +12,11 @@ from __future__ import annotations
 from typing import Any
 
 from nxt_link.vm import poly
-from nxt_link.vm.core import NOT_A_DS_ID, Fault, Op, VMCore, index_fault
+from nxt_link.vm.core import NOT_A_DS_ID, Fault, Op, VMCore, index_fault, out_of_memory
 from nxt_link.vm.opcodes import TC
+from nxt_link.vm.rxe import POOL_SIZE
 from nxt_link.vm.templates import indent, wrap_src
-from nxt_link.vm.values import INT_TYPES, M32, DType, copy_value, store, wrap
+from nxt_link.vm.values import INT_TYPES, M32, DType, copy_value, held_bytes, store, wrap
 
 __all__ = ["DataOps"]
 
@@ -119,6 +120,7 @@ class DataOps(VMCore):
         assert te is not None
         get_v = self._getter(v)
         copy = d != s
+        nested = td.nested
         if te.tc in INT_TYPES and tv.tc in INT_TYPES:
             et = te.tc
             same = et == tv.tc
@@ -164,6 +166,8 @@ class DataOps(VMCore):
                         arr[k + j] = poly.convert(te, tv.elem, copy_value(tv.elem, val[j]))
             except poly.PolyError as exc:
                 raise Fault(f"REPLACE: {exc}") from None
+            if nested:  # new elements may hold bigger arrays
+                self._account(d, arr)
             return nxt
         return g
 
@@ -191,6 +195,10 @@ class DataOps(VMCore):
                     new = bytearray([e]) * k if td.string else [e] * k
                 else:
                     e = poly.convert(te, tv, val)
+                    held = held_bytes(te, e) if td.nested else 0
+                    if k * held > POOL_SIZE:  # refused before it is built
+                        raise Fault("ARRINIT: " + out_of_memory(
+                            k * held, f"{k} elements holding {held} bytes of arrays each"))
                     new = [copy_value(te, e) for _ in range(k)]
             except poly.PolyError as exc:
                 raise Fault(f"ARRINIT: {exc}") from None

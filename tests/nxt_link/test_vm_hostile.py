@@ -180,6 +180,30 @@ def test_initial_arrays_that_fill_the_pool_exactly_still_load_and_run():
     assert fw.program_errors == []
 
 
+@pytest.mark.parametrize("body, text", [
+    # 60,000 copies of a 20,000-byte row: refused before one is made
+    ("int row[]; ArrayInit(row, 7, 10000); ArrayInit(grid, row, 60000);",
+     "ARRINIT: out of memory: 1200000000 bytes needed, the brick's pool has 32768 "
+     "(60000 elements holding 20000 bytes of arrays each)"),
+    # rows replaced by longer ones until the pool is full
+    ("int row[]; ArrayInit(grid, row, 100); ArrayInit(row, 1, 2000);"
+     " for (int i = 0; i < 100; i++) grid[i] = row;",
+     "out of memory"),
+])
+def test_nested_arrays_count_in_the_pool_so_a_program_cannot_allocate_without_end(tmp_path, body,
+                                                                                   text):
+    rxe = _compile(tmp_path, "grow", "int grid[][];\ntask main() { " + body + " }\n")
+    fw = Firmware(flash_files={"g.rxe": rxe})
+    fw.start_program_now("g.rxe")
+    with bounded():
+        for _ in range(200):
+            fw.tick()
+            if fw.program is None:
+                break
+    (error,) = fw.program_errors
+    assert error.startswith("program g.rxe aborted: ") and text in error
+
+
 # -- instructions no compiler writes ---------------------------------------------------------
 
 
