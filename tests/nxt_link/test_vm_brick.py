@@ -135,6 +135,8 @@ def _bomb() -> bytes:
     (lambda d: (d / "missing.rxe", None), "cannot read"),
     (lambda d: (d / "bomb.rxe", _bomb()),
      "bomb.rxe: array at dataspace entry 0: dope vector 1 gives 0-byte elements"),
+    (lambda d: (d / "cut.rxe", compiled_follower()[0]["cplus_follow.rxe"][:5000]),
+     "cut.rxe: truncated: the header promises"),
 ])
 def test_cplus_brick_refuses_a_bad_program_in_one_line(tmp_path, make, text):
     path, data = make(tmp_path)

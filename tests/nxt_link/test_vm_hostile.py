@@ -14,7 +14,9 @@ import struct
 from pathlib import Path
 
 import pytest
-from vmtools import FINCLUMP, bounded, tiny_rxe
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from vmtools import FINCLUMP, NXC_DIR, bounded, results, run_program, tiny_rxe
 
 from nxt_link.errors import LinkError
 from nxt_link.firmware import Firmware, FirmwareParams
@@ -266,3 +268,80 @@ def test_anything_an_instruction_raises_stops_the_program_with_a_vm_error(tmp_pa
 def test_the_vm_errors_are_the_packages_errors():
     assert issubclass(RxeError, LinkError) and issubclass(RxeError, ValueError)
     assert issubclass(VMError, LinkError) and issubclass(VMError, RuntimeError)
+
+
+# -- damaged files ------------------------------------------------------------------------
+
+
+def _seed(name: str) -> bytes:
+    return compile_nxc(NXC_DIR / f"{name}.nxc").rxe
+
+
+SEEDS = {name: _seed(name) for name in ("vm_arrays", "vm_calls", "vm_tables")}
+
+
+def test_the_seed_of_initial_tables_runs():
+    fw = run_program(SEEDS["vm_tables"])
+    assert fw.program_errors == [] and results(fw) == ["25"]
+
+
+def _regions(data: bytes) -> dict[str, tuple[int, int]]:
+    """Where a file's tables are: header fields, TOC, dope vectors, codespace."""
+    (ds_count, _, static_size, _, dyn_off, _, _, _, dva_offset, _, code_count
+     ) = struct.unpack_from("<11H", data, 16)
+    defaults = 38 + 4 * ds_count
+    defaults += defaults % 2
+    dva = defaults + dyn_off + dva_offset - static_size
+    count = struct.unpack_from("<H", data, dva + 4)[0]
+    return {"header": (16, 38), "toc": (38, 38 + 4 * ds_count), "dope": (dva, dva + 10 * count),
+            "code": (len(data) - 2 * code_count, len(data)), "anywhere": (0, len(data))}
+
+
+@st.composite
+def damaged(draw: st.DrawFn, name: str) -> bytes:
+    """A seed with a few bytes or words changed (anywhere, or aimed at the header, the
+    table of contents, the dope vectors or the code), cut short or with bytes inserted."""
+    data = bytearray(SEEDS[name])
+    regions = _regions(SEEDS[name])
+    for _ in range(draw(st.integers(1, 6))):
+        kind = draw(st.sampled_from(("byte", "word")))
+        lo, hi = regions[draw(st.sampled_from(sorted(regions)))]
+        pos = draw(st.integers(lo, min(hi, len(data)) - 2))
+        if kind == "byte":
+            data[pos] = draw(st.integers(0, 255))
+        else:
+            word = draw(st.sampled_from((0, 1, 2, 0x7FFF, 0x8000, 0xFFFE, 0xFFFF))
+                        | st.integers(0, 0xFFFF))
+            data[pos:pos + 2] = struct.pack("<H", word)
+    cut = draw(st.sampled_from(("none", "truncate", "insert")))
+    if cut == "truncate":
+        del data[draw(st.integers(0, len(data) - 1)):]
+    elif cut == "insert":
+        pos = draw(st.integers(0, len(data)))
+        data[pos:pos] = draw(st.binary(min_size=1, max_size=4))
+    return bytes(data)
+
+
+@pytest.mark.parametrize("name", sorted(SEEDS))
+@settings(max_examples=120)
+@given(data=st.data())
+def test_a_damaged_file_is_refused_or_run_and_only_the_packages_errors_come_out(name, data):
+    raw = data.draw(damaged(name))
+    with bounded():
+        try:
+            load_rxe(raw, "d.rxe")
+        except RxeError as exc:
+            assert str(exc).startswith("d.rxe: ") and "\n" not in str(exc)
+            return
+        # it loads: it runs, ends or is aborted (50 slices of the default 500 instructions),
+        # and the brick still answers
+        fw = Firmware(flash_files={"d.rxe": raw})
+        fw.start_program_now("d.rxe")
+        for _ in range(50):
+            fw.tick()
+            if fw.program is None:
+                break
+        assert all("\n" not in e and e.startswith(("program d.rxe aborted: ", "cannot run d.rxe"))
+                   for e in fw.program_errors)
+        reply = fw.handle(GET_PROGRAM_NAME)
+        assert reply is not None and reply[2] in (0x00, 0xEC)
