@@ -5,8 +5,8 @@ package's own errors (``RxeError`` at load, ``VMError`` at run) come out, and ea
 refused before anything large is built.
 
 Every test is bounded without depending on the machine's speed: what they assert is
-counted (instructions per slice, examples, ticks), and :func:`vmtools.bounded` only turns a
-hang into a failure, far above what the test needs.
+counted (instructions per slice, examples, ticks), and a 60 s time limit (pytest-timeout,
+tighter than the suite's) only turns a hang into a failure, far above what a test needs.
 """
 from __future__ import annotations
 
@@ -16,7 +16,7 @@ from pathlib import Path
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
-from vmtools import FINCLUMP, NXC_DIR, bounded, results, run_program, tiny_rxe
+from vmtools import FINCLUMP, NXC_DIR, results, run_program, tiny_rxe
 
 from nxt_link.errors import LinkError
 from nxt_link.firmware import Firmware, FirmwareParams
@@ -25,6 +25,8 @@ from nxt_link.vm.opcodes import TC
 from nxt_link.vm.rxe import CLUMP_RECORD_POOL_BYTES, POOL_SIZE
 from nxt_link.vm.scheduler import INSTRUCTIONS_PER_TURN, MAX_OVERRUN
 from nxt_link.vm.syscalls import SYSCALLS, Syscall
+
+pytestmark = pytest.mark.timeout(60)
 
 # The issue's program; this nbc needs task b declared before a names it.
 PING_PONG = "task b();\ntask a() { ExitTo(b); }\ntask b() { ExitTo(a); }\ntask main() { ExitTo(a); }\n"
@@ -52,15 +54,14 @@ def test_an_exitto_ping_pong_gives_back_every_time_slice(ping_pong, ipms):
     fw.start_program_now("pp.rxe")
     assert fw.program is not None
     vm = fw.program.vm  # type: ignore[attr-defined]
-    with bounded():
-        for _ in range(30):
-            before = vm.instructions
-            fw.tick()
-            assert 1 <= vm.instructions - before <= ipms + MAX_OVERRUN + INSTRUCTIONS_PER_TURN
-        # the brick answers while the program runs, and STOPPROGRAM ends it
-        assert fw.handle(GET_PROGRAM_NAME) == b"\x02\x11\x00" + b"pp.rxe".ljust(20, b"\0")
-        assert fw.handle(STOP_PROGRAM) == b"\x02\x01\x00"
+    for _ in range(30):
+        before = vm.instructions
         fw.tick()
+        assert 1 <= vm.instructions - before <= ipms + MAX_OVERRUN + INSTRUCTIONS_PER_TURN
+    # the brick answers while the program runs, and STOPPROGRAM ends it
+    assert fw.handle(GET_PROGRAM_NAME) == b"\x02\x11\x00" + b"pp.rxe".ljust(20, b"\0")
+    assert fw.handle(STOP_PROGRAM) == b"\x02\x01\x00"
+    fw.tick()
     assert fw.program is None and fw.program_errors == []
 
 
@@ -71,21 +72,19 @@ def test_a_program_whose_turns_end_normally_keeps_the_firmwares_slices(tmp_path)
     fw = Firmware(FirmwareParams(vm_instructions_per_ms=500), flash_files={"s.rxe": rxe})
     fw.start_program_now("s.rxe")
     vm = fw.program.vm  # type: ignore[union-attr]
-    with bounded():
-        for _ in range(10):
-            before = vm.instructions
-            fw.tick()
-            assert vm.instructions - before == 500
+    for _ in range(10):
+        before = vm.instructions
+        fw.tick()
+        assert vm.instructions - before == 500
 
 
 def test_the_emulated_brick_answers_a_client_while_the_ping_pong_runs(rig, ping_pong):
     brick = rig.add("r1", flash_files={"pp.rxe": ping_pong}, start_program="pp.rxe")
-    with bounded():
-        assert brick.get_current_program_name() == "pp.rxe"
-        assert brick.get_battery_level() == 9000
-        brick.stop_program()
-        rig.clock.sleep(0.01)
-        brick.get_battery_level()  # the brick has run its milliseconds: the program stopped
+    assert brick.get_current_program_name() == "pp.rxe"
+    assert brick.get_battery_level() == 9000
+    brick.stop_program()
+    rig.clock.sleep(0.01)
+    brick.get_battery_level()  # the brick has run its milliseconds: the program stopped
     firmware = rig.emulators["r1"].firmware
     assert firmware.program is None and firmware.program_errors == []
 
@@ -98,9 +97,8 @@ def test_nxt_python_talks_to_a_pty_brick_running_the_ping_pong(pty_server, ping_
                         start_program="pp.rxe")
     brick = nxt.locator.find(backends=["devfile"], filename=server.path, config=None)
     try:
-        with bounded():
-            assert brick.get_current_program_name() == "pp.rxe"
-            assert brick.get_battery_level() == 9000
+        assert brick.get_current_program_name() == "pp.rxe"
+        assert brick.get_battery_level() == 9000
     finally:
         brick.close()
 
@@ -146,7 +144,7 @@ _ROOM = POOL_SIZE - CLUMP_RECORD_POOL_BYTES - 2
     (_flat(_ROOM // 2 + 1), f"dope vector 1 claims {_ROOM // 2 + 1} elements"),
 ])
 def test_a_file_claiming_more_memory_than_the_brick_has_is_refused_at_once(data, text):
-    with bounded(), pytest.raises(RxeError) as info:
+    with pytest.raises(RxeError) as info:
         load_rxe(data, "bomb.rxe")
     assert str(info.value).startswith("bomb.rxe: array at dataspace entry 0: ")
     assert text in str(info.value)
@@ -197,11 +195,10 @@ def test_nested_arrays_count_in_the_pool_so_a_program_cannot_allocate_without_en
     rxe = _compile(tmp_path, "grow", "int grid[][];\ntask main() { " + body + " }\n")
     fw = Firmware(flash_files={"g.rxe": rxe})
     fw.start_program_now("g.rxe")
-    with bounded():
-        for _ in range(200):
-            fw.tick()
-            if fw.program is None:
-                break
+    for _ in range(200):
+        fw.tick()
+        if fw.program is None:
+            break
     (error,) = fw.program_errors
     assert error.startswith("program g.rxe aborted: ") and text in error
 
@@ -327,21 +324,20 @@ def damaged(draw: st.DrawFn, name: str) -> bytes:
 @given(data=st.data())
 def test_a_damaged_file_is_refused_or_run_and_only_the_packages_errors_come_out(name, data):
     raw = data.draw(damaged(name))
-    with bounded():
-        try:
-            load_rxe(raw, "d.rxe")
-        except RxeError as exc:
-            assert str(exc).startswith("d.rxe: ") and "\n" not in str(exc)
-            return
-        # it loads: it runs, ends or is aborted (50 slices of the default 500 instructions),
-        # and the brick still answers
-        fw = Firmware(flash_files={"d.rxe": raw})
-        fw.start_program_now("d.rxe")
-        for _ in range(50):
-            fw.tick()
-            if fw.program is None:
-                break
-        assert all("\n" not in e and e.startswith(("program d.rxe aborted: ", "cannot run d.rxe"))
-                   for e in fw.program_errors)
-        reply = fw.handle(GET_PROGRAM_NAME)
-        assert reply is not None and reply[2] in (0x00, 0xEC)
+    try:
+        load_rxe(raw, "d.rxe")
+    except RxeError as exc:
+        assert str(exc).startswith("d.rxe: ") and "\n" not in str(exc)
+        return
+    # it loads: it runs, ends or is aborted (50 slices of the default 500 instructions),
+    # and the brick still answers
+    fw = Firmware(flash_files={"d.rxe": raw})
+    fw.start_program_now("d.rxe")
+    for _ in range(50):
+        fw.tick()
+        if fw.program is None:
+            break
+    assert all("\n" not in e and e.startswith(("program d.rxe aborted: ", "cannot run d.rxe"))
+               for e in fw.program_errors)
+    reply = fw.handle(GET_PROGRAM_NAME)
+    assert reply is not None and reply[2] in (0x00, 0xEC)

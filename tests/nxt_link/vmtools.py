@@ -11,12 +11,10 @@ commanded state, applied duty and counters. The first difference raises
 """
 from __future__ import annotations
 
-import contextlib
 import shutil
-import signal
 import struct
 import subprocess
-from collections.abc import Iterator, Sequence
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
@@ -223,30 +221,6 @@ task main()
 """)
 
 
-class Hung(BaseException):
-    """The guard of :func:`bounded` went off (a BaseException, so that no ``except
-    Exception`` in the code under test can swallow it)."""
-
-
-@contextlib.contextmanager
-def bounded(seconds: float = 60.0) -> Iterator[None]:
-    """Fail with :class:`Hung` instead of hanging if the block runs longer than ``seconds``.
-
-    A guard against a regression that would loop forever, not a measure: the bound is
-    far above what the block needs on any machine, and what the tests assert is counted
-    (instructions, slices), never timed."""
-    def expire(signum: int, frame: Any) -> None:
-        raise Hung(f"still running after {seconds} s")
-
-    previous = signal.signal(signal.SIGALRM, expire)
-    signal.setitimer(signal.ITIMER_REAL, seconds)
-    try:
-        yield
-    finally:
-        signal.setitimer(signal.ITIMER_REAL, 0)
-        signal.signal(signal.SIGALRM, previous)
-
-
 #: FINCLUMP -1 -1: the end of a clump that schedules nobody
 FINCLUMP = (0x602A, 0xFFFF, 0xFFFF)
 
@@ -291,5 +265,5 @@ def nbc_version() -> str:
 
 
 __all__ = ["Twin", "Disagreement", "make_twin", "run_program", "results", "compile_test_program",
-           "VMError", "output_state", "templates_program", "Hung", "bounded", "tiny_rxe",
+           "VMError", "output_state", "templates_program", "tiny_rxe",
            "FINCLUMP"]
