@@ -12,7 +12,7 @@ from cplus.errors import Diagnostics, Location
 from cplus.record import Record
 from cplus.signature import ConstDecl, Signature
 
-__all__ = ["BasicLaw", "IncrementLaw", "QuerySpec", "Pattern", "Program", "LAW_CLASSES"]
+__all__ = ["BasicLaw", "IncrementLaw", "QuerySpec", "Pattern", "Program", "LAW_CLASSES", "SHOW_KEYWORDS"]
 
 LAW_CLASSES = ("static", "action", "dynamic", "rigid")
 
@@ -121,21 +121,30 @@ class QuerySpec(Record):
         self.loc = loc
 
 
+SHOW_KEYWORDS = ("positive", "negative", "all", "ab", "none")
+"""CCALC's show specifications besides patterns (see :class:`cplus.output.Display`)."""
+
+
 class Pattern(Record):
-    """A show/hide pattern ``c(args)`` or ``c(args)=v`` (variables match any object)."""
+    """A show/hide pattern ``c(args)`` or ``c(args)=v`` (variables match any object), ``-c(args)``
+    (the Boolean atom false), or ``c`` naming a constant without its arguments: ``decl`` is None
+    and ``name`` matches every instance of every constant of that name (CCALC's ``show loc``)."""
 
-    _fields = ("decl", "args", "value", "negated")
+    _fields = ("decl", "args", "value", "negated", "name")
 
-    decl: ConstDecl
+    decl: ConstDecl | None
     args: tuple[object, ...]       # ir.Var or a value
     value: object | None           # ir.Var, a value, or None (any value)
     negated: bool
+    name: str
 
-    def __init__(self, decl: ConstDecl, args: tuple[object, ...], value: object | None, negated: bool = False) -> None:
+    def __init__(self, decl: ConstDecl | None, args: tuple[object, ...], value: object | None,
+                 negated: bool = False, name: str = "") -> None:
         self.decl = decl
         self.args = args
         self.value = value
         self.negated = negated
+        self.name = name or (decl.name if decl is not None else "")
 
 
 class Program(Record):
@@ -148,7 +157,7 @@ class Program(Record):
     laws: list[BasicLaw]
     increments: list[IncrementLaw]
     queries: list[QuerySpec]
-    show: list[Pattern]
+    show: list[Pattern | str]      # every `:- show` item in order: patterns and SHOW_KEYWORDS
     hide: list[Pattern]
     hide_all: bool
     show_given: bool
@@ -162,7 +171,7 @@ class Program(Record):
             laws: list[BasicLaw] | None = None,
             increments: list[IncrementLaw] | None = None,
             queries: list[QuerySpec] | None = None,
-            show: list[Pattern] | None = None,
+            show: list[Pattern | str] | None = None,
             hide: list[Pattern] | None = None,
             hide_all: bool = False,
             show_given: bool = False,
