@@ -224,7 +224,8 @@ def result_json(program_path: str, result, query) -> dict:
     return {
         "format": PLAN_FORMAT,
         "file": program_path,
-        "query": {"label": result.label, "min_maxstep": query.lo, "max_maxstep": query.hi},
+        "query": {"label": result.label, "kind": "nmquery" if query.nm else "query", "min_maxstep": query.lo,
+                  "max_maxstep": query.hi},
         "status": result.status.value,
         "maxstep": result.maxstep,
         "no_solution_with_maxstep": list(result.failed),

@@ -97,15 +97,20 @@ class IncrementLaw(Record):
 
 
 class QuerySpec(Record):
-    """A query: ``lo..hi`` (hi None = infinity) and its items (universal free variables)."""
+    """A query: ``lo..hi`` (hi None = infinity) and its items (universal free variables).
 
-    _fields = ("label", "lo", "hi", "items", "loc")
+    An nmquery has ``rules`` instead (None for a query): ``(literal, body, loc)`` with
+    ``literal`` None for ``false``; CCALC completes them on their own, over every atom, and
+    the histories satisfy both that completion and the domain's."""
+
+    _fields = ("label", "lo", "hi", "items", "loc", "rules")
 
     label: str
     lo: int
     hi: int | None
     items: tuple[tuple[ir.Formula, Location], ...]
     loc: Location | None
+    rules: tuple[tuple[ir.Formula | None, ir.Formula, Location], ...] | None
 
     def __init__(
             self,
@@ -113,12 +118,19 @@ class QuerySpec(Record):
             lo: int,
             hi: int | None,
             items: tuple[tuple[ir.Formula, Location], ...],
-            loc: Location | None) -> None:
+            loc: Location | None,
+            rules: tuple[tuple[ir.Formula | None, ir.Formula, Location], ...] | None = None) -> None:
         self.label = label
         self.lo = lo
         self.hi = hi
         self.items = items
         self.loc = loc
+        self.rules = rules
+
+    @property
+    def nm(self) -> bool:
+        """Whether this is an nmquery (``:- nmquery``)."""
+        return self.rules is not None
 
 
 SHOW_KEYWORDS = ("positive", "negative", "all", "ab", "none")
@@ -151,7 +163,7 @@ class Program(Record):
     """A resolved domain description and its queries."""
 
     _fields = ("signature", "laws", "increments", "queries", "show", "hide", "hide_all", "show_given",
-               "noconcurrency", "diagnostics", "files")
+               "noconcurrency", "diagnostics", "files", "nmqueries")
 
     signature: Signature
     laws: list[BasicLaw]
@@ -164,6 +176,7 @@ class Program(Record):
     noconcurrency: list[tuple[bool, Location]]
     diagnostics: Diagnostics
     files: list[str]
+    nmqueries: list[QuerySpec]
 
     def __init__(
             self,
@@ -177,7 +190,8 @@ class Program(Record):
             show_given: bool = False,
             noconcurrency: list[tuple[bool, Location]] | None = None,
             diagnostics: Diagnostics | None = None,
-            files: list[str] | None = None) -> None:
+            files: list[str] | None = None,
+            nmqueries: list[QuerySpec] | None = None) -> None:
         self.signature = signature
         self.laws = [] if laws is None else laws
         self.increments = [] if increments is None else increments
@@ -189,9 +203,18 @@ class Program(Record):
         self.noconcurrency = [] if noconcurrency is None else noconcurrency
         self.diagnostics = Diagnostics() if diagnostics is None else diagnostics
         self.files = [] if files is None else files
+        self.nmqueries = [] if nmqueries is None else nmqueries
 
     def query(self, label: str) -> QuerySpec | None:
         for q in self.queries:
+            if q.label == label:
+                return q
+        return None
+
+    def nmquery(self, label: str) -> QuerySpec | None:
+        """The nmquery with this label (nmqueries have labels of their own: query 0 is not
+        nmquery 0)."""
+        for q in self.nmqueries:
             if q.label == label:
                 return q
         return None

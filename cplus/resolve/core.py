@@ -149,6 +149,11 @@ class _Validator:
         for q in program.queries:
             for f, _ in q.items:
                 self.walk(f)
+        for q in program.nmqueries:
+            for head, body, _ in q.rules or ():
+                for f in (head, body):
+                    if f is not None:
+                        self.walk(f)
 
     def walk(self, node) -> None:
         if isinstance(node, ir.Cst):
