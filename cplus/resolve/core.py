@@ -151,9 +151,9 @@ class _Validator:
                 self.walk(f)
         for q in program.nmqueries:
             for head, body, _ in q.rules or ():
-                for f in (head, body):
-                    if f is not None:
-                        self.walk(f)
+                self.walk(body)
+                if head is not None:
+                    self.walk(head)
 
     def walk(self, node) -> None:
         if isinstance(node, ir.Cst):

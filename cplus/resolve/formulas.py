@@ -104,6 +104,7 @@ class _Formulas(_Terms):
         inner = scope
         qvars: list[tuple[bool, ir.Var]] = []
         for qv in e.vars:
+            base: ir.Var | None
             if qv.name.startswith("var("):     # CCALC's anonymous variable var(s, k)
                 sort = self._sort_expr(ast.SortRef(qv.loc, qv.name[4:].split(",")[0]), for_variable=True)
                 base = ir.Var(qv.name, sort, qv.loc)

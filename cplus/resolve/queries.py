@@ -17,7 +17,8 @@ from cplus.resolve.formulas import _Formulas
 class _Queries(_Formulas):
     def _st_Query(self, stmt: ast.Query) -> None:
         label = "0"
-        lo, hi = 0, 0          # CCALC: a query without `maxstep` is answered at maxstep 0
+        lo: int = 0
+        hi: int | None = 0     # CCALC: a query without `maxstep` is answered at maxstep 0
         seen_label = seen_max = False
         items: list[tuple[ir.Formula, Location]] = []
         rules: list[tuple[ir.Formula | None, ir.Formula, Location]] = []

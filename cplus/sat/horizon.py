@@ -314,6 +314,8 @@ class QuerySession:
         Constants internal to the encoding have no name an nmquery could cause, and are left
         to the domain's completion."""
         h = self.horizon
+        act = self.act
+        assert act is not None
         bodies: dict[int, list[PF]] = {}
         for head_fn, body_fn, variables, loc in self.rules:
             def leaf(env: dict, head_fn=head_fn, body_fn=body_fn) -> None:
@@ -322,7 +324,7 @@ class QuerySession:
                 out = self._oor
                 body = body_fn(env, None)
                 if head_fn is None:
-                    h.builder.add(neg(body), guard=self.act)       # caused false if body
+                    h.builder.add(neg(body), guard=act)       # caused false if body
                 elif type(head) is int and not out:
                     bodies.setdefault(head, []).append(body)
             self._m = m
@@ -346,7 +348,7 @@ class QuerySession:
                         continue
                     v = h.var(abs(aid), t) * (1 if aid > 0 else -1)
                     f = mk_or(bodies.get(v, ()))
-                    h.builder.add(mk_and([mk_or([-v, f]), mk_or([v, neg(f)])]), guard=self.act)
+                    h.builder.add(mk_and([mk_or([-v, f]), mk_or([v, neg(f)])]), guard=act)
 
     def assert_items(self, m: int) -> None:
         """Add every query condition at horizon m unconditionally (for a fixed horizon)."""
