@@ -25,6 +25,9 @@ Reader = Callable[[str, Location | None], ast.ParsedFile]
 
 _KIND_ALIASES = {k: k for k in USER_KINDS}
 
+_UNDECLARED = ("unknown constant or function", "unknown name")
+"""How the messages for a name no declaration has introduced (yet) begin."""
+
 
 class _Scope:
     """Variables visible in an expression: declared ones plus quantified ones."""
@@ -61,6 +64,7 @@ class _Core:
         self.included: set[str] = set()
         self.stack: list[str] = []
         self.const_order = 0
+        self.deferred: list[tuple[ast.Law, dict, dict]] = []
 
     def run(self, main: ast.ParsedFile) -> None:
         path = main.source.path  # type: ignore[attr-defined]
@@ -77,7 +81,28 @@ class _Core:
 
     def _statement(self, stmt: ast.Statement) -> None:
         handler = getattr(self, "_st_" + type(stmt).__name__)
-        handler(stmt)
+        if not isinstance(stmt, ast.Law):
+            handler(stmt)
+            return
+        try:
+            handler(stmt)
+        except ResolveError as exc:
+            if not exc.message.startswith(_UNDECLARED):
+                raise
+            # CCALC grounds laws after reading the whole file, so a law may name a constant
+            # declared further on (its traffic examples do): try it again at the end, with
+            # the macros and variables it sees here
+            self.deferred.append((stmt, dict(self.macros), dict(self.variables)))
+
+    def _deferred_laws(self) -> None:
+        """The laws that named a constant not yet declared, now that every one is."""
+        macros, variables = self.macros, self.variables
+        try:
+            for stmt, seen_macros, seen_variables in self.deferred:
+                self.macros, self.variables = seen_macros, seen_variables
+                self._st_Law(stmt)  # type: ignore[attr-defined]
+        finally:
+            self.macros, self.variables = macros, variables
 
     def _check_ground_size(self) -> None:
         """Refuse, before enumerating them, more ground constants than MAX_GROUND_CONSTANTS."""
@@ -95,6 +120,7 @@ class _Core:
                                 + f"; a domain may have at most {count(MAX_GROUND_CONSTANTS)}", d.loc)
 
     def _finish(self) -> None:
+        self._deferred_laws()
         has_additive = any(d.kind in ("additiveFluent", "additiveAction") for d in self.sig.constants.values())
         if has_additive and self.sig.max_additive is None:
             d = next(d for d in self.sig.constants.values() if d.kind in ("additiveFluent", "additiveAction"))

@@ -138,3 +138,31 @@ def test_cplus_plan_nmquery(tmp_path):
     assert "% query 0" in both.stdout and "% nmquery 0" in both.stdout
     bad = run("--nmquery", "nope")
     assert bad.returncode == 2 and "error: no nmquery with label 'nope'" in bad.stderr
+
+
+# ----------------------------------------------------------------------------- declarations
+
+def test_a_law_may_name_a_constant_declared_after_it():
+    """CCALC grounds the laws once the whole file is read (its traffic examples rely on it)."""
+    src = """:- sorts s. :- objects x, y :: s. :- variables X :: s.
+caused p(X) if q.
+:- constants p(s), q :: sdFluent.
+caused q if r. default -q. default -p(X).
+:- constants r :: simpleFluent.
+:- query maxstep :: 0; 0: r."""
+    (h,) = histories(src).histories
+    assert h.state_text(0) == {"p(x)": True, "p(y)": True, "q": True, "r": True}
+    with pytest.raises(CPlusError, match="unknown name 'zz'"):
+        Domain.from_text(":- constants p :: inertialFluent.\ncaused p if zz.")
+
+
+def test_a_domain_of_statically_determined_fluents_prints_them():
+    """Kept on purpose (docs/language.md, section 10): CCALC prints no fluent of such a domain."""
+    d = Domain.from_text(":- constants q :: sdFluent. caused q. :- query maxstep :: 0; 0: q.")
+    assert d.format(d.solve()).strip() == "0:  q"
+
+
+def test_a_time_stamped_formula_outside_a_query_is_ignored_with_ccalcs_meaning_said():
+    d = Domain.from_text(LAMP + "0: lit.\n:- query maxstep :: 0; 0: -lit.")
+    assert any("CCALC makes it a rule of the theory" in w.message for w in d.diagnostics.items)
+    assert len(d.solve().histories) == 1
