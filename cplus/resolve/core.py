@@ -14,7 +14,7 @@ import os
 from collections.abc import Callable
 
 from cplus import ast, ir
-from cplus.errors import Diagnostics, Location, ResolveError, SortError
+from cplus.errors import CPlusError, Diagnostics, Location, ResolveError, SortError
 from cplus.limits import MAX_GROUND_CONSTANTS, count
 from cplus.program import Program
 from cplus.resolve.registry import Externals
@@ -81,13 +81,12 @@ class _Core:
 
     def _statement(self, stmt: ast.Statement) -> None:
         handler = getattr(self, "_st_" + type(stmt).__name__)
-        if not isinstance(stmt, ast.Law):
-            handler(stmt)
-            return
         try:
             handler(stmt)
-        except ResolveError as exc:
-            if not exc.message.startswith(_UNDECLARED):
+        except CPlusError as exc:
+            if not (isinstance(stmt, ast.Law) and isinstance(exc, ResolveError)
+                    and exc.message.startswith(_UNDECLARED)):
+                self._deferred_laws()       # a law put off before this statement is reported first
                 raise
             # CCALC grounds laws after reading the whole file, so a law may name a constant
             # declared further on (its traffic examples do): try it again at the end, with
@@ -97,8 +96,9 @@ class _Core:
     def _deferred_laws(self) -> None:
         """The laws that named a constant not yet declared, now that every one is."""
         macros, variables = self.macros, self.variables
+        deferred, self.deferred = self.deferred, []
         try:
-            for stmt, seen_macros, seen_variables in self.deferred:
+            for stmt, seen_macros, seen_variables in deferred:
                 self.macros, self.variables = seen_macros, seen_variables
                 self._st_Law(stmt)  # type: ignore[attr-defined]
         finally:
