@@ -201,11 +201,12 @@ def clear_progress(enabled: bool) -> None:
         print("\r\033[K", end="", file=sys.stderr, flush=True)
 
 
-def query(domain, label: str, path: str):
-    """The query ``label`` of ``domain``; an unknown label is an error located at the file."""
+def query(domain, label: str, path: str, nmquery: bool = False):
+    """The query (``nmquery``: the nmquery) ``label`` of ``domain``; an unknown label is an
+    error located at the file."""
     from cplus.errors import QueryError
     try:
-        return domain.query(label)
+        return domain.nmquery(label) if nmquery else domain.query(label)
     except QueryError as exc:
         exc.loc = file_loc(path)
         raise

@@ -14,7 +14,7 @@ import os
 from collections.abc import Callable
 
 from cplus import ast, ir
-from cplus.errors import Diagnostics, Location, ResolveError, SortError
+from cplus.errors import CPlusError, Diagnostics, Location, ResolveError, SortError
 from cplus.limits import MAX_GROUND_CONSTANTS, count
 from cplus.program import Program
 from cplus.resolve.registry import Externals
@@ -24,6 +24,9 @@ Reader = Callable[[str, Location | None], ast.ParsedFile]
 """``read(path, loc)`` returns the parsed statements of a file or raises a CPlusError."""
 
 _KIND_ALIASES = {k: k for k in USER_KINDS}
+
+_UNDECLARED = ("unknown constant or function", "unknown name")
+"""How the messages for a name no declaration has introduced (yet) begin."""
 
 
 class _Scope:
@@ -61,6 +64,7 @@ class _Core:
         self.included: set[str] = set()
         self.stack: list[str] = []
         self.const_order = 0
+        self.deferred: list[tuple[ast.Law, dict, dict]] = []
 
     def run(self, main: ast.ParsedFile) -> None:
         path = main.source.path  # type: ignore[attr-defined]
@@ -77,7 +81,28 @@ class _Core:
 
     def _statement(self, stmt: ast.Statement) -> None:
         handler = getattr(self, "_st_" + type(stmt).__name__)
-        handler(stmt)
+        try:
+            handler(stmt)
+        except CPlusError as exc:
+            if not (isinstance(stmt, ast.Law) and isinstance(exc, ResolveError)
+                    and exc.message.startswith(_UNDECLARED)):
+                self._deferred_laws()       # a law put off before this statement is reported first
+                raise
+            # CCALC grounds laws after reading the whole file, so a law may name a constant
+            # declared further on (its traffic examples do): try it again at the end, with
+            # the macros and variables it sees here
+            self.deferred.append((stmt, dict(self.macros), dict(self.variables)))
+
+    def _deferred_laws(self) -> None:
+        """The laws that named a constant not yet declared, now that every one is."""
+        macros, variables = self.macros, self.variables
+        deferred, self.deferred = self.deferred, []
+        try:
+            for stmt, seen_macros, seen_variables in deferred:
+                self.macros, self.variables = seen_macros, seen_variables
+                self._st_Law(stmt)  # type: ignore[attr-defined]
+        finally:
+            self.macros, self.variables = macros, variables
 
     def _check_ground_size(self) -> None:
         """Refuse, before enumerating them, more ground constants than MAX_GROUND_CONSTANTS."""
@@ -95,6 +120,7 @@ class _Core:
                                 + f"; a domain may have at most {count(MAX_GROUND_CONSTANTS)}", d.loc)
 
     def _finish(self) -> None:
+        self._deferred_laws()
         has_additive = any(d.kind in ("additiveFluent", "additiveAction") for d in self.sig.constants.values())
         if has_additive and self.sig.max_additive is None:
             d = next(d for d in self.sig.constants.values() if d.kind in ("additiveFluent", "additiveAction"))
@@ -149,6 +175,11 @@ class _Validator:
         for q in program.queries:
             for f, _ in q.items:
                 self.walk(f)
+        for q in program.nmqueries:
+            for head, body, _ in q.rules or ():
+                self.walk(body)
+                if head is not None:
+                    self.walk(head)
 
     def walk(self, node) -> None:
         if isinstance(node, ir.Cst):

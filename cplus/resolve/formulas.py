@@ -104,7 +104,12 @@ class _Formulas(_Terms):
         inner = scope
         qvars: list[tuple[bool, ir.Var]] = []
         for qv in e.vars:
-            base = self._var(qv.name, qv.loc, _Scope()) if qv.name[0].isupper() else None
+            base: ir.Var | None
+            if qv.name.startswith("var("):     # CCALC's anonymous variable var(s, k)
+                sort = self._sort_expr(ast.SortRef(qv.loc, qv.name[4:].split(",")[0]), for_variable=True)
+                base = ir.Var(qv.name, sort, qv.loc)
+            else:
+                base = self._var(qv.name, qv.loc, _Scope()) if qv.name[0].isupper() else None
             if base is None:
                 raise ResolveError(f"unknown variable '{qv.name}' in a quantifier", qv.loc)
             var = ir.Var(qv.name, base.sort, qv.loc)

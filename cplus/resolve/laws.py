@@ -23,7 +23,8 @@ class _Laws(_Formulas):
     def _st_Law(self, law: ast.Law) -> None:
         scope = _Scope(law=law.kind)
         if law.kind == "fact" and _has_stamp(law.head):
-            self.diag.warn("a time-stamped formula outside a query has no effect; ignored", law.loc)
+            self.diag.warn("a time-stamped formula outside a query is ignored (CCALC makes it a rule of the "
+                           "theory at those steps; write it as a query condition)", law.loc)
             return
         if law.kind in ("exogenous", "inertial", "rigid"):
             self._frame_law(law, scope)

@@ -9,7 +9,7 @@ from __future__ import annotations
 from cplus import ast, ir
 from cplus.errors import Location, ResolveError, SortError
 from cplus.limits import MAX_INT, MAX_RANGE, count
-from cplus.resolve.core import _KIND_ALIASES, _ast_text, _no_sort_here, _Scope, _show
+from cplus.resolve.core import _KIND_ALIASES, _ast_text, _is_boolean, _no_sort_here, _Scope, _show
 from cplus.resolve.macros import _Macros
 from cplus.signature import USER_KINDS, KindSort, NamedSort, RangeSort, SortExpr, StepSort
 
@@ -97,6 +97,8 @@ class _Terms(_Macros):
             if e.op == "not":
                 return self._term_x(_rotate_minus(e.arg, e.loc), scope) if isinstance(e.arg, ast.Binary) \
                     else self._arith("neg", (self._term_x(e.arg, scope),), e.loc)
+            if e.op == "cneg":
+                return self._ccalc_minus(e, scope)
             return self._arith("neg" if e.op == "-" else "abs", (self._term_x(e.arg, scope),), e.loc)
         if isinstance(e, ast.Binary):
             if e.op in ast.ARITH_OPS:
@@ -116,6 +118,27 @@ class _Terms(_Macros):
             raise ResolveError("expected a term, found a quantified formula", e.loc)
         _no_sort_here(e)
         raise ResolveError("expected a term", e.loc)
+
+    def _ccalc_minus(self, e: ast.Unary, scope: _Scope) -> ir.Term:
+        """``-c=v`` without parentheses: CCALC (Prolog) reads ``(-c)=v``, minus binding tighter
+        than any comparison.  Taken so, with a warning that names the form for "c is not v";
+        refused, as CCALC refuses it ("Invalid expression"), when ``c`` has no integer values."""
+        arg = self._term_x(e.arg, scope)
+        text = _ast_text(e.arg)
+        integer = True
+        if isinstance(arg, ir.Cst):
+            integer = self._may_be_int(arg.decl.domain) and not _is_boolean(arg.decl.domain)
+        elif isinstance(arg, ir.Lit):
+            integer = isinstance(arg.value, int)
+        elif isinstance(arg, ir.Var):
+            integer = self._may_be_int(arg.sort)
+        if not integer:
+            raise SortError(f"'-{text}' before a comparison is arithmetic minus in CCALC ('(-{text})=...'), and "
+                            f"'{text}' has no integer values (CCALC: Invalid expression); write '-({text}=...)' "
+                            "for the negation", e.loc)
+        self.diag.warn(f"'-{text}' before a comparison means '(-{text})' in CCALC (minus binds tighter than "
+                       f"'='): '-{text}=v' says {text} = -v; write '-({text}=v)' for '{text} is not v'", e.loc)
+        return self._arith("neg", (arg,), e.loc)
 
     def _arith(self, op: str, args: tuple, loc: Location) -> ir.Term:
         for a in args:
