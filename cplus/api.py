@@ -108,17 +108,26 @@ class Domain:
         known = ", ".join(self.labels) or "none"
         raise QueryError(f"no query with label '{label}' (this file's labels: {known})")
 
+    def _searchable(self, label: str) -> QuerySpec:
+        """The query ``label``, unless it is a ``maxstep :: any`` query: that one is proved
+        (:meth:`prove`), never searched horizon by horizon."""
+        query = self.query(label)
+        if query.invariant is not None:
+            raise QueryError(f"query '{label}' has 'maxstep :: any': it is a proof that no plan exists "
+                             "(Domain.prove), not a search", query.loc)
+        return query
+
     def solve(self, label: str = "0", solutions: int = 1, solver: str = DEFAULT_SOLVER,
               max_horizon: int | None = None, on_horizon: Callable | None = None) -> QueryResult:
         """Run a query: the shortest maxstep in its range with a history, and up to
         ``solutions`` histories there (0 = all)."""
-        query = self.query(label)
+        query = self._searchable(label)
         return run_query(self.theory_for(query), query, solutions, solver, max_horizon, on_horizon)
 
     def plans(self, label: str = "0", solver: str = DEFAULT_SOLVER,
               max_horizon: int | None = None) -> Iterator[History]:
         """Every history at the shortest maxstep with one, lazily."""
-        query = self.query(label)
+        query = self._searchable(label)
         session = QuerySession(self.theory_for(query), query, solver, max_horizon, commit=True)
         find_horizon(session)
         if session.found is not None:
@@ -129,6 +138,24 @@ class Domain:
         """A live solver for a query, for callers that add constraints between solves."""
         query = self.query(label)
         return QuerySession(self.theory_for(query), query, solver, max_horizon)
+
+    def prove(self, label: str, solver: str | None = None):
+        """The proof of a ``maxstep :: any`` query that no plan of any length exists
+        (:func:`cplus.invariant.prove`: an :class:`~cplus.invariant.InvariantResult`)."""
+        from cplus.invariant import prove
+        query = self.query(label)
+        if query.invariant is None:
+            raise QueryError(f"query '{label}' has no invariant (only a 'maxstep :: any' query is proved)",
+                             query.loc)
+        return prove(self.theory, query, solver)
+
+    def format_proof(self, proof) -> str:
+        from cplus.invariant import format_proof
+        return format_proof(Display(self.program), proof)
+
+    def proof_json(self, proof) -> dict:
+        from cplus.invariant import proof_json
+        return {"format": "cplus.plan/1", "file": self.path, **proof_json(proof, self.query(proof.label))}
 
     def format(self, result: QueryResult, numbered: bool | None = None) -> str:
         """CCALC's text for a result, as ``cplus plan`` prints it: each history headed

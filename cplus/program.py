@@ -97,15 +97,20 @@ class IncrementLaw(Record):
 
 
 class QuerySpec(Record):
-    """A query: ``lo..hi`` (hi None = infinity) and its items (universal free variables)."""
+    """A query: ``lo..hi`` (hi None = infinity) and its items (universal free variables).
 
-    _fields = ("label", "lo", "hi", "items", "loc")
+    ``invariant`` is the ``invariant: F`` item of a ``maxstep :: any`` query (CCALC's proof
+    that no plan of any length exists, :mod:`cplus.invariant`); such a query is never
+    searched horizon by horizon, so it keeps ``lo..hi`` at ``0..infinity``."""
+
+    _fields = ("label", "lo", "hi", "items", "loc", "invariant")
 
     label: str
     lo: int
     hi: int | None
     items: tuple[tuple[ir.Formula, Location], ...]
     loc: Location | None
+    invariant: tuple[ir.Formula, Location] | None
 
     def __init__(
             self,
@@ -113,12 +118,14 @@ class QuerySpec(Record):
             lo: int,
             hi: int | None,
             items: tuple[tuple[ir.Formula, Location], ...],
-            loc: Location | None) -> None:
+            loc: Location | None,
+            invariant: tuple[ir.Formula, Location] | None = None) -> None:
         self.label = label
         self.lo = lo
         self.hi = hi
         self.items = items
         self.loc = loc
+        self.invariant = invariant
 
 
 class Pattern(Record):

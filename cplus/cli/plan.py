@@ -124,6 +124,15 @@ def _plan_domain(args: argparse.Namespace) -> int:
             print(f"{loaded or '% '}grounded {theory.rule_count} rules over {len(theory.atoms)} atoms{pruned} in "
                   f"{time.perf_counter() - t1:.3f} s", file=sys.stderr)
             loaded = ""
+        if q.invariant is not None:       # maxstep :: any: a proof, not a search
+            from cplus.invariant import plan_exit_code
+            proof = domain.prove(q.label, args.solver)
+            if args.json:
+                docs.append(domain.proof_json(proof))
+            else:
+                sys.stdout.write(domain.format_proof(proof))
+            code = max(code, plan_exit_code(proof))
+            continue
         every_state = q.label == "states" and q.loc is None   # the built-in query, not a file's
         wanted = args.n if args.n is not None else 0 if every_state else 1
         result = domain.solve(q.label, wanted, args.solver or DEFAULT_SOLVER, args.max_horizon,
@@ -190,9 +199,17 @@ def _plan_robot_task(args: argparse.Namespace, scene_path: str) -> int:
     code = EXIT_OK
     results = []
     display = Display(domain.program)  # type: ignore[attr-defined]
+    proofs = {}
     for label in labels:
         if len(labels) > 1 and not args.json:
             print(f"% query {label}")
+        if domain.query(label).invariant is not None:  # type: ignore[attr-defined]
+            from cplus.invariant import plan_exit_code  # maxstep :: any, over the domain's fluents
+            proof = proofs[label] = domain.prove(label, args.solver)  # type: ignore[attr-defined]
+            if not args.json:
+                sys.stdout.write(domain.format_proof(proof))  # type: ignore[attr-defined]
+            code = max(code, plan_exit_code(proof))
+            continue
         on_horizon = horizon_progress(args.stats)
 
         def on_iteration(it) -> None:
@@ -216,8 +233,11 @@ def _plan_robot_task(args: argparse.Namespace, scene_path: str) -> int:
         code = max(code, robot_exit_code(result.status))
     if args.json:
         import json
-        json.dump({"format": PLAN_FORMAT, "file": args.file, "results": [r.to_json(label) for label, r in results]},
-                  sys.stdout, indent=1)
+        done = dict(results)
+        json.dump({"format": PLAN_FORMAT, "file": args.file, "results": [
+            done[label].to_json(label) if label in done else
+            {k: v for k, v in domain.proof_json(proofs[label]).items()  # type: ignore[attr-defined]
+             if k not in ("format", "file")} for label in labels]}, sys.stdout, indent=1)
         sys.stdout.write("\n")
         sys.stdout.flush()
     for _, result in results:
