@@ -11,6 +11,7 @@ import time
 
 from cplus.cli.common import (
     EXIT_INPUT,
+    EXIT_INTERRUPTED,
     EXIT_LIMIT,
     EXIT_NO_PLAN,
     EXIT_OK,
@@ -39,6 +40,14 @@ def build_parser() -> OneLineArgumentParser:
                    help="number of solutions (0 = all; default 1, all for '--query states')")
     p.add_argument("--json", action="store_true", help="print the result as cplus.plan/1 JSON")
     p.add_argument("--stats", action="store_true", help="print sizes and times per horizon on stderr")
+    g = p.add_argument_group("cost-optimal plans")
+    g.add_argument("--minimize", metavar="TERM",
+                   help="the cheapest plan by TERM, an integer fluent or a sum of them at the last step "
+                        "(shortest plan first, then cheapest at that length, proved)")
+    g.add_argument("--over-lengths", action="store_true",
+                   help="with --minimize: the cheapest over the query's whole maxstep range")
+    g.add_argument("--time-limit", type=positive, default=None, metavar="SECONDS",
+                   help="with --minimize: stop looking for cheaper plans after SECONDS (exit 12, the best so far)")
     add_common(p)
     add_robot_options(p)
     return p
@@ -86,6 +95,10 @@ def main(args: argparse.Namespace) -> int:
     if scene_path is not None:
         args.n = 1 if args.n is None else args.n
         return _plan_robot_task(args, scene_path)
+    if (args.over_lengths or args.time_limit is not None) and not args.minimize:
+        flag = "--over-lengths" if args.over_lengths else "--time-limit"
+        print(f"cplus plan: error: {flag} applies to --minimize", file=sys.stderr)
+        return EXIT_INPUT
     defaults = build_parser()
     for dest in ROBOT_OPTIONS:
         if getattr(args, dest) != defaults.get_default(dest):
@@ -110,6 +123,9 @@ def _plan_domain(args: argparse.Namespace) -> int:
         raise QueryError("this file has no queries; use '--query states' to list its states",
                          file_loc(args.file))
     queries = [query(domain, lab, args.file) for lab in labels]
+    if args.minimize:
+        from cplus.sat.optimize import cli_check
+        cli_check(domain, queries, args)
     loaded = f"% {args.file}: loaded in {time.perf_counter() - t0:.3f} s; "
     code = EXIT_OK
     docs = []
@@ -135,8 +151,12 @@ def _plan_domain(args: argparse.Namespace) -> int:
             continue
         every_state = q.label == "states" and q.loc is None   # the built-in query, not a file's
         wanted = args.n if args.n is not None else 0 if every_state else 1
-        result = domain.solve(q.label, wanted, args.solver or DEFAULT_SOLVER, args.max_horizon,
-                              horizon_progress(args.stats))
+        if args.minimize:
+            from cplus.sat.optimize import cli_solve
+            result, extra = cli_solve(domain, q, args, wanted, horizon_progress(args.stats))
+        else:
+            result = domain.solve(q.label, wanted, args.solver or DEFAULT_SOLVER, args.max_horizon,
+                                  horizon_progress(args.stats))
         clear_progress(args.stats)
         warn(domain.diagnostics)
         if args.stats and result.stats:
@@ -147,6 +167,10 @@ def _plan_domain(args: argparse.Namespace) -> int:
             docs.append(domain.to_json(result))
         else:
             sys.stdout.write(domain.format(result))
+        if args.minimize:
+            code = max(code, extra(docs[-1] if args.json else None))
+            if code == EXIT_INTERRUPTED:
+                break
         if result.status is PlanStatus.NO_PLAN:
             code = max(code, EXIT_NO_PLAN)
         elif result.status is PlanStatus.HORIZON_LIMIT:
