@@ -204,6 +204,10 @@ def _plan_robot_task(args: argparse.Namespace, scene_path: str) -> int:
     labels = [args.query] if args.query else domain.labels  # type: ignore[attr-defined]
     for label in labels:
         query(domain, label, args.file)
+    objective = None
+    if args.minimize:
+        from cplus.sat.optimize import robot_check
+        objective = robot_check(domain, args)
     exports = [f for f, v in (("--plot", args.plot), ("--trajectory", args.trajectory), ("--csv", args.csv)) if v]
     if exports and len(labels) > 1:
         raise TaskError(f"{exports[0]} writes one plan, and {args.file} has queries {', '.join(labels)}: "
@@ -242,7 +246,8 @@ def _plan_robot_task(args: argparse.Namespace, scene_path: str) -> int:
         result = refine(task, label, args.max_iterations, args.max_horizon, args.solver, not args.no_refine,
                         nogoods=args.nogoods, eager={"auto": None, "yes": True, "no": False}[args.eager],
                         on_iteration=on_iteration, on_horizon=on_horizon,
-                        on_precheck=lambda pre: print(pre.text(), file=sys.stderr) if args.stats else None)
+                        on_precheck=lambda pre: print(pre.text(), file=sys.stderr) if args.stats else None,
+                        minimize=objective, time_limit=args.time_limit)
         clear_progress(args.stats)
         warn(domain.diagnostics)  # type: ignore[attr-defined]
         results.append((label, result))
@@ -250,6 +255,9 @@ def _plan_robot_task(args: argparse.Namespace, scene_path: str) -> int:
             shown = result.shown
             sys.stdout.write(format_result(display, result.no_solution_with_maxstep, [shown] if shown else [],
                                            False))
+        if result.optimum is not None:
+            from cplus.sat.optimize import robot_report
+            code = max(code, robot_report(result.optimum, args.json))  # type: ignore[arg-type]
         if args.stats:
             print(_summary(result), file=sys.stderr)
         if result.reason:

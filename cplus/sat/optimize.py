@@ -446,21 +446,43 @@ def cli_solve(domain, query, args, wanted: int, on_horizon):
     return result, report
 
 
+def robot_check(domain, args) -> Objective:
+    """``--minimize`` for a robot task: the term, refused before anything is planned as for
+    a plain domain; ``--over-lengths`` is for plain domains (refused in one line)."""
+    if args.over_lengths:
+        raise CPlusError("--over-lengths applies to plain domains; a robot task's cheapest collision-free plan is "
+                         "searched at the shortest length that has one")
+    return Objective.parse(args.minimize, domain.program.signature)
+
+
+def robot_report(opt: Optimum, json_output: bool) -> int:
+    """Print a robot task's optimum line (unless JSON, where it is in the result) and return
+    the exit code it calls for."""
+    import sys
+
+    from cplus.cli.common import EXIT_INTERRUPTED, EXIT_NOT_PROVED, EXIT_OK
+    if not json_output:
+        sys.stdout.write(_line(opt, None))
+    if opt.proved:
+        return EXIT_OK
+    return EXIT_INTERRUPTED if opt.stopped == "interrupted" else EXIT_NOT_PROVED
+
+
 # ---------------------------------------------------------------------------- output
 
 def optimum_text(result: OptimalResult) -> str:
     """The line after a result's plans: ``cost = 7 (optimal)``, or what is known."""
-    opt = result.optimum
-    if opt is None:
+    if result.optimum is None:
         return ""
+    return _line(result.optimum, result.stats[0].maxstep if result.stats else 0)
+
+
+def _line(opt: Optimum, first: int | None) -> str:
     if opt.proved:
-        if opt.over_lengths:
-            lo = result.stats[0].maxstep if result.stats else 0
-            how = f"optimal over maxstep {lo}..{opt.proved_up_to}"
-        else:
-            how = "optimal"
+        how = f"optimal over maxstep {first}..{opt.proved_up_to}" if opt.over_lengths else "optimal"
     else:
-        why = "--time-limit" if opt.stopped == "time_limit" else "interrupted"
+        why = {"time_limit": "--time-limit", "max_iterations": "--max-iterations"}.get(opt.stopped or "",
+                                                                                   "interrupted")
         how = f"not proved optimal ({why}): lower bound {opt.lower_bound}"
         if opt.over_lengths and opt.proved_up_to is not None:
             how += f", every length up to maxstep {opt.proved_up_to} searched"
@@ -468,8 +490,10 @@ def optimum_text(result: OptimalResult) -> str:
 
 
 def optimum_json(result: OptimalResult) -> dict | None:
-    opt = result.optimum
-    if opt is None:
-        return None
+    return None if result.optimum is None else optimum_fields(result.optimum)
+
+
+def optimum_fields(opt: Optimum) -> dict:
+    """An optimum as the ``"optimum"`` of a ``cplus.plan/1`` result."""
     return {"term": opt.term, "value": opt.value, "proved": opt.proved, "lower_bound": opt.lower_bound,
             "over_lengths": opt.over_lengths, "proved_up_to": opt.proved_up_to, "stopped": opt.stopped}
