@@ -93,32 +93,55 @@ class Objective:
 
 class CostBound:
     """"TERM =< k" as assumptions over the solver of ``session`` at horizon ``m`` (the
-    horizon must have been extended to ``m``)."""
+    horizon must have been extended to ``m``).
 
-    def __init__(self, session: QuerySession, objective: Objective, m: int, totalizer: bool = False) -> None:
-        h = session.horizon
+    An additive fluent is also bounded *flat*: its value at ``m`` is its value at 0 plus
+    every contribution at steps 0..m-1 (the encoding's partial sums are exact, so this holds
+    in every model), and a totalizer over those contributions gives the solver the count
+    directly.  Proving that no plan is cheaper is a counting argument (bw-25: at least 29
+    moves), which the chain of one-hot partial sums alone makes the solver rediscover step
+    by step; with the flat count beside it the proof of bw-25's optimum is several times
+    faster (docs/optimization.md)."""
+
+    def __init__(self, session: QuerySession, objective: Objective, m: int, totalizer: bool = False,
+                 flat: bool = True) -> None:
         self.session = session
         self.m = m
-        self.terms: list[list[tuple[int, int]]] = []
+        self.terms: list[list[tuple[int, int]]] = []       # each TERM constant's value atoms at m
+        pieces: list[list[tuple[int, int]]] = []           # what the totalizer sums
+        sums = {s.target.id: s for s in session.theory.sums} if flat else {}
         for gc in objective.constants:
-            pairs = session.atoms.head_lits(gc)
             t = None if gc.decl.kind == "rigid" else m
-            self.terms.append(sorted((int(v), h.var(aid, t)) for aid, v in pairs))  # type: ignore[call-overload]
+            self.terms.append(self._values(gc, t))
+            s = sums.get(gc.id)
+            if s is not None and gc.decl.kind == "additiveFluent":
+                pieces.append(self._values(gc, 0))
+                pieces.extend(self._values(c, step) for step in range(m) for c in s.contributions)
+            else:
+                pieces.append(self.terms[-1])
         self.low = sum(t[0][0] for t in self.terms)
         self.high = sum(t[-1][0] for t in self.terms)
         self._cache: dict[int, list[int]] = {}
         self._tot = None
-        if totalizer or len(self.terms) > 1:
-            self._tot = self._totalizer()
+        self._tot_low = sum(p[0][0] for p in pieces)
+        if totalizer or len(pieces) > 1:
+            self._tot = self._totalizer(pieces)
 
-    def _totalizer(self):
+    def _values(self, gc, t: int | None) -> list[tuple[int, int]]:
+        h = self.session.horizon
+        return sorted((int(v), h.var(aid, t)) for aid, v in self.session.atoms.head_lits(gc))  # type: ignore
+
+    def _totalizer(self, pieces: list[list[tuple[int, int]]]):
         from pysat.card import ITotalizer
         h = self.session.horizon
         add = h.solver.add_clause
         ys: list[int] = []
-        for t in self.terms:
+        for t in pieces:
             v0 = t[0][0]
             span = t[-1][0] - v0
+            if span == 1:                     # a 0/1 piece counts its one atom
+                ys.append(t[-1][1])
+                continue
             order = [h.new_var() for _ in range(span)]      # order[j-1]: value >= v0 + j
             for j in range(1, span):
                 add([-order[j], order[j - 1]])
@@ -128,7 +151,7 @@ class CostBound:
             ys.extend(order)
         if not ys:
             return None
-        tot = ITotalizer(lits=ys, ubound=len(ys), top_id=h.top)
+        tot = ITotalizer(lits=ys, ubound=min(len(ys), self.high - self._tot_low + 1), top_id=h.top)
         h.top = tot.top_id
         for c in tot.cnf.clauses:
             add(c)
@@ -142,13 +165,14 @@ class CostBound:
             return []
         got = self._cache.get(k)
         if got is None:
-            if self._tot is not None:
-                got = [-self._tot.rhs[k - self.low]]
-            else:
+            got = []
+            if len(self.terms) == 1:          # one constant: a clause over its value atoms
                 h = self.session.horizon
                 b = h.new_var()
                 h.solver.add_clause([-b] + [x for v, x in self.terms[0] if v <= k])
-                got = [b]
+                got.append(b)
+            if self._tot is not None and k - self._tot_low < len(self._tot.rhs):
+                got.append(-self._tot.rhs[k - self._tot_low])
             self._cache[k] = got
         return got
 
@@ -240,7 +264,7 @@ def improve(state: Best, strategy: str = "linear", deadline: float | None = None
 
 def run_optimal(theory, query, objective: Objective, solutions: int = 1, solver: str = "glucose4",
                 max_horizon: int | None = None, over_lengths: bool = False, time_limit: float | None = None,
-                strategy: str = "linear", totalizer: bool = False,
+                strategy: str = "linear", totalizer: bool = False, flat: bool = True,
                 on_horizon: Callable[[HorizonStats], None] | None = None) -> OptimalResult:
     """The cheapest plan of a query: at its shortest length (lexicographic, the default), or
     over its whole maxstep range (``over_lengths``; an open range stops at ``max_horizon``),
@@ -250,7 +274,7 @@ def run_optimal(theory, query, objective: Objective, solutions: int = 1, solver:
     t_end = None if time_limit is None else time.perf_counter() + time_limit
     if over_lengths:
         return _over_lengths(theory, query, objective, solutions, solver, max_horizon, t_end, strategy, totalizer,
-                             on_horizon)
+                             flat, on_horizon)
     session = QuerySession(theory, query, solver, max_horizon, commit=True)
     failed = find_horizon(session, on_horizon)
     if session.found is None:
@@ -258,7 +282,7 @@ def run_optimal(theory, query, objective: Objective, solutions: int = 1, solver:
         return OptimalResult(QueryResult(query.label, status, None, [], failed, session.stats,
                                          session.horizon.template_s), None)
     m = session.found
-    bound = CostBound(session, objective, m, totalizer)
+    bound = CostBound(session, objective, m, totalizer, flat)
     state = Best(session, bound)
     stopped = None
     try:
@@ -314,7 +338,7 @@ def _every_plan(session: QuerySession, bound: CostBound, value: int, solutions: 
         del session.assumptions[len(session.assumptions) - len(a):]
 
 
-def _over_lengths(theory, query, objective, solutions, solver, max_horizon, t_end, strategy, totalizer,
+def _over_lengths(theory, query, objective, solutions, solver, max_horizon, t_end, strategy, totalizer, flat,
                   on_horizon) -> OptimalResult:
     if query.hi is None and max_horizon is None:
         raise CPlusError(f"--over-lengths searches every length of the query's maxstep range, and query "
@@ -335,7 +359,7 @@ def _over_lengths(theory, query, objective, solutions, solver, max_horizon, t_en
             if t_end is not None and time.perf_counter() >= t_end:
                 raise Stopped
             session.horizon.extend_to(m, query.loc)
-            bound = CostBound(session, objective, m, totalizer)
+            bound = CostBound(session, objective, m, totalizer, flat)
             low = bound.low if low is None else min(low, bound.low)
             extra: list[int] = []
             if best is not None:
