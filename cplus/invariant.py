@@ -40,7 +40,7 @@ from cplus.history import History
 from cplus.record import Record
 
 __all__ = ["InvariantStatus", "Check", "InvariantResult", "check_query_shape", "prove", "format_proof",
-           "proof_json", "plan_exit_code", "CHECKS"]
+           "proof_json", "CHECKS"]
 
 CHECKS = ("init", "goal", "transition")
 
@@ -268,12 +268,6 @@ def format_proof(display, result: InvariantResult) -> str:
         out.append("% No state satisfies the query's conditions at step 0.\n")
     out.append("\nNo solution for any maxstep.\n\n")
     return "".join(out)
-
-
-def plan_exit_code(result: InvariantResult) -> int:
-    """``cplus plan``'s exit code for a proof (the README's table)."""
-    from cplus.cli.common import EXIT_INVARIANT_WRONG, EXIT_NO_PLAN_PROVED
-    return EXIT_NO_PLAN_PROVED if result.status is InvariantStatus.NO_PLAN_PROVED else EXIT_INVARIANT_WRONG
 
 
 def proof_json(result: InvariantResult, query) -> dict:

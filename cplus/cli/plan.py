@@ -124,7 +124,7 @@ def _plan_domain(args: argparse.Namespace) -> int:
                          file_loc(args.file))
     queries = [query(domain, lab, args.file) for lab in labels]
     if args.minimize:
-        from cplus.sat.optimize import cli_check
+        from cplus.cli.optimal import cli_check
         cli_check(domain, queries, args)
     loaded = f"% {args.file}: loaded in {time.perf_counter() - t0:.3f} s; "
     code = EXIT_OK
@@ -141,18 +141,18 @@ def _plan_domain(args: argparse.Namespace) -> int:
                   f"{time.perf_counter() - t1:.3f} s", file=sys.stderr)
             loaded = ""
         if q.invariant is not None:       # maxstep :: any: a proof, not a search
-            from cplus.invariant import plan_exit_code
+            from cplus.cli.optimal import proof_exit_code
             proof = domain.prove(q.label, args.solver)
             if args.json:
                 docs.append(domain.proof_json(proof))
             else:
                 sys.stdout.write(domain.format_proof(proof))
-            code = max(code, plan_exit_code(proof))
+            code = max(code, proof_exit_code(proof))
             continue
         every_state = q.label == "states" and q.loc is None   # the built-in query, not a file's
         wanted = args.n if args.n is not None else 0 if every_state else 1
         if args.minimize:
-            from cplus.sat.optimize import cli_solve
+            from cplus.cli.optimal import cli_solve
             result, extra = cli_solve(domain, q, args, wanted, horizon_progress(args.stats))
         else:
             result = domain.solve(q.label, wanted, args.solver or DEFAULT_SOLVER, args.max_horizon,
@@ -206,7 +206,7 @@ def _plan_robot_task(args: argparse.Namespace, scene_path: str) -> int:
         query(domain, label, args.file)
     objective = None
     if args.minimize:
-        from cplus.sat.optimize import robot_check
+        from cplus.cli.optimal import robot_check
         objective = robot_check(domain, args)
     exports = [f for f, v in (("--plot", args.plot), ("--trajectory", args.trajectory), ("--csv", args.csv)) if v]
     if exports and len(labels) > 1:
@@ -232,11 +232,11 @@ def _plan_robot_task(args: argparse.Namespace, scene_path: str) -> int:
         if len(labels) > 1 and not args.json:
             print(f"% query {label}")
         if domain.query(label).invariant is not None:  # type: ignore[attr-defined]
-            from cplus.invariant import plan_exit_code  # maxstep :: any, over the domain's fluents
+            from cplus.cli.optimal import proof_exit_code  # maxstep :: any, over the domain's fluents
             proof = proofs[label] = domain.prove(label, args.solver)  # type: ignore[attr-defined]
             if not args.json:
                 sys.stdout.write(domain.format_proof(proof))  # type: ignore[attr-defined]
-            code = max(code, plan_exit_code(proof))
+            code = max(code, proof_exit_code(proof))
             continue
         on_horizon = horizon_progress(args.stats)
 
@@ -256,7 +256,7 @@ def _plan_robot_task(args: argparse.Namespace, scene_path: str) -> int:
             sys.stdout.write(format_result(display, result.no_solution_with_maxstep, [shown] if shown else [],
                                            False))
         if result.optimum is not None:
-            from cplus.sat.optimize import robot_report
+            from cplus.cli.optimal import robot_report
             code = max(code, robot_report(result.optimum, args.json))  # type: ignore[arg-type]
         if args.stats:
             print(_summary(result), file=sys.stderr)

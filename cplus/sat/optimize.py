@@ -34,7 +34,7 @@ from cplus.record import Record
 from cplus.sat.horizon import HorizonStats, QuerySession
 
 __all__ = ["Objective", "Optimum", "OptimalResult", "CostBound", "improve", "run_optimal", "STRATEGIES",
-           "Stopped", "Best", "solve_until", "cli_solve", "optimum_text", "optimum_json"]
+           "Stopped", "Best", "solve_until", "optimum_text", "optimum_json", "optimum_fields", "line"]
 
 STRATEGIES = ("linear", "binary")
 
@@ -432,76 +432,18 @@ def _solve_at(session: QuerySession, m: int, t_end: float | None) -> bool:
     return ok
 
 
-# ---------------------------------------------------------------------------- the command
-
-def cli_check(domain, queries, args) -> Objective:
-    """Refuse a bad ``--minimize`` before any query runs: a term that is no integer fluent, or
-    ``--over-lengths`` on an open range without ``--max-horizon``."""
-    objective = Objective.parse(args.minimize, domain.program.signature)
-    for q in queries:
-        if args.over_lengths and q.hi is None and args.max_horizon is None and q.invariant is None:
-            raise CPlusError(f"--over-lengths searches every length of the query's maxstep range, and query "
-                             f"'{q.label}' has {q.lo}..infinity: give --max-horizon N")
-    return objective
-
-
-def cli_solve(domain, query, args, wanted: int, on_horizon):
-    """``cplus plan --minimize``'s run of one query: the result, and a function that prints
-    (or adds to the query's JSON document) what is known of the optimum and returns the exit
-    code it calls for (0; 12 a plan not proved optimal; 130 interrupted)."""
-    import sys
-
-    from cplus.cli.common import EXIT_INTERRUPTED, EXIT_NOT_PROVED, EXIT_OK
-    objective = Objective.parse(args.minimize, domain.program.signature)
-    result = run_optimal(domain.theory_for(query), query, objective, wanted, args.solver or "glucose4",
-                         args.max_horizon, args.over_lengths, args.time_limit, on_horizon=on_horizon)
-
-    def report(doc: dict | None) -> int:
-        if doc is not None:
-            doc["optimum"] = optimum_json(result)
-        else:
-            sys.stdout.write(optimum_text(result))
-        opt = result.optimum
-        if opt is None or opt.proved:
-            return EXIT_OK
-        if doc is None:
-            print(f"% {optimum_text(result).strip()}", file=sys.stderr)
-        return EXIT_INTERRUPTED if opt.stopped == "interrupted" else EXIT_NOT_PROVED
-    return result, report
-
-
-def robot_check(domain, args) -> Objective:
-    """``--minimize`` for a robot task: the term, refused before anything is planned as for
-    a plain domain; ``--over-lengths`` is for plain domains (refused in one line)."""
-    if args.over_lengths:
-        raise CPlusError("--over-lengths applies to plain domains; a robot task's cheapest collision-free plan is "
-                         "searched at the shortest length that has one")
-    return Objective.parse(args.minimize, domain.program.signature)
-
-
-def robot_report(opt: Optimum, json_output: bool) -> int:
-    """Print a robot task's optimum line (unless JSON, where it is in the result) and return
-    the exit code it calls for."""
-    import sys
-
-    from cplus.cli.common import EXIT_INTERRUPTED, EXIT_NOT_PROVED, EXIT_OK
-    if not json_output:
-        sys.stdout.write(_line(opt, None))
-    if opt.proved:
-        return EXIT_OK
-    return EXIT_INTERRUPTED if opt.stopped == "interrupted" else EXIT_NOT_PROVED
-
-
 # ---------------------------------------------------------------------------- output
 
 def optimum_text(result: OptimalResult) -> str:
     """The line after a result's plans: ``cost = 7 (optimal)``, or what is known."""
     if result.optimum is None:
         return ""
-    return _line(result.optimum, result.stats[0].maxstep if result.stats else 0)
+    return line(result.optimum, result.stats[0].maxstep if result.stats else 0)
 
 
-def _line(opt: Optimum, first: int | None) -> str:
+def line(opt: Optimum, first: int | None) -> str:
+    """``term = value (what is proved)`` and a blank line; ``first``: the query's first
+    maxstep (for ``--over-lengths``)."""
     if opt.proved:
         how = f"optimal over maxstep {first}..{opt.proved_up_to}" if opt.over_lengths else "optimal"
     else:
