@@ -241,3 +241,15 @@ def test_mcp(tmp_path):
     d = Domain.load(str(p))
     check(d, "0", "num(mi,bank1) + num(ca,bank1)")
     check(d, "0", "num(ca,bank1)", over_lengths=True)
+
+
+def test_a_real_time_limit_stops_the_proof(capsys):
+    """bw-15's first plan (18 moves) is always waited for; a limit far shorter than the proof
+    stops the search there, with the plan printed being the one whose cost is given."""
+    bw15 = ADDITIVE.parents[1] / "benchmarks" / "blocks-bench-15" / "bw-15-benchmark.cp"
+    code, out, err = run(["plan", bw15, "--minimize", "cost", "--time-limit", "0.001", "--json"], capsys)
+    r = json.loads(out)["results"][0]
+    opt = r["optimum"]
+    assert code == 12, err
+    assert opt["stopped"] == "time_limit" and not opt["proved"] and opt["lower_bound"] < opt["value"]
+    assert r["histories"][0]["states"][-1]["cost"] == opt["value"]
