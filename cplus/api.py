@@ -126,18 +126,27 @@ class Domain:
         """The query (or, with ``nmquery``, the nmquery) with this label."""
         return self.nmquery(label) if nmquery else self.query(label)
 
+    def _searchable(self, label: str, nmquery: bool = False) -> QuerySpec:
+        """The query (or nmquery) ``label``, unless it is a ``maxstep :: any`` query: that one
+        is proved (:meth:`prove`), never searched horizon by horizon."""
+        query = self.spec(label, nmquery)
+        if query.invariant is not None:
+            raise QueryError(f"query '{label}' has 'maxstep :: any': it is a proof that no plan exists "
+                             "(Domain.prove), not a search", query.loc)
+        return query
+
     def solve(self, label: str = "0", solutions: int = 1, solver: str = DEFAULT_SOLVER,
               max_horizon: int | None = None, on_horizon: Callable | None = None,
               nmquery: bool = False) -> QueryResult:
         """Run a query (with ``nmquery``, the nmquery of that label): the shortest maxstep in
         its range with a history, and up to ``solutions`` histories there (0 = all)."""
-        query = self.spec(label, nmquery)
+        query = self._searchable(label, nmquery)
         return run_query(self.theory_for(query), query, solutions, solver, max_horizon, on_horizon)
 
     def plans(self, label: str = "0", solver: str = DEFAULT_SOLVER,
               max_horizon: int | None = None, nmquery: bool = False) -> Iterator[History]:
         """Every history at the shortest maxstep with one, lazily."""
-        query = self.spec(label, nmquery)
+        query = self._searchable(label, nmquery)
         session = QuerySession(self.theory_for(query), query, solver, max_horizon, commit=True)
         find_horizon(session)
         if session.found is not None:
@@ -146,8 +155,26 @@ class Domain:
     def session(self, label: str = "0", solver: str = DEFAULT_SOLVER,
                 max_horizon: int | None = None, nmquery: bool = False) -> QuerySession:
         """A live solver for a query, for callers that add constraints between solves."""
-        query = self.spec(label, nmquery)
+        query = self._searchable(label, nmquery)
         return QuerySession(self.theory_for(query), query, solver, max_horizon)
+
+    def prove(self, label: str, solver: str | None = None):
+        """The proof of a ``maxstep :: any`` query that no plan of any length exists
+        (:func:`cplus.invariant.prove`: an :class:`~cplus.invariant.InvariantResult`)."""
+        from cplus.invariant import prove
+        query = self.query(label)
+        if query.invariant is None:
+            raise QueryError(f"query '{label}' has no invariant (only a 'maxstep :: any' query is proved)",
+                             query.loc)
+        return prove(self.theory, query, solver)
+
+    def format_proof(self, proof) -> str:
+        from cplus.invariant import format_proof
+        return format_proof(Display(self.program), proof)
+
+    def proof_json(self, proof) -> dict:
+        from cplus.invariant import proof_json
+        return {"format": "cplus.plan/1", "file": self.path, **proof_json(proof, self.query(proof.label))}
 
     def format(self, result: QueryResult, numbered: bool | None = None) -> str:
         """CCALC's text for a result, as ``cplus plan`` prints it: each history headed

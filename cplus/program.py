@@ -101,9 +101,13 @@ class QuerySpec(Record):
 
     An nmquery has ``rules`` instead (None for a query): ``(literal, body, loc)`` with
     ``literal`` None for ``false``; CCALC completes them on their own, over every atom, and
-    the histories satisfy both that completion and the domain's."""
+    the histories satisfy both that completion and the domain's.
 
-    _fields = ("label", "lo", "hi", "items", "loc", "rules")
+    ``invariant`` is the ``invariant: F`` item of a ``maxstep :: any`` query (CCALC's proof
+    that no plan of any length exists, :mod:`cplus.invariant`); such a query is never
+    searched horizon by horizon, so it keeps ``lo..hi`` at ``0..infinity``."""
+
+    _fields = ("label", "lo", "hi", "items", "loc", "rules", "invariant")
 
     label: str
     lo: int
@@ -111,6 +115,7 @@ class QuerySpec(Record):
     items: tuple[tuple[ir.Formula, Location], ...]
     loc: Location | None
     rules: tuple[tuple[ir.Formula | None, ir.Formula, Location], ...] | None
+    invariant: tuple[ir.Formula, Location] | None
 
     def __init__(
             self,
@@ -119,13 +124,15 @@ class QuerySpec(Record):
             hi: int | None,
             items: tuple[tuple[ir.Formula, Location], ...],
             loc: Location | None,
-            rules: tuple[tuple[ir.Formula | None, ir.Formula, Location], ...] | None = None) -> None:
+            rules: tuple[tuple[ir.Formula | None, ir.Formula, Location], ...] | None = None,
+            invariant: tuple[ir.Formula, Location] | None = None) -> None:
         self.label = label
         self.lo = lo
         self.hi = hi
         self.items = items
         self.loc = loc
         self.rules = rules
+        self.invariant = invariant
 
     @property
     def nm(self) -> bool:

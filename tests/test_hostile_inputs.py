@@ -1,4 +1,4 @@
-"""Hostile input on the robot surfaces (issue 19): every item is refused before anything moves
+"""Hostile input on the robot surfaces: every item is refused before anything moves
 with a located ``file:line:col: error:`` or a one-line message and exit code 2, in bounded time
 and memory, and never with a traceback. Each test reads what a user reads: the exit code and
 the stderr line, through the CLI's main function."""

@@ -17,6 +17,11 @@ Exit codes (the README's table):
 7    ``online``: the observed state is ambiguous (the fluents left open are named)
 8    ``online``: a robot was lost (a brick stopped answering)
 9    ``--no-refine``: the plan shown is not collision-free
+10   ``plan``: a ``maxstep :: any`` query's invariant proves that no plan of any length exists
+11   ``plan``: a ``maxstep :: any`` query's invariant is wrong (a check failed: its
+     counterexample is printed; nothing is proved)
+12   ``plan --minimize``: a plan, but its optimality is not proved (``--time-limit`` or
+     Ctrl-C came first; the bound is printed)
 124  a second SIGINT/SIGTERM ended a command that moves robots at once (:mod:`cplus.cli.signals`)
 130  interrupted (SIGINT)
 143  SIGTERM (``online``, ``execute``, ``run``: the bricks stopped and the logs written first)
@@ -30,8 +35,9 @@ import os
 import sys
 
 __all__ = ["EXIT_OK", "EXIT_NO_PLAN", "EXIT_LINK", "EXIT_INPUT", "EXIT_LIMIT", "EXIT_NO_SAFE_PLAN",
-           "EXIT_GAVE_UP", "EXIT_CONTRADICTED", "EXIT_AMBIGUOUS", "EXIT_ROBOT_LOST", "EXIT_UNSAFE",
-           "EXIT_INTERRUPTED", "CliError", "OneLineArgumentParser", "nonneg", "number", "positive", "positive_int", "externals",
+           "EXIT_GAVE_UP", "EXIT_NO_PLAN_PROVED", "EXIT_INVARIANT_WRONG", "EXIT_NOT_PROVED", "EXIT_CONTRADICTED",
+           "EXIT_AMBIGUOUS", "EXIT_ROBOT_LOST", "EXIT_UNSAFE", "EXIT_INTERRUPTED", "CliError", "OneLineArgumentParser",
+           "nonneg", "number", "positive", "positive_int", "externals",
            "Warnings", "horizon_progress", "clear_progress", "query", "file_loc", "robot_exit_code"]
 
 EXIT_OK = 0
@@ -45,6 +51,9 @@ EXIT_CONTRADICTED = 6
 EXIT_AMBIGUOUS = 7
 EXIT_ROBOT_LOST = 8
 EXIT_UNSAFE = 9
+EXIT_NO_PLAN_PROVED = 10
+EXIT_INVARIANT_WRONG = 11
+EXIT_NOT_PROVED = 12
 EXIT_INTERRUPTED = 130
 
 

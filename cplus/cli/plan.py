@@ -11,6 +11,7 @@ import time
 
 from cplus.cli.common import (
     EXIT_INPUT,
+    EXIT_INTERRUPTED,
     EXIT_LIMIT,
     EXIT_NO_PLAN,
     EXIT_OK,
@@ -42,6 +43,14 @@ def build_parser() -> OneLineArgumentParser:
                    help="number of solutions (0 = all; default 1, all for '--query states')")
     p.add_argument("--json", action="store_true", help="print the result as cplus.plan/1 JSON")
     p.add_argument("--stats", action="store_true", help="print sizes and times per horizon on stderr")
+    g = p.add_argument_group("cost-optimal plans")
+    g.add_argument("--minimize", metavar="TERM",
+                   help="the cheapest plan by TERM, an integer fluent or a sum of them at the last step "
+                        "(shortest plan first, then cheapest at that length, proved)")
+    g.add_argument("--over-lengths", action="store_true",
+                   help="with --minimize: the cheapest over the query's whole maxstep range")
+    g.add_argument("--time-limit", type=positive, default=None, metavar="SECONDS",
+                   help="with --minimize: stop looking for cheaper plans after SECONDS (exit 12, the best so far)")
     add_common(p)
     add_robot_options(p)
     return p
@@ -89,6 +98,10 @@ def main(args: argparse.Namespace) -> int:
     if scene_path is not None:
         args.n = 1 if args.n is None else args.n
         return _plan_robot_task(args, scene_path)
+    if (args.over_lengths or args.time_limit is not None) and not args.minimize:
+        flag = "--over-lengths" if args.over_lengths else "--time-limit"
+        print(f"cplus plan: error: {flag} applies to --minimize", file=sys.stderr)
+        return EXIT_INPUT
     defaults = build_parser()
     for dest in ROBOT_OPTIONS:
         if getattr(args, dest) != defaults.get_default(dest):
@@ -116,6 +129,9 @@ def _plan_domain(args: argparse.Namespace) -> int:
         raise QueryError("this file has no queries; use '--query states' to list its states",
                          file_loc(args.file))
     queries = [query(domain, lab, args.file, nm) for lab, nm in wanted_labels]
+    if args.minimize:
+        from cplus.cli.optimal import cli_check
+        cli_check(domain, queries, args)
     loaded = f"% {args.file}: loaded in {time.perf_counter() - t0:.3f} s; "
     code = EXIT_OK
     docs = []
@@ -130,10 +146,23 @@ def _plan_domain(args: argparse.Namespace) -> int:
             print(f"{loaded or '% '}grounded {theory.rule_count} rules over {len(theory.atoms)} atoms{pruned} in "
                   f"{time.perf_counter() - t1:.3f} s", file=sys.stderr)
             loaded = ""
+        if q.invariant is not None:       # maxstep :: any: a proof, not a search
+            from cplus.cli.optimal import proof_exit_code
+            proof = domain.prove(q.label, args.solver)
+            if args.json:
+                docs.append(domain.proof_json(proof))
+            else:
+                sys.stdout.write(domain.format_proof(proof))
+            code = max(code, proof_exit_code(proof))
+            continue
         every_state = q.label == "states" and q.loc is None   # the built-in query, not a file's
         wanted = args.n if args.n is not None else 0 if every_state else 1
-        result = domain.solve(q.label, wanted, args.solver or DEFAULT_SOLVER, args.max_horizon,
-                              horizon_progress(args.stats), nmquery=q.nm)
+        if args.minimize:
+            from cplus.cli.optimal import cli_solve
+            result, extra = cli_solve(domain, q, args, wanted, horizon_progress(args.stats))
+        else:
+            result = domain.solve(q.label, wanted, args.solver or DEFAULT_SOLVER, args.max_horizon,
+                                  horizon_progress(args.stats), nmquery=q.nm)
         clear_progress(args.stats)
         warn(domain.diagnostics)
         if args.stats and result.stats:
@@ -144,6 +173,10 @@ def _plan_domain(args: argparse.Namespace) -> int:
             docs.append(domain.to_json(result))
         else:
             sys.stdout.write(domain.format(result))
+        if args.minimize:
+            code = max(code, extra(docs[-1] if args.json else None))
+            if code == EXIT_INTERRUPTED:
+                break
         if result.status is PlanStatus.NO_PLAN:
             code = max(code, EXIT_NO_PLAN)
         elif result.status is PlanStatus.HORIZON_LIMIT:
@@ -181,6 +214,10 @@ def _plan_robot_task(args: argparse.Namespace, scene_path: str) -> int:
     labels = [args.query] if args.query else domain.labels  # type: ignore[attr-defined]
     for label in labels:
         query(domain, label, args.file)
+    objective = None
+    if args.minimize:
+        from cplus.cli.optimal import robot_check
+        objective = robot_check(domain, args)
     exports = [f for f, v in (("--plot", args.plot), ("--trajectory", args.trajectory), ("--csv", args.csv)) if v]
     if exports and len(labels) > 1:
         raise TaskError(f"{exports[0]} writes one plan, and {args.file} has queries {', '.join(labels)}: "
@@ -200,9 +237,17 @@ def _plan_robot_task(args: argparse.Namespace, scene_path: str) -> int:
     code = EXIT_OK
     results = []
     display = Display(domain.program)  # type: ignore[attr-defined]
+    proofs = {}
     for label in labels:
         if len(labels) > 1 and not args.json:
             print(f"% query {label}")
+        if domain.query(label).invariant is not None:  # type: ignore[attr-defined]
+            from cplus.cli.optimal import proof_exit_code  # maxstep :: any, over the domain's fluents
+            proof = proofs[label] = domain.prove(label, args.solver)  # type: ignore[attr-defined]
+            if not args.json:
+                sys.stdout.write(domain.format_proof(proof))  # type: ignore[attr-defined]
+            code = max(code, proof_exit_code(proof))
+            continue
         on_horizon = horizon_progress(args.stats)
 
         def on_iteration(it) -> None:
@@ -211,7 +256,8 @@ def _plan_robot_task(args: argparse.Namespace, scene_path: str) -> int:
         result = refine(task, label, args.max_iterations, args.max_horizon, args.solver, not args.no_refine,
                         nogoods=args.nogoods, eager={"auto": None, "yes": True, "no": False}[args.eager],
                         on_iteration=on_iteration, on_horizon=on_horizon,
-                        on_precheck=lambda pre: print(pre.text(), file=sys.stderr) if args.stats else None)
+                        on_precheck=lambda pre: print(pre.text(), file=sys.stderr) if args.stats else None,
+                        minimize=objective, time_limit=args.time_limit)
         clear_progress(args.stats)
         warn(domain.diagnostics)  # type: ignore[attr-defined]
         results.append((label, result))
@@ -219,6 +265,9 @@ def _plan_robot_task(args: argparse.Namespace, scene_path: str) -> int:
             shown = result.shown
             sys.stdout.write(format_result(display, result.no_solution_with_maxstep, [shown] if shown else [],
                                            False))
+        if result.optimum is not None:
+            from cplus.cli.optimal import robot_report
+            code = max(code, robot_report(result.optimum, args.json))  # type: ignore[arg-type]
         if args.stats:
             print(_summary(result), file=sys.stderr)
         if result.reason:
@@ -226,8 +275,11 @@ def _plan_robot_task(args: argparse.Namespace, scene_path: str) -> int:
         code = max(code, robot_exit_code(result.status))
     if args.json:
         import json
-        json.dump({"format": PLAN_FORMAT, "file": args.file, "results": [r.to_json(label) for label, r in results]},
-                  sys.stdout, indent=1)
+        done = dict(results)
+        json.dump({"format": PLAN_FORMAT, "file": args.file, "results": [
+            done[label].to_json(label) if label in done else
+            {k: v for k, v in domain.proof_json(proofs[label]).items()  # type: ignore[attr-defined]
+             if k not in ("format", "file")} for label in labels]}, sys.stdout, indent=1)
         sys.stdout.write("\n")
         sys.stdout.flush()
     for _, result in results:

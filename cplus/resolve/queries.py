@@ -20,6 +20,8 @@ class _Queries(_Formulas):
         lo: int = 0
         hi: int | None = 0     # CCALC: a query without `maxstep` is answered at maxstep 0
         seen_label = seen_max = False
+        any_length: Location | None = None          # `maxstep :: any`
+        invariant: tuple[ir.Formula, Location] | None = None
         items: list[tuple[ir.Formula, Location]] = []
         rules: list[tuple[ir.Formula | None, ir.Formula, Location]] = []
         for it in stmt.items:
@@ -31,6 +33,9 @@ class _Queries(_Formulas):
                 if seen_max:
                     raise QueryError("a query has at most one maxstep", it.loc)
                 seen_max = True
+                if it.hi is it.lo and self._keyword(it.lo, "any"):
+                    any_length = it.loc
+                    continue
                 lo_e = self._expand(it.lo)
                 hi_e = it.hi
                 if isinstance(lo_e, ast.Range) and it.hi is it.lo:   # `maxstep :: r`, r a macro for lo..hi
@@ -43,15 +48,29 @@ class _Queries(_Formulas):
                     raise QueryError(f"malformed maxstep {bounds}: need 0 =< min =< max", it.loc)
             elif isinstance(it, ast.QueryRule):
                 rules.extend(self._nm_rule(it))
+            elif isinstance(it.formula, ast.Stamp) and self._keyword(it.formula.time, "invariant"):
+                if invariant is not None:
+                    raise QueryError("a query has at most one invariant", it.loc)
+                invariant = (self._formula(it.formula.body, _Scope(query=True)), it.formula.body.loc)
             else:
                 items.append((self._formula(it.formula, _Scope(query=True)), it.loc))
+        if any_length is not None or invariant is not None:
+            from cplus.invariant import check_query_shape
+            check_query_shape(items, invariant, any_length, stmt.loc)
+            hi = None           # never searched horizon by horizon (QuerySpec.invariant)
         what = "nmquery" if stmt.nm else "query"
         known = self.program.nmqueries if stmt.nm else self.program.queries
         if any(q.label == label for q in known):
             self.diag.warn(f"{what} label '{label}' is used again; the later {what} replaces the earlier",
                            stmt.loc)
             known[:] = [q for q in known if q.label != label]
-        known.append(QuerySpec(label, lo, hi, tuple(items), stmt.loc, tuple(rules) if stmt.nm else None))
+        known.append(QuerySpec(label, lo, hi, tuple(items), stmt.loc, tuple(rules) if stmt.nm else None,
+                               invariant=invariant))
+
+    def _keyword(self, e: ast.Expr, word: str) -> bool:
+        """Whether ``e`` is the bare word of a query field (``any``, ``invariant``) that no
+        macro redefines: CCALC's query words are not reserved elsewhere."""
+        return isinstance(e, ast.Name) and e.name == word and not e.args and (word, 0) not in self.macros
 
     def _nm_rule(self, rule: ast.QueryRule) -> list[tuple[ir.Formula | None, ir.Formula, Location]]:
         """One ``caused H if B`` of an nmquery as rules ``(literal, body, loc)``, one per conjunct

@@ -1,4 +1,4 @@
-"""CCALC's meaning where cplus used to read a construct its own way (issue 24, items 0-2).
+"""CCALC's meaning where cplus used to read a construct its own way: `-c=v`, a query without maxstep, show specifications, nmquery.
 
 Each test has CCALC's answer written in it: from CCALC 2's source (ccalc.pl: ``process_query``,
 ``nmquery_aux``, ``generate_completion_clauses(query)``, ``in_show_list``) or its semantics.

@@ -34,7 +34,7 @@ CCALC_DIFFERS = {
     "examples/cplus/etc/hanoi#test": {"result": "UNSAT", "plan_length": None, "failed": [0]},
 }
 """Cases whose expected answer (Cplus2ASP's) is not CCALC's: checked against CCALC's answer
-here, the corpus data left as it is (reported in issue 24)."""
+here, the corpus data left as it is."""
 
 
 def _manifest() -> list[dict]:

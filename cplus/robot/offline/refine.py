@@ -30,6 +30,7 @@ import time
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
 from enum import StrEnum
+from typing import Any
 
 from cplus.history import History, decode_history
 from cplus.program import QuerySpec
@@ -142,6 +143,7 @@ class RefinementResult:
     session: QuerySession | None = None
     store: NogoodStore | None = None     # what the solver was taught (NogoodStore.excludes explains a plan)
     known: list[Nogood] = field(default_factory=list)   # nogoods given to refine() (learned before)
+    optimum: object | None = None    # --minimize: a cplus.sat.optimize.Optimum for the plan found
 
     @property
     def found(self) -> bool:
@@ -184,7 +186,13 @@ class RefinementResult:
                         "precheck": self.precheck.to_json() if self.precheck else None},
             "horizon": self.horizon,
             "reason": self.reason or None,
+            **({"optimum": _optimum_json(self.optimum)} if self.optimum is not None else {}),
         }
+
+
+def _optimum_json(opt) -> dict:
+    from cplus.sat.optimize import optimum_fields
+    return optimum_fields(opt)
 
 
 def refine(task: RobotTask, label: str = "0", max_iterations: int | None = None, max_horizon: int | None = None,
@@ -193,7 +201,8 @@ def refine(task: RobotTask, label: str = "0", max_iterations: int | None = None,
            on_iteration: Callable[[Iteration], None] | None = None,
            on_horizon: Callable[[HorizonStats], None] | None = None,
            on_precheck: Callable[[Precheck], None] | None = None,
-           session: QuerySession | None = None, known: Iterable[Nogood] = ()) -> RefinementResult:
+           session: QuerySession | None = None, known: Iterable[Nogood] = (),
+           minimize=None, time_limit: float | None = None) -> RefinementResult:
     """Plan, check every step continuously, learn, plan again in the same solver.
 
     ``max_iterations`` (``None`` or 0: no limit) bounds the plans examined; reaching it ends
@@ -204,6 +213,14 @@ def refine(task: RobotTask, label: str = "0", max_iterations: int | None = None,
     ``known``: nogoods learned before (:attr:`RefinementResult.nogoods` of an earlier
     refinement of the same domain), forbidden from the start; the online monitor re-plans
     from the state the arms were found in with both.
+
+    ``minimize`` (a :class:`cplus.sat.optimize.Objective`): the cheapest collision-free plan
+    at the shortest length that has one.  Refinement goes on inside the search: each
+    collision-free plan of cost ``c`` becomes the best, the bound ``cost =< c - 1`` is assumed,
+    and the plans the solver then proposes are checked and learned from as before, until the
+    bound has no plan left (the best is optimal among the collision-free plans: every nogood
+    only excludes plans that fail the check).  ``time_limit`` (seconds, checked between
+    iterations) and Ctrl-C stop it with the best so far, not proved.
 
     Raises:
         TaskError: the start or goal cannot be reached, or the checker refuses the plan's states.
@@ -237,6 +254,7 @@ def refine(task: RobotTask, label: str = "0", max_iterations: int | None = None,
             result.known.append(ng)
     plans_exist = False     # does the domain have a plan in the range, geometry aside?
     number = 0
+    opt = _Cheapest(session, minimize, time_limit) if minimize is not None else None
 
     def finish(status: RefineStatus, reason: str, it: Iteration | None = None, t0: float = 0.0) -> RefinementResult:
         if it is not None:
@@ -264,7 +282,15 @@ def refine(task: RobotTask, label: str = "0", max_iterations: int | None = None,
                 result.first_violation = violations[0] if violations else None
             if not violations:
                 result.history, result.states = hist, states
-                return finish(RefineStatus.FOUND, "", Iteration(number, m), t0)
+                if opt is None:
+                    return finish(RefineStatus.FOUND, "", Iteration(number, m), t0)
+                it = Iteration(number, m)
+                ok = opt.cheaper(m, hist, states)
+                it.seconds = time.perf_counter() - t0
+                result.iterations.append(it)
+                if on_iteration:
+                    on_iteration(it)
+                continue
             if not refine:
                 return finish(RefineStatus.UNSAFE, "refinement is off (--no-refine) and the plan is not "
                               "collision-free", Iteration(number, m, violations), t0)
@@ -278,15 +304,22 @@ def refine(task: RobotTask, label: str = "0", max_iterations: int | None = None,
                 raise TaskError(f"internal error: the solver proposed a plan of length {m} that its learned "
                                 "nogoods forbid")
             it = Iteration(number, m, violations, tuple(new))
+            if opt is not None and opt.best is not None and (max_iterations and number >= max_iterations):
+                result.iterations.append(it)
+                return opt.finish(result, "max_iterations")
             if max_iterations and number >= max_iterations:
                 proved = f"; none with maxstep {query.lo}..{m - 1}" if m > query.lo else ""
                 return finish(RefineStatus.GAVE_UP, f"gave up after {number} refinement iteration"
                               f"{'s' if number > 1 else ''} (--max-iterations) at maxstep {m}{proved}", it, t0)
-            ok = session.resolve()
+            ok = opt.resolve() if opt is not None else session.resolve()
             it.seconds = time.perf_counter() - t0
             result.iterations.append(it)
             if on_iteration:
                 on_iteration(it)
+            if opt is not None and opt.stopped:
+                return opt.finish(result, opt.stopped)
+        if opt is not None and opt.best is not None:
+            return opt.finish(result, opt.stopped)
         if not plans_exist and guard is not None and guard in horizon.solver.core():
             # the pre-check's clauses took part: does the domain alone have a plan here?
             t0 = time.perf_counter()
@@ -343,3 +376,61 @@ def _precheck(task: RobotTask, store: NogoodStore, guard: int, pairs: bool) -> P
     return Precheck(sum(1 for b in bad if len(b.points) == 1), sum(1 for b in bad if len(b.points) == 2),
                     len(scene.robots) * n * (n - 1) if pairs else 0, len(turns),  # type: ignore[attr-defined]
                     time.perf_counter() - t0)
+
+
+class _Cheapest:
+    """The cheapest collision-free plan at one horizon, searched inside the refinement: the
+    bound on the cost is one more assumption of the live solver, so nogoods learned under
+    one bound stay for the next (and for longer horizons)."""
+
+    def __init__(self, session: QuerySession, objective, time_limit: float | None) -> None:
+        from cplus.sat.optimize import CostBound
+        self._bound_cls = CostBound
+        self.session = session
+        self.objective = objective
+        self.deadline = None if time_limit is None else time.perf_counter() + time_limit
+        self.base = list(session.assumptions)
+        self.bound: Any = None
+        self.best: int | None = None
+        self.history: History | None = None
+        self.states: list | None = None
+        self.stopped: str | None = None
+        self.solves = 0
+
+    def cheaper(self, m: int, hist: History, states: list) -> bool:
+        """A collision-free plan: keep it if cheaper, and solve for a cheaper one."""
+        if self.bound is None:
+            self.bound = self._bound_cls(self.session, self.objective, m)
+        value = self.bound.model_value()
+        self.best, self.history, self.states = value, hist, states
+        a = self.bound.at_most(value - 1)
+        if a is None:
+            return False
+        self.session.assumptions = self.base + a
+        return self.resolve()
+
+    def resolve(self) -> bool:
+        if self.deadline is not None and time.perf_counter() >= self.deadline and self.best is not None:
+            self.stopped = "time_limit"
+            return False
+        self.solves += 1
+        try:
+            return self.session.resolve()
+        except KeyboardInterrupt:
+            if self.best is None:
+                raise
+            self.stopped = "interrupted"
+            return False
+
+    def finish(self, result: RefinementResult, stopped: str | None) -> RefinementResult:
+        from cplus.sat.optimize import Optimum
+        assert self.best is not None and self.bound is not None
+        self.session.assumptions = list(self.base)
+        proved = stopped is None
+        result.history = self.history
+        result.states = self.states
+        result.optimum = Optimum(self.objective.text, self.best, proved,
+                                 self.best if proved else self.bound.low, stopped=stopped, solves=self.solves)
+        result.status = RefineStatus.FOUND
+        result.reason = "" if proved else f"the cheapest plan is not proved ({stopped})"
+        return result
