@@ -33,7 +33,7 @@ class _Queries(_Formulas):
                 if seen_max:
                     raise QueryError("a query has at most one maxstep", it.loc)
                 seen_max = True
-                if it.hi is it.lo and self._keyword(it.lo, "any"):
+                if it.hi is it.lo and self._query_word(it.lo, "any"):
                     any_length = it.loc
                     continue
                 lo_e = self._expand(it.lo)
@@ -48,7 +48,7 @@ class _Queries(_Formulas):
                     raise QueryError(f"malformed maxstep {bounds}: need 0 =< min =< max", it.loc)
             elif isinstance(it, ast.QueryRule):
                 rules.extend(self._nm_rule(it))
-            elif isinstance(it.formula, ast.Stamp) and self._keyword(it.formula.time, "invariant"):
+            elif isinstance(it.formula, ast.Stamp) and self._query_word(it.formula.time, "invariant"):
                 if invariant is not None:
                     raise QueryError("a query has at most one invariant", it.loc)
                 invariant = (self._formula(it.formula.body, _Scope(query=True)), it.formula.body.loc)
@@ -67,7 +67,7 @@ class _Queries(_Formulas):
         known.append(QuerySpec(label, lo, hi, tuple(items), stmt.loc, tuple(rules) if stmt.nm else None,
                                invariant=invariant))
 
-    def _keyword(self, e: ast.Expr, word: str) -> bool:
+    def _query_word(self, e: ast.Expr, word: str) -> bool:
         """Whether ``e`` is the bare word of a query field (``any``, ``invariant``) that no
         macro redefines: CCALC's query words are not reserved elsewhere."""
         return isinstance(e, ast.Name) and e.name == word and not e.args and (word, 0) not in self.macros
