@@ -90,6 +90,45 @@ def sample(session: Path, n: int, seed: int) -> int:
         return len(pending)
 
 
+def annotation_spans(path: Path) -> list[tuple[tuple[int, int], tuple[int, int]]]:
+    """Where the module's annotations are, if it has ``from __future__ import annotations``
+    (then no annotation is ever evaluated, so a mutant inside one is equivalent)."""
+    import ast
+    tree = ast.parse(path.read_text(encoding="utf-8"))
+    if not any(isinstance(n, ast.ImportFrom) and n.module == "__future__" and
+               any(a.name == "annotations" for a in n.names) for n in tree.body):
+        return []
+    spans = []
+    for node in ast.walk(tree):
+        notes = []
+        if isinstance(node, ast.arg) and node.annotation is not None:
+            notes.append(node.annotation)
+        elif isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)) and node.returns is not None:
+            notes.append(node.returns)
+        elif isinstance(node, ast.AnnAssign):
+            notes.append(node.annotation)
+        spans += [((n.lineno, n.col_offset), (n.end_lineno, n.end_col_offset)) for n in notes]  # type: ignore[misc]
+    return spans
+
+
+def skip_annotations(session: Path) -> int:
+    """Mark the mutants inside annotations skipped (equivalent); returns how many."""
+    from cosmic_ray.work_db import WorkDB, use_db
+    from cosmic_ray.work_item import WorkerOutcome, WorkResult
+    skipped = 0
+    spans: dict[str, list] = {}
+    with use_db(str(session), mode=WorkDB.Mode.open) as db:
+        for item in db.pending_work_items:
+            m = item.mutations[0]
+            where = spans.setdefault(str(m.module_path), annotation_spans(ROOT / m.module_path))
+            start = tuple(m.start_pos)
+            if any(lo <= start < hi for lo, hi in where):
+                db.set_result(item.job_id, WorkResult(output="equivalent: inside an annotation",
+                                                      worker_outcome=WorkerOutcome.SKIPPED))
+                skipped += 1
+    return skipped
+
+
 def report(session: Path) -> tuple[int, int, int]:
     """Print every survivor as a diff and the score; returns (killed, survived, incompetent)."""
     from cosmic_ray.work_db import WorkDB, use_db
@@ -147,6 +186,7 @@ def main(argv: list[str] | None = None) -> int:
         run("cosmic-ray", "init", str(config), str(session), "--force")
         run("cr-filter-operators", str(session), str(config))
         run("cr-filter-pragma", str(session))
+        print(f"mutants: {skip_annotations(session)} inside annotations set aside (equivalent)", flush=True)
         n = cfg.get("sample", 0) if args.sample is None else args.sample
         total = sample(session, n, args.seed)
         print(f"mutants: {module}: {total} mutants, running {min(n, total) if n else total} against "

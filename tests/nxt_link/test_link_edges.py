@@ -209,3 +209,35 @@ def test_a_silent_brick_whose_program_runs_is_a_link_timeout(rig):
         s.query()
     # on the virtual clock: given up after 3 s of silence, within one more try
     assert 3.0 < rig.clock.now() - last_valid <= 3.0 + 1.0
+
+
+def test_a_decoder_with_a_larger_limit_reads_both_length_bytes():
+    """The prefix is little-endian over both bytes (what the brick's 126 never shows)."""
+    d = FrameDecoder(max_telegram=1000)
+    telegram = bytes(range(256)) + bytes(44)
+    assert frame_long(telegram)[:2] == b"\x2c\x01"
+    assert d.feed(frame_long(telegram)) == [telegram] and d.stats.desyncs == 0
+    assert d.feed(b"\xe9\x03" + bytes(1001)) == [] and d.stats.desyncs == 1  # 1001 > 1000
+
+
+def frame_long(telegram: bytes) -> bytes:
+    return struct.pack("<H", len(telegram)) + telegram
+
+
+def test_a_partial_frame_is_stale_only_after_more_than_the_limit():
+    d = FrameDecoder(stale_after_s=0.25)
+    assert d.feed(frame(bytes(4))[:3], now=0.75) == []
+    assert d.feed(b"", now=1.0) == [] and len(d.pending) == 3  # exactly 0.25 s: still assembling
+    assert d.stats.stale_discards == 0
+    assert d.feed(bytes(3), now=1.0) == [bytes(4)]
+
+
+def test_discarded_bytes_are_counted():
+    d = FrameDecoder(stale_after_s=0.25)
+    d.feed(b"\x00\x00\x01\x02\x03")  # a desync: all five
+    assert (d.stats.desyncs, d.stats.bytes_discarded) == (1, 5)
+    d.feed(frame(bytes(10))[:7], now=1.0)
+    d.feed(b"", now=2.0)  # stale: seven more
+    assert (d.stats.stale_discards, d.stats.bytes_discarded) == (1, 12)
+    d.reset()  # nothing buffered: nothing counted
+    assert d.stats.bytes_discarded == 12 and d.stats.frames == 0
