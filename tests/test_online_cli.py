@@ -77,7 +77,7 @@ def test_max_cycles_is_exit_3(delivery, capsys):
     assert code == 3 and "max_cycles: no goal after 3 cycles" in err
 
 
-def test_an_ambiguous_state_is_exit_6(delivery, capsys):
+def test_an_ambiguous_state_is_exit_7(delivery, capsys):
     robot = delivery.parent / "robot.toml"
     text = robot.read_text()
     robot.write_text(text[:text.index("# The follower counts")])

@@ -6,6 +6,7 @@ package or a data file that the packaging configuration leaves out (as happened 
 """
 from __future__ import annotations
 
+import shutil
 import subprocess
 import sys
 import zipfile
@@ -16,10 +17,20 @@ PACKAGES = ("cplus", "trajectory", "nxt_link")
 
 
 def test_the_wheel_holds_every_file_of_the_packages(tmp_path):
+    # setuptools builds in the project's folder (build/, *.egg-info): build a copy, so that the
+    # test leaves the source tree as it found it
+    src, out = tmp_path / "src", tmp_path / "wheel"
+    junk = shutil.ignore_patterns("__pycache__", "*.pyc", "*.egg-info")
+    for pkg in PACKAGES:
+        shutil.copytree(ROOT / pkg, src / pkg, ignore=junk)
+    for name in ("pyproject.toml", "README.md"):
+        shutil.copy2(ROOT / name, src / name)
+    before = sorted(p.name for p in ROOT.iterdir())
     proc = subprocess.run([sys.executable, "-m", "pip", "wheel", "--no-deps", "--no-build-isolation", "-q",
-                           "-w", str(tmp_path), str(ROOT)], capture_output=True, text=True)
+                           "-w", str(out), str(src)], capture_output=True, text=True)
     assert proc.returncode == 0, proc.stderr
-    wheel = next(tmp_path.glob("cplus-*.whl"))
+    assert sorted(p.name for p in ROOT.iterdir()) == before
+    wheel = next(out.glob("cplus-*.whl"))
     names = set(zipfile.ZipFile(wheel).namelist())
     tree = {str(p.relative_to(ROOT)) for pkg in PACKAGES for p in (ROOT / pkg).rglob("*")
             if p.is_file() and "__pycache__" not in p.parts and p.suffix != ".pyc"}

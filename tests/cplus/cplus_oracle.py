@@ -122,6 +122,7 @@ class Description:
     laws: list[Law] = field(default_factory=list)
     max_additive: int | None = None
     noconcurrency: bool = False
+    strong: bool = False       # with noconcurrency: strong_noconcurrency
     query: list[tuple[int | str, Formula]] = field(default_factory=list)   # (step or "maxstep", F)
 
     # ------------------------------------------------------------------ C+ text
@@ -158,7 +159,7 @@ class Description:
         out.append(":- constants " + ";\n    ".join(decls) + ".")
         out += [law_text(law) for law in self.laws]
         if self.noconcurrency:
-            out.append("noconcurrency.")
+            out.append("strong_noconcurrency." if self.strong else "noconcurrency.")
         items = [f"maxstep :: {maxstep}" if lo is None else f"maxstep :: {lo}..{maxstep}"] + [f"{t}: {show(f)}" for t, f in self.query]
         out.append(":- query\n    " + ";\n    ".join(items) + ".")
         return "\n".join(out) + "\n"
@@ -532,13 +533,19 @@ class _Theory:
                     fn, refs = comp.formula(ax, t)
                     rule(None, lambda val, fn=fn: not fn(val), refs)
         if self.desc.noconcurrency:
-            acts = [gc for gc in self.ground if kinds[gc] in ("exogenousAction", "action")
+            # at most one Boolean action done per step; strong: a non-Boolean action whose
+            # domain has none counts as done when it is not none
+            acts = [(gc, "true", True) for gc in self.ground if kinds[gc] in ("exogenousAction", "action")
                     and self.consts[gc[0]].boolean]
-            for i, a1 in enumerate(acts):
-                for a2 in acts[i + 1:]:
+            if self.desc.strong:
+                acts += [(gc, "none", False) for gc in self.ground if kinds[gc] in ("exogenousAction", "action")
+                         and not self.consts[gc[0]].boolean and "none" in self.consts[gc[0]].values]
+            for i, (a1, v1, is1) in enumerate(acts):
+                for a2, v2, is2 in acts[i + 1:]:
                     for t in range(m):
                         p1, p2 = pos[(a1, t)], pos[(a2, t)]
-                        rule(None, lambda val, p1=p1, p2=p2: val[p1] == "true" and val[p2] == "true", {p1, p2})
+                        rule(None, lambda val, p1=p1, p2=p2, v1=v1, v2=v2, is1=is1, is2=is2:
+                             (val[p1] == v1) == is1 and (val[p2] == v2) == is2, {p1, p2})
         # C.4: additive constants are the sum of the contributions of the actions done
         incs: dict[tuple, list] = {}
         for inc in self.incs:

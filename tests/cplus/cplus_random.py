@@ -16,7 +16,7 @@ from __future__ import annotations
 
 from dataclasses import replace
 
-from cplus_oracle import Const, Description, Law, conj, cst, neg, obj, walk
+from cplus_oracle import FALSE, TRUE, Const, Description, Law, conj, cst, neg, obj, walk
 from hypothesis import strategies as st
 
 SORTS = {"s": ("k1",), "t": ("k2",)}          # s >> t: s has k1 and k2, t has k2
@@ -121,6 +121,8 @@ class _Gen:
             add(Const("amt", "attribute", (1, 2), "1..2", arg=a0.arg, parent="a0"))
         if self.chance(0.2):
             add(Const("e", "exogenousAction", (0, 1), "0..1"))
+        if self.chance(0.15):
+            add(Const("go", self.pick(["exogenousAction", "action"]), ("k1", "k2", "none"), "s*"))
         if self.chance(0.2):
             add(Const("ab", "abAction"))
         if self.chance(0.25):
@@ -157,10 +159,10 @@ class _Gen:
         rigid = self.of("rigid")
         additive = self.of("additiveFluent", "additiveAction")
         forms = ["static", "fact", "default", "constraint", "never", "always", "nonexecutable",
-                 "action_caused", "action_causes"]
+                 "action_caused", "action_causes", "exogenous", "conj_head", "false_head"]
         if dyn_heads:
             forms += ["dynamic", "causes", "may_cause", "default_after", "possibly", "constraint_after",
-                      "inertial", "rigid_law"]
+                      "inertial", "inertial_if", "inertial_if", "rigid_law", "conj_dynamic"]
             if any(c.name == "v" for c in dyn_heads):
                 forms.append("arith_head")
         if rigid:
@@ -174,8 +176,21 @@ class _Gen:
         if form == "static":
             law = Law("caused", self.literal(static_heads, head=True),
                       cond=self.formula(F) if self.chance(0.8) else None)
-        elif form == "fact":
-            law = Law("fact", self.literal(static_heads, head=True))
+        elif form == "fact":             # F.  or  F if G.
+            law = Law("fact", self.literal(static_heads, head=True),
+                      cond=self.formula(F) if self.chance(0.4) else None)
+        elif form == "exogenous":        # exogenous c if G: a fluent, a plain action or a rigid
+            pool = static_heads + self.of("action") + self.of("rigid")
+            c = self.pick(pool)
+            cls = {"action": "action", "rigid": "rigid"}.get(c.kind, "static")
+            pool_g = {"action": E, "rigid": self.of("rigid")}.get(c.kind, F)
+            law = Law("exogenous", self.term(c), cond=self.formula(pool_g) if self.chance(0.6) else None)
+            cls = "frame"
+        elif form == "conj_head":        # caused F1 & F2 if G: two laws in one
+            law = Law("caused", conj(self.literal(static_heads, head=True), self.literal(static_heads, head=True)),
+                      cond=self.formula(F) if self.chance(0.7) else None)
+        elif form == "false_head":       # caused false if G / caused true
+            law = Law("caused", FALSE if self.chance(0.8) else TRUE, cond=self.formula(F))
         elif form == "default":
             law = Law("default", self.literal(static_heads, head=True),
                       cond=self.formula(F) if self.chance(0.3) else None)
@@ -210,6 +225,13 @@ class _Gen:
             law, cls = Law("constraint", self.formula(F), after=self.formula(E)), "dynamic"
         elif form == "inertial":
             law, cls = Law("inertial", self.term(self.pick(dyn_heads))), "frame"
+        elif form == "inertial_if":      # inertial c if G: G at the state before (and the actions)
+            simple = [c for c in dyn_heads if c.kind == "simpleFluent"]   # (an inertial one is already)
+            law, cls = Law("inertial", self.term(self.pick(simple or dyn_heads)),
+                           cond=self.formula(F if self.chance(0.6) else E)), "frame"
+        elif form == "conj_dynamic":     # caused F1 & F2 after H
+            law, cls = Law("caused", conj(self.literal(dyn_heads, head=True), self.literal(dyn_heads, head=True)),
+                           after=self.formula(E)), "dynamic"
         elif form == "rigid_law":
             law, cls = Law("rigid", self.term(self.pick(dyn_heads))), "frame"
         elif form == "arith_head":     # caused v=N+1 after v=N & A: N=2 leaves the domain (C.7)
@@ -248,7 +270,7 @@ class _Gen:
                 law = replace(law, where=("cmp", self.pick(["\\=", "@<"]), ("v", "X"), ("v", "Y")))
             elif "X" in free:
                 law = replace(law, where=("cmp", self.pick(["=", "\\="]), ("v", "X"), obj("k2")))
-        if cls != "frame" and self.chance(0.3):
+        if cls != "frame" and law.head != TRUE and self.chance(0.3):   # (caused true: no law at all)
             name = f"ab{self.ab_count}"
             self.ab_count += 1
             args = (("v", "X"),) if "X" in free and self.chance(0.5) else ()
@@ -273,7 +295,9 @@ class _Gen:
 
     # ------------------------------------------------------------ support
     def support(self) -> None:
-        """Laws that give most domains models: defaults for what needs a cause."""
+        """Laws that give most domains models: defaults for what needs a cause (not the
+        plain inertia that would hide an `inertial c if G`)."""
+        conditional = {law.head[1] for law in self.laws if law.form == "inertial" and law.cond is not None}
         for c in self.consts:
             every = cst(c.name, *([("v", "X" if c.arg == "s" else "Z")] if c.arg else []))
             lit = ("eq", every, obj("true" if c.boolean else self.pick(c.values)))
@@ -281,7 +305,7 @@ class _Gen:
                 self.laws.append(Law("default", neg(lit) if c.boolean else lit))
             elif c.kind == "sdFluent" and self.chance(0.85):
                 self.laws.append(Law("default", self.pick([lit, neg(lit)]) if c.boolean else lit))
-            elif c.kind == "simpleFluent" and self.chance(0.7):
+            elif c.kind == "simpleFluent" and c.name not in conditional and self.chance(0.7):
                 self.laws.append(Law("inertial", every))
             elif c.kind == "rigid" and self.chance(0.85):
                 self.laws.append(Law("exogenous", every))
@@ -310,8 +334,9 @@ def descriptions(draw, max_maxstep: int = 2):
     g.support()
     m = draw(st.integers(0, max_maxstep))
     additive = any(c.kind in ("additiveFluent", "additiveAction") for c in g.consts)
+    noconcurrency = g.chance(0.2)
     desc = Description(sorts=dict(SORTS), subsorts=dict(SUBSORTS), variables=dict(VARIABLES),
                        consts=g.consts, laws=g.laws, max_additive=2 if additive else None,
-                       noconcurrency=g.chance(0.2), query=g.query(m))
+                       noconcurrency=noconcurrency, strong=noconcurrency and g.chance(0.5), query=g.query(m))
     return desc, m
 

@@ -431,8 +431,14 @@ def test_a_variable_redeclared_with_another_sort_is_an_error(tmp_path):
 
 
 def test_a_variable_redeclared_with_the_same_sort_is_fine():
-    """Files that include a common part often repeat its declarations."""
-    load_text(":- sorts s. :- variables X :: s. :- variables X, Y :: s. :- variables X :: s.")
+    """Files that include a common part often repeat its declarations: silently, and the
+    variable keeps its sort."""
+    prog = load_text(":- sorts s. :- objects a :: s. :- constants p(s) :: inertialFluent.\n"
+                     ":- variables X :: s. :- variables X, Y :: s. :- variables X :: s.\n"
+                     "caused p(X) if p(Y).")
+    assert prog.diagnostics.items == []
+    (law,) = prog.laws
+    assert [(v.name, str(v.sort)) for v in (law.head.cst.args[0], law.body.cst.args[0])] == [("X", "s"), ("Y", "s")]
 
 
 def test_sorts_nest_in_declaration_order():

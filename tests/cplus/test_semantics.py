@@ -298,6 +298,29 @@ CATALOGUE = {
         [Law("constraint", ("cmp", "=<", cst("v"), cst("w"))),
          Law("caused", ("eq", cst("w"), obj(2)), after=conj(atom("a"), ("cmp", "=", ("+", cst("v"), obj(1)),
                                                                         cst("w"))))]), 1),
+    # G of `inertial c if G` is read at the state before (and the actions done): an action
+    # that turns G off does not free c at that step
+    "inertial c if G: G before the step": (D(
+        [Const("s", "simpleFluent"), G, A],
+        [Law("inertial", cst("s"), cond=atom("g")), Law("causes", neg(atom("g")), action=atom("a"))]), 2),
+    "inertial c if G, G over the action, multi-valued c": (D(
+        [Const("w", "simpleFluent", (0, 1, 2), "0..2"), A, B],
+        [Law("inertial", cst("w"), cond=neg(atom("a"))), Law("causes", ("eq", cst("w"), obj(0)), action=atom("a")),
+         Law("causes", ("eq", cst("w"), obj(2)), action=atom("b"))]), 2),
+    "exogenous c if G on a fluent and on an action, F if G": (D(
+        [Const("q", "sdFluent"), F, Const("act", "action")],
+        [Law("exogenous", cst("q"), cond=atom("f")), Law("fact", neg(atom("q")), cond=neg(atom("f"))),
+         Law("exogenous", cst("act"), cond=atom("f")), Law("default", neg(atom("act"))),
+         Law("causes", neg(atom("f")), action=atom("act"))]), 2),
+    "conjunctive heads, caused false, caused true": (D(
+        [Const("q", "sdFluent"), Const("r", "sdFluent"), F, G, A],
+        [Law("caused", conj(atom("q"), neg(atom("r"))), cond=atom("f")), Law("default", neg(atom("q"))),
+         Law("default", atom("r")), Law("caused", FALSE, cond=conj(atom("q"), neg(atom("f")))),
+         Law("caused", TRUE, cond=atom("q")),
+         Law("caused", conj(atom("f"), neg(atom("g"))), after=atom("a"))]), 2),
+    "strong noconcurrency counts a non-Boolean action that is not none": (D(
+        [F, A, Const("go", "exogenousAction", ("k1", "k2", "none"), "s*"), Const("e", "exogenousAction", (0, 1), "0..1")],
+        [], [(0, atom("f"))], noconcurrency=True, strong=True), 1),
     "query: action items, maxstep items, connectives": (D(
         [F, G, A, B],
         [Law("causes", atom("f"), action=atom("a")), Law("causes", ("eq", cst("g"), obj("false")), action=atom("b"))],

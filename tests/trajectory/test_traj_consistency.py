@@ -93,7 +93,11 @@ def test_a_setpoint_rounded_the_other_way_is_accepted(data) -> None:
         exact = m["offset_deg"] + m["deg_per_unit"] * (r["samples"]["theta_deg"][12] - m["zero_joint"])
         row = r["setpoints_deg"][12]
         row[2] = math.floor(exact) if row[2] > exact else math.ceil(exact)
-    trajectory_from_dict(edited(data, edit), "t.json")
+    changed = edited(data, edit)
+    assert changed["robots"][0]["setpoints_deg"][12] != data["robots"][0]["setpoints_deg"][12]
+    traj = trajectory_from_dict(changed, "t.json")
+    # loaded as written, not recomputed from the samples
+    assert traj.robots[0].setpoints_deg[12].tolist() == changed["robots"][0]["setpoints_deg"][12]
 
 
 @settings(max_examples=60)

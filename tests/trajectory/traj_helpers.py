@@ -58,12 +58,18 @@ def first_exit(breaks: Sequence[float], feasible) -> float | None:
 
 
 def real_roots(a: float, b: float, c: float) -> list[float]:
-    """The real roots of a u^2 + b u + c (any degree down to a constant)."""
+    """The real roots of a u^2 + b u + c (any degree down to a constant). A tangent (a double
+    root, as where a segment runs at exactly full reach) has a discriminant that is 0 in exact
+    arithmetic but may come out a few ulps below it: within rounding of its terms it counts as
+    0, so the tangent root is kept (a break too many only splits an interval of constant
+    feasibility, one too few can hide an exit)."""
     if a == 0.0:
         return [-c / b] if b != 0.0 else []
     disc = b * b - 4 * a * c
     if disc < 0:
-        return []
+        if disc < -1e-9 * (b * b + abs(4 * a * c)):
+            return []
+        disc = 0.0
     r = math.sqrt(disc)
     return [(-b - r) / (2 * a), (-b + r) / (2 * a)]
 
