@@ -19,15 +19,18 @@ from __future__ import annotations
 
 import itertools
 import logging
+import os
 import threading
 import time
+import weakref
 from collections import deque
 from collections.abc import Callable, Iterable, Iterator, Sequence
 from contextlib import contextmanager
 from typing import Any, Protocol
 
 __all__ = ["Clock", "MonotonicClock", "VirtualClock", "Deadline", "MONOTONIC", "SimClock",
-           "SimulationStalled", "Pipe", "Channel", "start_thread", "join_threads", "new_lock"]
+           "SimulationStalled", "Pipe", "Channel", "start_thread", "join_threads", "new_lock",
+           "clock_of_device"]
 
 log = logging.getLogger(__name__)
 
@@ -236,6 +239,7 @@ class SimClock:
         self._progress = time.monotonic()
         self.stall_timeout_s = stall_timeout_s
         self.switches = 0          # baton passes (for the benchmarks)
+        _CLOCKS.add(self)
 
     # -- time -------------------------------------------------------------------------
 
@@ -540,6 +544,20 @@ class SimClock:
                     self._drop(p)
                     self._dispatch()
             return p.reason
+
+
+_CLOCKS: weakref.WeakSet[SimClock] = weakref.WeakSet()
+
+
+def clock_of_device(path: str) -> SimClock | None:
+    """The simulated clock of the brick emulated in this process that serves ``path`` (its
+    pty, or a symlink to it), if there is one: a client of that brick must wait on that
+    clock, even when it was given the path as if it were a device of its own."""
+    key = os.path.realpath(path)
+    for clock in list(_CLOCKS):
+        if clock.channel(key) is not None:
+            return clock
+    return None
 
 
 class _SimLock:
