@@ -15,7 +15,7 @@ from cplus.robot.online.loop import Observer, OnlineLoop, OnlineStatus, RunResul
 from cplus.robot.online.nxt_executor import NxtExecutor
 from nxt_link.behaviours import BehaviourTiming
 from nxt_link.brick import RetryPolicy
-from nxt_link.clock import VirtualClock
+from nxt_link.clock import SimClock, VirtualClock
 from nxt_link.emulator import BrickEmulator, EmulatorConfig, LinkParams
 from nxt_link.memory_transport import MemoryTransport
 from nxt_link.world import Blocked, Landmark, Press, WorldSpec, delivery_world
@@ -109,29 +109,52 @@ def test_a_blocked_track_fails_the_follow(setup):
 
 @pytest.mark.slow
 def test_a_brick_that_goes_away_is_lost(setup):
-    """The emulated brick's pseudo-terminal disappears during cycle 2 (a robot switched off)."""
+    """The emulated brick's pseudo-terminal disappears during cycle 2 (a robot switched off):
+    on simulated time, so only the modelled disconnect can lose it, never a slow machine."""
     model, binding = setup
-    ex = NxtExecutor(model, binding, worlds={"robot": world()}, time_scale=10.0, policy=FAST,
+    ex = NxtExecutor(model, binding, worlds={"robot": world()}, policy=FAST,
                      timing=BehaviourTiming(max_silent_s=2.0))
 
     class SwitchOff(Observer):
         def on_act(self, record) -> None:
             if record.cycle == 2:
                 ex.servers["robot"].stop()
-    result = OnlineLoop(model, ex, observers=[SwitchOff()]).run()
+    result = OnlineLoop(model, ex, observers=[SwitchOff()], clock=ex.clock).run()
     assert result.status is OnlineStatus.ROBOT_LOST, result.message
     assert result.message.startswith("brick robot:")
     assert executed(result) == ["follow", "follow", "turn"] and result.records[-1].failure
 
 
+def _over_a_pty(setup, **kw) -> tuple[RunResult, NxtExecutor]:
+    model, binding = setup
+    ex = NxtExecutor(model, binding, worlds={"robot": world(presses=(Press(at_landmark=3),))}, **kw)
+    return OnlineLoop(model, ex, clock=ex.clock).run(), ex
+
+
 @pytest.mark.slow
 def test_the_emulated_robot_over_a_pty(setup):
-    """The same loop through the serial path: the emulator on a pseudo-terminal, ten times
-    faster than real time."""
-    model, binding = setup
-    ex = NxtExecutor(model, binding, worlds={"robot": world(presses=(Press(at_landmark=3),))}, time_scale=10.0)
-    result = OnlineLoop(model, ex).run()
+    """The same loop through the serial path: the emulator on a pseudo-terminal, on simulated
+    time; twice, with the same log (but the wall-clock decision times)."""
+    result, ex = _over_a_pty(setup)
     assert result.status is OnlineStatus.GOAL_REACHED, result.message
     assert result.replans == 1 and any(r.events == ["press"] for r in result.records)
     path = ex.servers["robot"].path
     assert not Path(path).exists()              # the executor closed the link and stopped the emulator
+
+    def records(r: RunResult) -> list[dict]:
+        out = []
+        for rec in r.records:
+            j = rec.to_json()
+            j.pop("decision_ms", None)   # the planner's wall-clock time
+            out.append(j)
+        return out
+    again, _ = _over_a_pty(setup)
+    assert records(again) == records(result) and again.seconds == result.seconds
+
+
+@pytest.mark.slow
+def test_the_emulated_robot_on_the_wall_clock(setup):
+    """--time-scale: the emulator on the wall clock, ten times faster than real time."""
+    result, ex = _over_a_pty(setup, time_scale=10.0)
+    assert result.status is OnlineStatus.GOAL_REACHED, result.message
+    assert not isinstance(ex.clock, SimClock)

@@ -29,7 +29,7 @@ from cplus.robot.online.binding import BindingError, RobotBinding
 from cplus.robot.online.estimation import Act, OnlineModel
 from cplus.robot.online.loop import Executor, Outcome, RobotLost, Step
 from nxt_link.behaviours import BehaviourClient, BehaviourError, BehaviourFailed, BehaviourTiming
-from nxt_link.clock import MONOTONIC, Clock, join_threads, start_thread
+from nxt_link.clock import MONOTONIC, Clock, SimClock, clock_of_device, join_threads, start_thread
 from nxt_link.errors import LinkError
 from nxt_link.inprocess import EmulatedBricks
 from nxt_link.serial_transport import SerialTransport
@@ -114,6 +114,8 @@ class NxtExecutor(Executor):
             self.description = "NXT bricks " + ", ".join(names)
         elif self.ports:
             self.description = "NXT bricks " + ", ".join(f"{n}={self.ports[n]}" for n in names)
+            # ports of bricks emulated in this process on simulated time are used on their clock
+            self.clock = clock_of_device(next(iter(self.ports.values()))) or clock
         else:
             for name in names:                      # refuse a missing world before anything starts
                 if name not in self.worlds:
@@ -125,11 +127,12 @@ class NxtExecutor(Executor):
 
     # ------------------------------------------------------------------ connection
     def open(self) -> None:
+        sessions: dict[str, int] = {}
         if self.emulated is not None:
             self._stack.enter_context(self.emulated)   # the calling thread takes part in its clock
             sessions = self.emulated.session_ids(self.binding.bricks) or {}
-        else:
-            sessions = {}
+        elif isinstance(self.clock, SimClock) and self.ports:
+            self._stack.enter_context(self.clock.participant("pc"))
         try:
             for name in self.binding.bricks:
                 transport = self._transport(name)
@@ -152,7 +155,7 @@ class NxtExecutor(Executor):
         if name in self.transports:
             return self.transports[name]
         if self.ports:
-            t = SerialTransport(self.ports[name])
+            t = SerialTransport(self.ports[name], clock=self.clock if isinstance(self.clock, SimClock) else MONOTONIC)
             self._stack.callback(t.close)
             return t
         assert self.emulated is not None

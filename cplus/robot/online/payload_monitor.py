@@ -49,7 +49,7 @@ from cplus.robot.offline import RefineStatus, RobotTask, TaskError, refine
 from cplus.robot.online.estimation import OnlineModel, Plan, Roles, State
 from cplus.robot.online.loop import CycleRecord, Observer, OnlineStatus, Replan, RunResult
 from cplus.signature import GroundConst
-from nxt_link.clock import MONOTONIC, Clock
+from nxt_link.clock import MONOTONIC, Clock, SimClock, clock_of_device
 from nxt_link.errors import LinkError, NoActiveProgramError, SetpointError, StreamError
 from nxt_link.inprocess import EmulatedBricks
 from nxt_link.stall import Stall
@@ -196,6 +196,8 @@ class ArmsExecutor:
         if not self.transports and not self.ports:
             self.emulated = EmulatedBricks(self.time_scale, seed=self.seed, compiled=self.compiled)
             self.clock = self.emulated.clock
+        elif self.ports:   # ports of bricks emulated in this process on simulated time: their clock
+            self.clock = clock_of_device(next(iter(self.ports.values()))) or MONOTONIC
         if self.transports:
             self.description = "NXT bricks " + ", ".join(self.robots)
         elif self.ports:
@@ -208,11 +210,13 @@ class ArmsExecutor:
         from nxt_link.serial_transport import SerialTransport
         if self.emulated is not None:
             self._stack.enter_context(self.emulated)   # the calling thread takes part in its clock
+        elif isinstance(self.clock, SimClock) and self.ports:
+            self._stack.enter_context(self.clock.participant("pc"))
         for name in self.robots:
             if self.transports:
                 transport = self.transports[name]
             elif self.ports:
-                transport = SerialTransport(self.ports[name])
+                transport = SerialTransport(self.ports[name], clock=self.clock)
                 self._stack.callback(transport.close)
             else:
                 assert self.emulated is not None
@@ -227,7 +231,7 @@ class ArmsExecutor:
 
     def options(self, options: nxt_link.ExecutionOptions | None) -> nxt_link.ExecutionOptions | None:
         """``options`` with the emulated bricks' time scale (1 on simulated time)."""
-        if self.emulated is None:
+        if self.emulated is None and not isinstance(self.clock, SimClock):
             return options
         from dataclasses import replace
         return replace(options or nxt_link.ExecutionOptions(), time_scale=self.time_scale or 1.0)
