@@ -199,7 +199,7 @@ class EmulatorSettings:
     time_scale: float | None = None
     seed: int = 0
     faults: nxt_link.FaultParams | None = None
-    compiled: bool = False
+    compiled: bool = True
 
 
 def execute_trajectory(traj: trajectory.Trajectory, ports: Mapping[str, str] | None = None, *,

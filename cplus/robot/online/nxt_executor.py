@@ -93,7 +93,7 @@ class NxtExecutor(Executor):
                  transports: Mapping[str, object] | None = None, timing: BehaviourTiming | None = None,
                  policy: nxt_link.RetryPolicy | None = None,
                  on_link_event: Callable[[str, str, str], None] | None = None, clock: Clock = MONOTONIC,
-                 seed: int = 0, compiled: bool = False) -> None:
+                 seed: int = 0, compiled: bool = True) -> None:
         self.model = model
         self.clock = clock
         self.emulated: EmulatedBricks | None = None

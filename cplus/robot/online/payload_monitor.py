@@ -185,7 +185,7 @@ class ArmsExecutor:
     transports: Mapping[str, object] | None = None
     policy: nxt_link.RetryPolicy | None = None
     seed: int = 0
-    compiled: bool = False
+    compiled: bool = True
     bricks: dict[str, nxt_link.Brick] = field(default_factory=dict)
     description: str = ""
     clock: Clock = MONOTONIC
