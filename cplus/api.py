@@ -98,6 +98,11 @@ class Domain:
     def labels(self) -> list[str]:
         return [q.label for q in self.program.queries]
 
+    @property
+    def nm_labels(self) -> list[str]:
+        """The labels of the file's nmqueries (a namespace apart from :attr:`labels`)."""
+        return [q.label for q in self.program.nmqueries]
+
     def query(self, label: str) -> QuerySpec:
         """The query with this label; ``"states"`` is every state (maxstep 0, no conditions)."""
         q = self.program.query(label)
@@ -106,28 +111,42 @@ class Domain:
         if label == "states":
             return states_query()
         known = ", ".join(self.labels) or "none"
-        raise QueryError(f"no query with label '{label}' (this file's labels: {known})")
+        hint = " (there is an nmquery of that label: --nmquery)" if self.program.nmquery(label) else ""
+        raise QueryError(f"no query with label '{label}' (this file's labels: {known}){hint}")
+
+    def nmquery(self, label: str) -> QuerySpec:
+        """The nmquery with this label (CCALC's ``nmquery label``)."""
+        q = self.program.nmquery(label)
+        if q is not None:
+            return q
+        known = ", ".join(self.nm_labels) or "none"
+        raise QueryError(f"no nmquery with label '{label}' (this file's nmquery labels: {known})")
+
+    def spec(self, label: str, nmquery: bool = False) -> QuerySpec:
+        """The query (or, with ``nmquery``, the nmquery) with this label."""
+        return self.nmquery(label) if nmquery else self.query(label)
 
     def solve(self, label: str = "0", solutions: int = 1, solver: str = DEFAULT_SOLVER,
-              max_horizon: int | None = None, on_horizon: Callable | None = None) -> QueryResult:
-        """Run a query: the shortest maxstep in its range with a history, and up to
-        ``solutions`` histories there (0 = all)."""
-        query = self.query(label)
+              max_horizon: int | None = None, on_horizon: Callable | None = None,
+              nmquery: bool = False) -> QueryResult:
+        """Run a query (with ``nmquery``, the nmquery of that label): the shortest maxstep in
+        its range with a history, and up to ``solutions`` histories there (0 = all)."""
+        query = self.spec(label, nmquery)
         return run_query(self.theory_for(query), query, solutions, solver, max_horizon, on_horizon)
 
     def plans(self, label: str = "0", solver: str = DEFAULT_SOLVER,
-              max_horizon: int | None = None) -> Iterator[History]:
+              max_horizon: int | None = None, nmquery: bool = False) -> Iterator[History]:
         """Every history at the shortest maxstep with one, lazily."""
-        query = self.query(label)
+        query = self.spec(label, nmquery)
         session = QuerySession(self.theory_for(query), query, solver, max_horizon, commit=True)
         find_horizon(session)
         if session.found is not None:
             yield from iter_histories(session)
 
     def session(self, label: str = "0", solver: str = DEFAULT_SOLVER,
-                max_horizon: int | None = None) -> QuerySession:
+                max_horizon: int | None = None, nmquery: bool = False) -> QuerySession:
         """A live solver for a query, for callers that add constraints between solves."""
-        query = self.query(label)
+        query = self.spec(label, nmquery)
         return QuerySession(self.theory_for(query), query, solver, max_horizon)
 
     def format(self, result: QueryResult, numbered: bool | None = None) -> str:
@@ -137,4 +156,4 @@ class Domain:
         return format_result(Display(self.program), result.failed, result.histories, numbered)
 
     def to_json(self, result: QueryResult) -> dict:
-        return result_json(self.path, result, self.query(result.label))
+        return result_json(self.path, result, self.spec(result.label, result.nm))

@@ -39,7 +39,9 @@ class MaxStep(NamedTuple):
 
 
 class Unary(NamedTuple):
-    """``op`` is ``"not"`` (formula negation), ``"-"`` (unary minus) or ``"abs"``."""
+    """``op`` is ``"not"`` (formula negation), ``"-"`` (unary minus), ``"abs"``, or ``"cneg"``:
+    the ``-`` of ``-c=v`` written without parentheses, which CCALC reads as ``(-c)=v`` (the
+    resolver warns, or refuses it for a constant that is not an integer, as CCALC does)."""
 
     loc: Location
     op: str
@@ -217,9 +219,23 @@ class QueryItem(NamedTuple):
     formula: Expr
 
 
-class Query(NamedTuple):
+class QueryRule(NamedTuple):
+    """A rule of an nmquery: ``caused head if body`` (``default``: ``caused head if head & body``);
+    a bare formula F is ``caused F``.  ``body`` None means ``true``."""
+
     loc: Location
-    items: tuple[QueryLabel | QueryMaxstep | QueryItem, ...]
+    head: Expr
+    body: Expr | None
+    default: bool
+
+
+class Query(NamedTuple):
+    """``:- query`` (``nm`` False: its items are formulas) or ``:- nmquery`` (``nm`` True: its
+    items are :class:`QueryRule`, completed on their own)."""
+
+    loc: Location
+    items: tuple[QueryLabel | QueryMaxstep | QueryItem | QueryRule, ...]
+    nm: bool = False
 
 
 class MaxAdditive(NamedTuple):

@@ -30,15 +30,28 @@ class Display:
         self._order: dict[int, tuple] = {}
 
     # -- show / hide ---------------------------------------------------------------
+    @property
+    def specs(self) -> list:
+        """The show specifications in force: the ``:- show`` items, else CCALC's default
+        ``positive`` (nothing at all after ``:- hide all`` without a ``:- show``)."""
+        prog = self.program
+        if prog.show_given:
+            return prog.show
+        return [] if prog.hide_all else ["positive"]
+
     def _matches(self, p: Pattern, gc: GroundConst, value: object) -> bool:
-        if p.decl is not gc.decl:
-            return False
-        for a, v in zip(p.args, gc.args):
-            if isinstance(a, ir.Var):
-                if not self._in_sort(a, v):
-                    return False
-            elif a != v:
+        if p.decl is None:
+            if gc.decl.name != p.name:
                 return False
+        else:
+            if p.decl is not gc.decl:
+                return False
+            for a, v in zip(p.args, gc.args):
+                if isinstance(a, ir.Var):
+                    if not self._in_sort(a, v):
+                        return False
+                elif a != v:
+                    return False
         if p.negated:
             return gc.boolean and value == "false"
         if p.value is None:
@@ -54,19 +67,36 @@ class Display:
             return True
 
     def shown(self, gc: GroundConst, value: object) -> bool:
+        """Whether the atom ``gc=value`` is displayed (for a Boolean constant, ``value``
+        ``"false"`` is the literal ``-gc``), as CCALC 2's ``in_show_list`` decides with the
+        specifications in force (:attr:`specs`), then no ``:- hide`` pattern matching it.
+
+        * actions: a true Boolean action, or any value of a non-Boolean one, when the specs
+          hold ``positive`` or ``all`` or a pattern matching it; never a false one, except an
+          abnormality (``unless``): those only with ``ab`` (when true), ``all``, or a pattern;
+        * fluents and rigid constants: ``positive`` shows true Boolean atoms and the values of
+          the others except ``none``; ``negative`` the false Boolean atoms (``-p``) and ``c=none``;
+          ``all`` both; a pattern what it matches;
+        * ``none`` shows nothing; constants internal to the encoding are never shown.
+        """
         d = gc.decl
-        if d.hidden or d.kind == "abAction":
+        if d.hidden:
             return False
-        if gc.boolean and value != "true":
-            return False
-        prog = self.program
-        if any(self._matches(p, gc, value) for p in prog.hide):
-            return False
-        if prog.hide_all:
-            return any(self._matches(p, gc, value) for p in prog.show)
-        if prog.show_given and not d.is_action:
-            return any(self._matches(p, gc, value) for p in prog.show)
-        return True
+        negative = gc.boolean and value != "true"
+        specs = self.specs
+        if d.is_action:
+            if d.auto_ab:
+                ok = any(s == "all" or (s == "ab" and not negative) or (not isinstance(s, str) and self._matches(s, gc, value))
+                         for s in specs)
+            else:
+                ok = not negative and any(s in ("all", "positive") or (not isinstance(s, str) and self._matches(s, gc, value))
+                                          for s in specs)
+        else:
+            none = value == "none"
+            ok = any(s == "all" or (s == "positive" and not negative and not none)
+                     or (s == "negative" and (negative or none))
+                     or (not isinstance(s, str) and self._matches(s, gc, value)) for s in specs)
+        return ok and not any(self._matches(p, gc, value) for p in self.program.hide)
 
     # -- order ---------------------------------------------------------------------
     def key(self, gc: GroundConst) -> tuple:
@@ -97,15 +127,20 @@ class Display:
     # -- rendering -----------------------------------------------------------------
     def atom_text(self, gc: GroundConst, value: object) -> str:
         if gc.boolean:
-            return gc.text
+            return gc.text if value == "true" else "-" + gc.text
         return f"{gc.text}={render_value(value)}"  # type: ignore[arg-type]
 
     def state_atoms(self, table: dict[GroundConst, object]) -> list[str]:
+        """The displayed atoms of a state: the positive ones, then the negative ones (as CCALC
+        prints them, in two passes)."""
         gcs = sorted((gc for gc, v in table.items() if self.shown(gc, v)), key=self.key)
-        return [self.atom_text(gc, table[gc]) for gc in gcs]
+        pos = [gc for gc in gcs if not (gc.boolean and table[gc] != "true")]
+        neg = [gc for gc in gcs if gc.boolean and table[gc] != "true"]
+        return [self.atom_text(gc, table[gc]) for gc in pos + neg]
 
     def action_atoms(self, table: dict[GroundConst, object]) -> list[str]:
         out = []
+        negative = []
         for gc in sorted(table, key=self.key):
             d = gc.decl
             if d.kind == "attribute" or not self.shown(gc, table[gc]):
@@ -113,6 +148,7 @@ class Display:
             attrs = self._attributes(gc, table)
             if gc.boolean:
                 if table[gc] != "true":
+                    negative.append("-" + gc.text)
                     continue
                 if attrs:
                     inner = ",".join([render_value(a) for a in gc.args] + attrs)
@@ -121,7 +157,7 @@ class Display:
                     out.append(gc.text)
             else:
                 out.append(self.atom_text(gc, table[gc]))
-        return out
+        return out + negative
 
     def _attributes(self, gc: GroundConst, table: dict) -> list[str]:
         items = []
@@ -129,8 +165,8 @@ class Display:
             for ag, v in table.items():
                 if ag.decl is not ad or ag.args[:gc.decl.arity] != gc.args:
                     continue
-                if v == "none" or not self.shown(ag, v):
-                    continue
+                if v == "none" or any(self._matches(p, ag, v) for p in self.program.hide):
+                    continue     # CCALC prints every attribute of a displayed action
                 rest = ag.args[gc.decl.arity:]
                 name = ad.name + (f"({','.join(render_value(a) for a in rest)})" if rest else "")
                 shown_v = render_value(v)
@@ -188,7 +224,8 @@ def result_json(program_path: str, result, query) -> dict:
     return {
         "format": PLAN_FORMAT,
         "file": program_path,
-        "query": {"label": result.label, "min_maxstep": query.lo, "max_maxstep": query.hi},
+        "query": {"label": result.label, "kind": "nmquery" if query.nm else "query", "min_maxstep": query.lo,
+                  "max_maxstep": query.hi},
         "status": result.status.value,
         "maxstep": result.maxstep,
         "no_solution_with_maxstep": list(result.failed),

@@ -34,7 +34,7 @@ __all__ = ["parse_program", "split_statements", "RESERVED"]
 
 RESERVED = frozenset("""
     abs after all always by caused causes constants constraint decrements default exogenous hide
-    if include increments inertial label macros maxstep mod noconcurrency nonexecutable objects of
+    if include increments inertial label macros maxstep mod nmquery noconcurrency nonexecutable objects of
     query show sorts unless variables where
 """.split())
 """CCALC's keywords that structure statements: they cannot name a sort, object, constant,
@@ -284,7 +284,7 @@ _READABLE = {
 
 
 _DIRECTIVES = {"sorts", "objects", "constants", "variables", "macros", "include", "show", "hide", "query",
-               "maxAdditive"}
+               "nmquery", "maxAdditive"}
 _DIRECTIVE = re.compile(r"\s*:-\s*([A-Za-z][A-Za-z0-9_]*)")
 
 
@@ -422,6 +422,13 @@ def _balanced(rule: str, ops: list):
             return ast.Binary(builder._span(left, right), op, left, right)
         return tree(0, len(values))
     return finish
+
+
+def _minus_leftmost(e, loc: Location):
+    """``-`` applied to the leftmost operand of an arithmetic term (Prolog's prefix minus)."""
+    if isinstance(e, ast.Binary) and e.op in ast.ARITH_OPS:
+        return ast.Binary(e.loc, e.op, _minus_leftmost(e.left, loc), e.right)
+    return ast.Unary(Location(loc.source, loc.start, e.loc.end), "cneg", e)
 
 
 def _unary_run(rule: str, metas: list):
@@ -637,6 +644,18 @@ class _Builder:
     def query(self, meta, ch):
         return ast.Query(self._loc(meta), tuple(ch))
 
+    def nmquery(self, meta, ch):
+        return ast.Query(self._loc(meta), tuple(ch), nm=True)
+
+    def nm_caused(self, meta, ch):
+        return ast.QueryRule(self._loc(meta), ch[0], ch[1][1] if len(ch) > 1 else None, False)
+
+    def nm_default(self, meta, ch):
+        return ast.QueryRule(self._loc(meta), ch[0], ch[1][1] if len(ch) > 1 else None, True)
+
+    def nm_fact(self, meta, ch):
+        return ast.QueryRule(self._loc(meta), ch[0], None, False)
+
     def q_label(self, meta, ch):
         return ast.QueryLabel(self._loc(meta), ch[0])
 
@@ -759,11 +778,22 @@ class _Builder:
 
     def neg(self, meta, ch):
         arg = ch[0]
+        if isinstance(arg, ast.Binary) and arg.op in ast.COMPARE_OPS and not self._parenthesized(meta, arg):
+            # `-c=v`: Prolog's prefix minus binds tighter than `=`, so CCALC reads `(-c)=v`
+            # (the minus on the leftmost operand: `-c+1=v` is `((-c)+1)=v`)
+            return ast.Binary(arg.loc, arg.op, _minus_leftmost(arg.left, self._loc(meta)), arg.right)
         if isinstance(arg, ast.Range):   # `-n..n` in a macro body: the minus belongs to the bound
             start = self.base + meta.start_pos
             lo = ast.Unary(Location(self.source, start, arg.lo.loc.end), "-", arg.lo)
             return ast.Range(self._loc(meta), lo, arg.hi)
         return ast.Unary(self._loc(meta), "not", arg)
+
+    def _parenthesized(self, meta, arg) -> bool:
+        """Whether the operand of the ``-`` at ``meta`` opens with a parenthesis that encloses it
+        whole (``-(c=v)``, negation) rather than only its left side (``-(c)=v``)."""
+        text = self.source.text
+        at = _skip_blank(text, self.base + meta.start_pos + 1)
+        return at < len(text) and text[at] == "(" and arg.loc.start > at
 
     def tilde(self, meta, ch):
         """Cplus2ASP's ``~c`` is the atom ``c=false`` of a Boolean constant: CCALC's ``-c``."""
@@ -813,3 +843,12 @@ class _Builder:
 
     def quant_var(self, meta, ch):
         return ast.QuantVar(self._tloc(ch[1]), str(ch[0]) == "\\/", str(ch[1]))
+
+    def quant_anon(self, meta, ch):
+        """``[\\/var(s, k) | F]``: CCALC's anonymous variable of sort ``s`` as a quantified one."""
+        quant, fn, sort, key = ch
+        if str(fn) != "var":
+            raise CPlusSyntaxError(f"a quantifier binds a variable or 'var(sort, k)', not '{fn}(...)'",
+                                   self._tloc(fn))
+        return ast.QuantVar(Location(self.source, self.base + fn.start_pos, self.base + meta.end_pos),
+                            str(quant) == "\\/", f"var({sort},{key})")

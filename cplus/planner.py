@@ -44,6 +44,7 @@ class QueryResult(Record):
     template_s: float
     complete: bool          # all requested solutions found (or all that exist)
     solutions: int             # how many were asked for (0 = all): 'Solution k:' headers unless 1
+    nm = False              # the result of an nmquery (its label is an nmquery's): set by run_query
 
     def __init__(
             self,
@@ -83,7 +84,9 @@ def run_query(theory: GroundTheory, query: QuerySpec, solutions: int = 1, solver
     failed = find_horizon(session, on_horizon)
     if session.found is None:
         status = PlanStatus.NO_PLAN if query.hi is not None else PlanStatus.HORIZON_LIMIT
-        return QueryResult(query.label, status, None, [], failed, session.stats, session.horizon.template_s)
+        result = QueryResult(query.label, status, None, [], failed, session.stats, session.horizon.template_s)
+        result.nm = query.nm
+        return result
     histories: list[History] = []
     for hist in iter_histories(session):
         histories.append(hist)
@@ -92,8 +95,10 @@ def run_query(theory: GroundTheory, query: QuerySpec, solutions: int = 1, solver
         if solutions and len(histories) >= solutions:
             break
     session.stats[-1].models = len(histories)
-    return QueryResult(query.label, PlanStatus.FOUND, session.found, histories, failed, session.stats,
-                       session.horizon.template_s, solutions=solutions)
+    result = QueryResult(query.label, PlanStatus.FOUND, session.found, histories, failed, session.stats,
+                         session.horizon.template_s, solutions=solutions)
+    result.nm = query.nm
+    return result
 
 
 def find_horizon(session: QuerySession,

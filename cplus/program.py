@@ -12,7 +12,7 @@ from cplus.errors import Diagnostics, Location
 from cplus.record import Record
 from cplus.signature import ConstDecl, Signature
 
-__all__ = ["BasicLaw", "IncrementLaw", "QuerySpec", "Pattern", "Program", "LAW_CLASSES"]
+__all__ = ["BasicLaw", "IncrementLaw", "QuerySpec", "Pattern", "Program", "LAW_CLASSES", "SHOW_KEYWORDS"]
 
 LAW_CLASSES = ("static", "action", "dynamic", "rigid")
 
@@ -97,15 +97,20 @@ class IncrementLaw(Record):
 
 
 class QuerySpec(Record):
-    """A query: ``lo..hi`` (hi None = infinity) and its items (universal free variables)."""
+    """A query: ``lo..hi`` (hi None = infinity) and its items (universal free variables).
 
-    _fields = ("label", "lo", "hi", "items", "loc")
+    An nmquery has ``rules`` instead (None for a query): ``(literal, body, loc)`` with
+    ``literal`` None for ``false``; CCALC completes them on their own, over every atom, and
+    the histories satisfy both that completion and the domain's."""
+
+    _fields = ("label", "lo", "hi", "items", "loc", "rules")
 
     label: str
     lo: int
     hi: int | None
     items: tuple[tuple[ir.Formula, Location], ...]
     loc: Location | None
+    rules: tuple[tuple[ir.Formula | None, ir.Formula, Location], ...] | None
 
     def __init__(
             self,
@@ -113,48 +118,65 @@ class QuerySpec(Record):
             lo: int,
             hi: int | None,
             items: tuple[tuple[ir.Formula, Location], ...],
-            loc: Location | None) -> None:
+            loc: Location | None,
+            rules: tuple[tuple[ir.Formula | None, ir.Formula, Location], ...] | None = None) -> None:
         self.label = label
         self.lo = lo
         self.hi = hi
         self.items = items
         self.loc = loc
+        self.rules = rules
+
+    @property
+    def nm(self) -> bool:
+        """Whether this is an nmquery (``:- nmquery``)."""
+        return self.rules is not None
+
+
+SHOW_KEYWORDS = ("positive", "negative", "all", "ab", "none")
+"""CCALC's show specifications besides patterns (see :class:`cplus.output.Display`)."""
 
 
 class Pattern(Record):
-    """A show/hide pattern ``c(args)`` or ``c(args)=v`` (variables match any object)."""
+    """A show/hide pattern ``c(args)`` or ``c(args)=v`` (variables match any object), ``-c(args)``
+    (the Boolean atom false), or ``c`` naming a constant without its arguments: ``decl`` is None
+    and ``name`` matches every instance of every constant of that name (CCALC's ``show loc``)."""
 
-    _fields = ("decl", "args", "value", "negated")
+    _fields = ("decl", "args", "value", "negated", "name")
 
-    decl: ConstDecl
+    decl: ConstDecl | None
     args: tuple[object, ...]       # ir.Var or a value
     value: object | None           # ir.Var, a value, or None (any value)
     negated: bool
+    name: str
 
-    def __init__(self, decl: ConstDecl, args: tuple[object, ...], value: object | None, negated: bool = False) -> None:
+    def __init__(self, decl: ConstDecl | None, args: tuple[object, ...], value: object | None,
+                 negated: bool = False, name: str = "") -> None:
         self.decl = decl
         self.args = args
         self.value = value
         self.negated = negated
+        self.name = name or (decl.name if decl is not None else "")
 
 
 class Program(Record):
     """A resolved domain description and its queries."""
 
     _fields = ("signature", "laws", "increments", "queries", "show", "hide", "hide_all", "show_given",
-               "noconcurrency", "diagnostics", "files")
+               "noconcurrency", "diagnostics", "files", "nmqueries")
 
     signature: Signature
     laws: list[BasicLaw]
     increments: list[IncrementLaw]
     queries: list[QuerySpec]
-    show: list[Pattern]
+    show: list[Pattern | str]      # every `:- show` item in order: patterns and SHOW_KEYWORDS
     hide: list[Pattern]
     hide_all: bool
     show_given: bool
     noconcurrency: list[tuple[bool, Location]]
     diagnostics: Diagnostics
     files: list[str]
+    nmqueries: list[QuerySpec]
 
     def __init__(
             self,
@@ -162,13 +184,14 @@ class Program(Record):
             laws: list[BasicLaw] | None = None,
             increments: list[IncrementLaw] | None = None,
             queries: list[QuerySpec] | None = None,
-            show: list[Pattern] | None = None,
+            show: list[Pattern | str] | None = None,
             hide: list[Pattern] | None = None,
             hide_all: bool = False,
             show_given: bool = False,
             noconcurrency: list[tuple[bool, Location]] | None = None,
             diagnostics: Diagnostics | None = None,
-            files: list[str] | None = None) -> None:
+            files: list[str] | None = None,
+            nmqueries: list[QuerySpec] | None = None) -> None:
         self.signature = signature
         self.laws = [] if laws is None else laws
         self.increments = [] if increments is None else increments
@@ -180,9 +203,18 @@ class Program(Record):
         self.noconcurrency = [] if noconcurrency is None else noconcurrency
         self.diagnostics = Diagnostics() if diagnostics is None else diagnostics
         self.files = [] if files is None else files
+        self.nmqueries = [] if nmqueries is None else nmqueries
 
     def query(self, label: str) -> QuerySpec | None:
         for q in self.queries:
+            if q.label == label:
+                return q
+        return None
+
+    def nmquery(self, label: str) -> QuerySpec | None:
+        """The nmquery with this label (nmqueries have labels of their own: query 0 is not
+        nmquery 0)."""
+        for q in self.nmqueries:
             if q.label == label:
                 return q
         return None

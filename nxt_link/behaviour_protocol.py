@@ -56,12 +56,9 @@ from dataclasses import dataclass
 from nxt_link.errors import TelegramError
 from nxt_link.stream_protocol import (
     CMD_INBOX,
-    REQ_HEAD,
-    RESP_HEAD,
     RESPONSE_MAILBOX,
     RESPONSE_QUEUE,
-    seal,
-    unseal,
+    Envelope,
 )
 
 __all__ = [
@@ -373,22 +370,22 @@ def encode_request(req: Request) -> bytes:
     Raises:
         TelegramError: a field does not fit (too many arguments, out of range).
     """
-    try:
-        head = REQ_HEAD.pack(req.kind, req.session, req.seq)
-        if isinstance(req, Hello):
-            return seal(head + struct.pack("<B", req.version))
-        if isinstance(req, Act):
-            n = len(req.args)
-            if n > MAX_ARGS:
-                raise TelegramError(f"{n} arguments exceed {MAX_ARGS}")
-            return seal(head + struct.pack(f"<BB{n}h", req.behaviour, n, *req.args))
-        if isinstance(req, Cont):
-            return seal(head + struct.pack("<B", req.part))
-        if isinstance(req, Exog):
-            return seal(head + struct.pack("<H", req.ack_through))
-        return seal(head)
-    except struct.error as exc:
-        raise TelegramError(f"field out of range: {exc}") from None
+    return _REQUESTS.encode(req)
+
+
+def _request_body(req: Request) -> bytes:
+    if isinstance(req, Hello):
+        return struct.pack("<B", req.version)
+    if isinstance(req, Act):
+        n = len(req.args)
+        if n > MAX_ARGS:
+            raise TelegramError(f"{n} arguments exceed {MAX_ARGS}")
+        return struct.pack(f"<BB{n}h", req.behaviour, n, *req.args)
+    if isinstance(req, Cont):
+        return struct.pack("<B", req.part)
+    if isinstance(req, Exog):
+        return struct.pack("<H", req.ack_through)
+    return b""
 
 
 def decode_request(message: bytes) -> Request:
@@ -397,58 +394,52 @@ def decode_request(message: bytes) -> Request:
     Raises:
         TelegramError: damaged (check fails), unknown kind, or malformed body.
     """
-    body = unseal(message)
-    if len(body) < REQ_HEAD.size:
-        raise TelegramError("request header truncated")
-    kind, session, seq = REQ_HEAD.unpack_from(body)
-    rest = body[REQ_HEAD.size:]
-    try:
-        if kind == Kind.HELLO:
-            return Hello(session, seq, struct.unpack("<B", rest)[0])
-        if kind == Kind.ACT:
-            behaviour, n = struct.unpack_from("<BB", rest)
-            if len(rest) != 2 + 2 * n or n > MAX_ARGS:
-                raise TelegramError("ACT length does not match its argument count")
-            return Act(session, seq, behaviour, struct.unpack_from(f"<{n}h", rest, 2))
-        if kind == Kind.CONT:
-            return Cont(session, seq, struct.unpack("<B", rest)[0])
-        if kind == Kind.EXOG:
-            return Exog(session, seq, struct.unpack("<H", rest)[0])
-        if kind == Kind.ABORT and not rest:
-            return Abort(session, seq)
-    except struct.error:
-        raise TelegramError(f"malformed request of kind 0x{kind:02X}") from None
-    raise TelegramError(f"unknown request kind 0x{kind:02X}")
+    return _REQUESTS.decode(message)
+
+
+def _request(kind: int, session: int, seq: int, rest: bytes) -> Request | None:
+    if kind == Kind.HELLO:
+        return Hello(session, seq, struct.unpack("<B", rest)[0])
+    if kind == Kind.ACT:
+        behaviour, n = struct.unpack_from("<BB", rest)
+        if len(rest) != 2 + 2 * n or n > MAX_ARGS:
+            raise TelegramError("ACT length does not match its argument count")
+        return Act(session, seq, behaviour, struct.unpack_from(f"<{n}h", rest, 2))
+    if kind == Kind.CONT:
+        return Cont(session, seq, struct.unpack("<B", rest)[0])
+    if kind == Kind.EXOG:
+        return Exog(session, seq, struct.unpack("<H", rest)[0])
+    if kind == Kind.ABORT and not rest:
+        return Abort(session, seq)
+    return None
 
 
 def encode_response(resp: Response) -> bytes:
     """Encode a response (the brick's side)."""
-    try:
-        head = RESP_HEAD.pack(resp.kind, resp.session, resp.seq, resp.state)
-        if isinstance(resp, Welcome):
-            return seal(head + struct.pack("<BBHHH", resp.version, resp.code, resp.last_act,
-                                            resp.aborts, resp.action_ms))
-        if isinstance(resp, Ack):
-            return seal(head + struct.pack("<BB", resp.code, resp.behaviour))
-        if isinstance(resp, MoreTime):
-            return seal(head + struct.pack("<BI", resp.part, resp.elapsed_ms))
-        if isinstance(resp, Done):
-            flat = [x for pair in resp.values for x in pair]
-            n = len(resp.values)
-            return seal(head + struct.pack("<BBIB" + "Bh" * n, resp.status, resp.behaviour,
-                                            resp.elapsed_ms, n, *flat))
-        if isinstance(resp, Events):
-            out = bytearray(struct.pack("<HHB", resp.first, resp.lost, len(resp.events)))
-            for code, args in resp.events:
-                out += struct.pack(f"<BB{len(args)}h", code, len(args), *args)
-            return seal(head + bytes(out))
-        if isinstance(resp, NoEvents):
-            return seal(head + struct.pack("<HH", resp.next_event, resp.lost))
-        if isinstance(resp, Aborted):
-            return seal(head + struct.pack("<HH", resp.aborts, resp.last_act))
-        return seal(head + struct.pack("<HB", resp.aborts, resp.behaviour))
-    except struct.error as exc:
-        raise TelegramError(f"field out of range: {exc}") from None
+    return _RESPONSES.encode(resp)
+
+
+def _response_body(resp: Response) -> bytes:
+    if isinstance(resp, Welcome):
+        return struct.pack("<BBHHH", resp.version, resp.code, resp.last_act, resp.aborts, resp.action_ms)
+    if isinstance(resp, Ack):
+        return struct.pack("<BB", resp.code, resp.behaviour)
+    if isinstance(resp, MoreTime):
+        return struct.pack("<BI", resp.part, resp.elapsed_ms)
+    if isinstance(resp, Done):
+        flat = [x for pair in resp.values for x in pair]
+        n = len(resp.values)
+        return struct.pack("<BBIB" + "Bh" * n, resp.status, resp.behaviour, resp.elapsed_ms, n, *flat)
+    if isinstance(resp, Events):
+        out = bytearray(struct.pack("<HHB", resp.first, resp.lost, len(resp.events)))
+        for code, args in resp.events:
+            out += struct.pack(f"<BB{len(args)}h", code, len(args), *args)
+        return bytes(out)
+    if isinstance(resp, NoEvents):
+        return struct.pack("<HH", resp.next_event, resp.lost)
+    if isinstance(resp, Aborted):
+        return struct.pack("<HH", resp.aborts, resp.last_act)
+    return struct.pack("<HB", resp.aborts, resp.behaviour)
 
 
 def decode_response(message: bytes) -> Response:
@@ -457,43 +448,43 @@ def decode_response(message: bytes) -> Response:
     Raises:
         TelegramError: damaged, unknown kind or malformed.
     """
-    body = unseal(message)
-    if len(body) < RESP_HEAD.size:
-        raise TelegramError("response header truncated")
-    kind, session, seq, state = RESP_HEAD.unpack_from(body)
-    rest = body[RESP_HEAD.size:]
-    try:
-        if kind == Kind.WELCOME:
-            return Welcome(session, seq, state, *struct.unpack("<BBHHH", rest))
-        if kind == Kind.ACK:
-            return Ack(session, seq, state, *struct.unpack("<BB", rest))
-        if kind == Kind.MORE_TIME:
-            return MoreTime(session, seq, state, *struct.unpack("<BI", rest))
-        if kind == Kind.DONE:
-            status, behaviour, elapsed, n = struct.unpack_from("<BBIB", rest)
-            if len(rest) != 7 + 3 * n:
-                raise TelegramError("DONE length does not match its value count")
-            flat = struct.unpack_from("<" + "Bh" * n, rest, 7)
-            values = tuple((flat[2 * i], flat[2 * i + 1]) for i in range(n))
-            return Done(session, seq, state, status, behaviour, elapsed, values)
-        if kind == Kind.EVENTS:
-            first, lost, n = struct.unpack_from("<HHB", rest)
-            pos = 5
-            events = []
-            for _ in range(n):
-                code, nargs = struct.unpack_from("<BB", rest, pos)
-                args = struct.unpack_from(f"<{nargs}h", rest, pos + 2)
-                events.append((code, args))
-                pos += 2 + 2 * nargs
-            if pos != len(rest):
-                raise TelegramError("EVENTS length does not match its events")
-            return Events(session, seq, state, first, lost, tuple(events))
-        if kind == Kind.NONE:
-            return NoEvents(session, seq, state, *struct.unpack("<HH", rest))
-        if kind == Kind.ABORTED:
-            return Aborted(session, seq, state, *struct.unpack("<HH", rest))
-        if kind == Kind.PANIC:
-            return Panic(session, seq, state, *struct.unpack("<HB", rest))
-    except struct.error:
-        raise TelegramError(f"malformed response of kind 0x{kind:02X}") from None
-    raise TelegramError(f"unknown response kind 0x{kind:02X}")
+    return _RESPONSES.decode(message)
+
+
+def _response(kind: int, session: int, seq: int, state: int, rest: bytes) -> Response | None:
+    if kind == Kind.WELCOME:
+        return Welcome(session, seq, state, *struct.unpack("<BBHHH", rest))
+    if kind == Kind.ACK:
+        return Ack(session, seq, state, *struct.unpack("<BB", rest))
+    if kind == Kind.MORE_TIME:
+        return MoreTime(session, seq, state, *struct.unpack("<BI", rest))
+    if kind == Kind.DONE:
+        status, behaviour, elapsed, n = struct.unpack_from("<BBIB", rest)
+        if len(rest) != 7 + 3 * n:
+            raise TelegramError("DONE length does not match its value count")
+        flat = struct.unpack_from("<" + "Bh" * n, rest, 7)
+        values = tuple((flat[2 * i], flat[2 * i + 1]) for i in range(n))
+        return Done(session, seq, state, status, behaviour, elapsed, values)
+    if kind == Kind.EVENTS:
+        first, lost, n = struct.unpack_from("<HHB", rest)
+        pos = 5
+        events = []
+        for _ in range(n):
+            code, nargs = struct.unpack_from("<BB", rest, pos)
+            args = struct.unpack_from(f"<{nargs}h", rest, pos + 2)
+            events.append((code, args))
+            pos += 2 + 2 * nargs
+        if pos != len(rest):
+            raise TelegramError("EVENTS length does not match its events")
+        return Events(session, seq, state, first, lost, tuple(events))
+    if kind == Kind.NONE:
+        return NoEvents(session, seq, state, *struct.unpack("<HH", rest))
+    if kind == Kind.ABORTED:
+        return Aborted(session, seq, state, *struct.unpack("<HH", rest))
+    if kind == Kind.PANIC:
+        return Panic(session, seq, state, *struct.unpack("<HB", rest))
+    return None
+
+
+_REQUESTS = Envelope[Request]("request", _request_body, _request)
+_RESPONSES = Envelope[Response]("response", _response_body, _response)

@@ -59,7 +59,7 @@ from dataclasses import dataclass, field
 
 from nxt_link import behaviour_protocol as bp
 from nxt_link.behaviour_protocol import AckCode, Behaviour, Status
-from nxt_link.brick import Brick
+from nxt_link.brick import Brick, running_program
 from nxt_link.clock import Deadline
 from nxt_link.errors import (
     EmptyMailboxError,
@@ -306,16 +306,7 @@ class BehaviourClient:
     # -- session ------------------------------------------------------------------------------
 
     def _running_program(self) -> str | None:
-        answers: list[str | None] = []
-        for _ in range(5):  # a damaged name must not be trusted: ask until two agree
-            try:
-                name: str | None = self.brick.get_current_program_name()
-            except NoActiveProgramError:
-                name = None
-            if name == self.program or name in answers:
-                return name
-            answers.append(name)
-        return answers[-1]
+        return running_program(self.brick.get_current_program_name, self.program)
 
     def ensure_program(self, replace: bool = False) -> None:
         """Make sure the behaviour program runs; start it when nothing (or, with

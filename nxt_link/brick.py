@@ -52,13 +52,14 @@ from nxt_link.clock import Deadline, new_lock
 from nxt_link.errors import (
     LinkDisconnectedError,
     LinkTimeoutError,
+    NoActiveProgramError,
     ProtocolError,
     TelegramError,
     error_for_status,
 )
 from nxt_link.transport import Transport
 
-__all__ = ["Brick", "RetryPolicy", "LinkEvent"]
+__all__ = ["Brick", "RetryPolicy", "LinkEvent", "running_program"]
 
 log = logging.getLogger(__name__)
 
@@ -378,6 +379,24 @@ class Brick:
         reply = self.request(tg.GetCurrentProgramName())
         assert isinstance(reply, tg.ProgramNameReply)
         return reply.name
+
+
+def running_program(ask: Callable[[], str], expected: str) -> str | None:
+    """The running program's name (``ask()``: GETCURRENTPROGRAMNAME), None when nothing runs.
+
+    A direct-command reply has no checksum and a damaged name must not be trusted, so the
+    name is asked until it is ``expected`` or two answers agree; after five, the last one.
+    """
+    answers: list[str | None] = []
+    for _ in range(5):
+        try:
+            name: str | None = ask()
+        except NoActiveProgramError:
+            name = None
+        if name == expected or name in answers:
+            return name
+        answers.append(name)
+    return answers[-1]
 
 
 def _named(exc: ProtocolError, brick: str, op_name: str) -> ProtocolError:

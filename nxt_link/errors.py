@@ -22,6 +22,10 @@ caller (the CLI) can turn any of them into a one-line message with ``str(err)``.
 * :class:`SetpointError` — a setpoint stream was refused before anything moved
   (out of limits, too fast, too long); also a :class:`ValueError`.
 * :class:`ExecLogError` — an execution-log file does not validate.
+* ``nxt_link.vm.errors`` adds :class:`~nxt_link.vm.errors.RxeError` (a program
+  file the brick refuses; also a :class:`ValueError`) and
+  :class:`~nxt_link.vm.errors.VMError` (a program the brick aborts; also a
+  :class:`RuntimeError`).
 """
 from __future__ import annotations
 

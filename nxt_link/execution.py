@@ -311,8 +311,8 @@ class _Execution:
                     lambda done, total, name=s.brick: self._report(name, "log", done, total))  # type: ignore[misc]
         except SetpointError:
             raise  # refused before anything moved
-        except KeyboardInterrupt:
-            stopped = self._stopped("interrupted")
+        except KeyboardInterrupt as exc:   # Ctrl-C, or a SIGTERM raised as one (its text says which)
+            stopped = self._stopped(str(exc) or "interrupted")
             self._stop_all(failed=None, confirm_s=1.0)
             raise ExecutionInterrupted(self._log(stopped)) from None
         except LinkError as exc:

@@ -236,14 +236,17 @@ class Firmware:
         if data is not None:
             try:
                 exe = load_rxe(data, name)
+                program = VMProgram(exe, self.io, start_tick=self.now_ms,
+                                    instructions_per_ms=self.params.vm_instructions_per_ms,
+                                    fused=self.params.vm_fused,
+                                    skip_busy_waits=self.params.vm_skip_busy_waits)
             except RxeError as exc:
                 self._program_failed(f"cannot run {exc}")
                 return
+            except VMError as exc:
+                self._program_failed(f"cannot run {name}: {exc}")
+                return
             self._program_handle = self.flash.hold(name)
-            program = VMProgram(exe, self.io, start_tick=self.now_ms,
-                                instructions_per_ms=self.params.vm_instructions_per_ms,
-                                fused=self.params.vm_fused,
-                                skip_busy_waits=self.params.vm_skip_busy_waits)
             self._vm = program.vm
         elif name in self.programs:
             program = self.programs[name]()

@@ -15,8 +15,6 @@ compares the NXC ``#define`` values with this module's constants.
 """
 from __future__ import annotations
 
-import logging
-
 from nxt_link.firmware import ProgramHost
 from nxt_link.output_module import RESET_NONE
 from nxt_link.program_bytes import MessageBytes, div
@@ -35,8 +33,6 @@ from nxt_link.stream_protocol import (
 
 __all__ = ["FollowerProgram", "MAX_BATCH"]
 
-log = logging.getLogger(__name__)
-
 #: Messages handled per loop iteration (the inbox depth).
 MAX_BATCH = 5
 
@@ -45,6 +41,7 @@ class FollowerProgram(MessageBytes):
     """State of one run of ``cplus_follow.rxe`` (globals of the NXC program)."""
 
     def __init__(self) -> None:
+        super().__init__()
         self.session = -1
         self.expected = 1
         self.state = State.IDLE
@@ -64,16 +61,9 @@ class FollowerProgram(MessageBytes):
         self.t0 = 0
         self.max_err = 0
         self.go_delay = 0
-        self.bad_messages = 0
         self.refs: list[int] = []
         self.meas: list[int] = []
-        self.msg = b""
-        self.out = bytearray()
-        self.rq_kind = 0
-        self.rq_session = 0
-        self.rq_seq = 0
         self._next: int | None = None
-        self._host: ProgramHost | None = None
 
     # -- the task main() loop ---------------------------------------------------
 
@@ -98,10 +88,6 @@ class FollowerProgram(MessageBytes):
             self._next = now
 
     # -- byte helpers -------------------------------------------------------------
-
-    @staticmethod
-    def crc16(b: bytes | bytearray, n: int) -> int:
-        return crc16(bytes(b[:n]))
 
     def checksum_add(self, v: int) -> None:
         if v < 0:
@@ -308,18 +294,9 @@ class FollowerProgram(MessageBytes):
         self.send_out(9 + 2 * nv)
 
     def handle_message(self) -> None:
-        length = len(self.msg)
-        if length < 7:
-            self.bad_messages += 1
+        n = self.open_message()
+        if not n:
             return
-        n = length - 2
-        if self.crc16(self.msg, n) != self.rd_u16(n):
-            self.bad_messages += 1
-            log.debug("brick program: message failed its check")
-            return
-        self.rq_kind = self.rd_u8(0)
-        self.rq_session = self.rd_u16(1)
-        self.rq_seq = self.rd_u16(3)
         s = self.rq_session
         if self.rq_kind == Kind.HELLO:
             if n != 6 or self.rd_u8(5) != PROTOCOL_VERSION:

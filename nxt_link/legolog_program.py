@@ -62,7 +62,6 @@ from nxt_link.firmware import ProgramHost
 from nxt_link.input_module import SensorMode, SensorType
 from nxt_link.output_module import RESET_NONE
 from nxt_link.program_bytes import MessageBytes, div
-from nxt_link.stream_protocol import crc16
 
 __all__ = ["LegologProgram", "MAX_BATCH", "ROBOT_CONSTANTS"]
 
@@ -120,6 +119,7 @@ class LegologProgram(MessageBytes):
     """State of one run of ``cplus_legolog.rxe`` (globals of the NXC program)."""
 
     def __init__(self) -> None:
+        super().__init__()
         self.status = STATUS_OK
         self.session = -1
         self.act_seq = 0  # last ACT started (or refused) in this session
@@ -163,15 +163,8 @@ class LegologProgram(MessageBytes):
         self.win_d = 0
         self.limit_ms = 0
         self.target = 0
-        self.bad_messages = 0
-        self.msg = b""
-        self.out = bytearray()
-        self.rq_kind = 0
-        self.rq_session = 0
-        self.rq_seq = 0
         self.started: list[tuple[int, int]] = []  # (ACT, behaviour) started: inspection only
         self._next: int | None = None
-        self._host: ProgramHost | None = None
 
     # -- task main() ------------------------------------------------------------------------
 
@@ -617,18 +610,9 @@ class LegologProgram(MessageBytes):
         self.send_ack(code, b)
 
     def handle_message(self, now: int) -> None:
-        length = len(self.msg)
-        if length < 7:
-            self.bad_messages += 1
+        n = self.open_message()
+        if not n:
             return
-        n = length - 2
-        if crc16(bytes(self.msg[:n])) != self.rd_u16(n):
-            self.bad_messages += 1
-            log.debug("brick program: message failed its check")
-            return
-        self.rq_kind = self.rd_u8(0)
-        self.rq_session = self.rd_u16(1)
-        self.rq_seq = self.rd_u16(3)
         if self.rq_kind == Kind.ABORT:
             if n == 5:
                 self.abort_session = self.rq_session

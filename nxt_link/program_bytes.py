@@ -1,7 +1,7 @@
 """What the Python models of the brick programs share with each other, as the NXC programs
-do: C's integer division, and reading and writing little-endian fields of the message being
-handled (``msg``) and of the response being built (``out``), sealed with the CRC-16 of the
-session layer and sent to the response mailbox.
+do: C's integer division, the session layer's check and header of the message being handled
+(``msg``), and reading and writing little-endian fields of it and of the response being
+built (``out``), sealed with the CRC-16 of the session layer and sent to the response mailbox.
 
 The models mirror their NXC programs statement by statement (a lockstep test compares them
 with the compiled programs), so these helpers keep the NXC programs' arithmetic: negative
@@ -9,6 +9,7 @@ values wrap to 16 bits, divisions truncate toward zero.
 """
 from __future__ import annotations
 
+import logging
 from typing import TYPE_CHECKING
 
 from nxt_link.stream_protocol import RESPONSE_QUEUE, crc16
@@ -18,6 +19,8 @@ if TYPE_CHECKING:
 
 __all__ = ["div", "MessageBytes"]
 
+log = logging.getLogger(__name__)
+
 
 def div(a: int, b: int) -> int:
     """C/NXC integer division: truncates toward zero."""
@@ -26,12 +29,36 @@ def div(a: int, b: int) -> int:
 
 
 class MessageBytes:
-    """Field access on ``self.msg`` (bytes received) and ``self.out`` (the response), and
-    :meth:`send_out` through ``self._host``; the program classes set all three."""
+    """The session layer's globals of a brick program: the message being handled (``msg``),
+    its header, the response being built (``out``), the count of messages ignored, and the
+    host that :meth:`send_out` sends through (set by the program's ``step``)."""
 
-    msg: bytes | bytearray
-    out: bytearray
-    _host: ProgramHost | None
+    def __init__(self) -> None:
+        self.msg: bytes | bytearray = b""
+        self.out = bytearray()
+        self.rq_kind = 0
+        self.rq_session = 0
+        self.rq_seq = 0
+        self.bad_messages = 0
+        self._host: ProgramHost | None = None
+
+    def open_message(self) -> int:
+        """The length of ``msg`` without its check, its header read into ``rq_kind``,
+        ``rq_session`` and ``rq_seq``; 0 (and one more of ``bad_messages``) when it is too
+        short or fails its check, as both NXC programs' ``handle_message`` begins."""
+        length = len(self.msg)
+        if length < 7:
+            self.bad_messages += 1
+            return 0
+        n = length - 2
+        if crc16(bytes(self.msg[:n])) != self.rd_u16(n):
+            self.bad_messages += 1
+            log.debug("brick program: message failed its check")
+            return 0
+        self.rq_kind = self.rd_u8(0)
+        self.rq_session = self.rd_u16(1)
+        self.rq_seq = self.rd_u16(3)
+        return n
 
     def rd_u8(self, i: int) -> int:
         return self.msg[i]

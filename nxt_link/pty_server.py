@@ -165,8 +165,8 @@ class PtyBrickServer:
                 os.close(fd)
             except OSError:
                 pass
-        try:
-            if os.path.islink(self.path):
+        try:                  # only our own link: never a file someone put there since
+            if os.path.islink(self.path) and os.readlink(self.path) == self.tty_name:
                 os.unlink(self.path)
         except OSError:
             pass

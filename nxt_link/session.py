@@ -45,7 +45,7 @@ from typing import TypeVar
 
 from nxt_link import stream_protocol as sp
 from nxt_link import telegram as tg
-from nxt_link.brick import Brick
+from nxt_link.brick import Brick, running_program
 from nxt_link.clock import Deadline
 from nxt_link.errors import (
     EmptyMailboxError,
@@ -375,19 +375,10 @@ class BrickSession:
                     raise
 
     def _running_program(self, patient: bool = True) -> str | None:
-        """The running program's name, or None; asked until two answers agree, since
-        a direct-command reply has no checksum and a damaged name must not be trusted."""
-        answers: list[str | None] = []
-        for _ in range(5):
-            try:
-                name: str | None = (self._direct(self.brick.get_current_program_name) if patient
-                                    else self.brick.get_current_program_name())
-            except NoActiveProgramError:
-                name = None
-            if name == sp.PROGRAM_NAME or name in answers:
-                return name
-            answers.append(name)
-        return answers[-1]
+        """The running program's name, or None (:func:`~nxt_link.brick.running_program`);
+        ``patient``: each question is asked again while the brick gives up on it."""
+        ask = self.brick.get_current_program_name
+        return running_program(partial(self._direct, ask) if patient else ask, sp.PROGRAM_NAME)
 
     def open(self, *, start_program: bool = True, replace_program: bool = False) -> sp.Welcome:
         """Ensure the program runs, then HELLO until WELCOME. Returns the WELCOME."""

@@ -38,8 +38,10 @@ from __future__ import annotations
 
 import enum
 import struct
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass
+from operator import attrgetter
+from typing import Generic, Literal, TypeVar
 
 from nxt_link.errors import TelegramError
 
@@ -59,6 +61,7 @@ __all__ = [
     "RESP_HEAD",
     "seal",
     "unseal",
+    "Envelope",
     "Kind",
     "State",
     "Code",
@@ -103,10 +106,12 @@ CONTROL_MS = 10
 MAX_MESSAGE = 58
 
 #: The session layer every message shares (this protocol and the behaviour protocol):
-#: a request head, a response head, and a CRC-16 check after the body (:func:`seal`).
+#: a request head, a response head, and a CRC-16 check after the body (:func:`seal`,
+#: :class:`Envelope`).
 REQ_HEAD = struct.Struct("<BHH")  # kind, session, seq
 RESP_HEAD = struct.Struct("<BHHB")  # kind, session, seq, state
 _CHECK = 2
+_M = TypeVar("_M")
 
 #: int16 values that fit a SETPOINTS message after header, first_row, count, check.
 SETPOINT_VALUES_PER_MESSAGE = (MAX_MESSAGE - REQ_HEAD.size - 3 - _CHECK) // 2
@@ -303,6 +308,46 @@ def unseal(message: bytes) -> bytes:
     return body
 
 
+class Envelope(Generic[_M]):
+    """One direction of the session layer, so that both protocols code only their bodies.
+
+    A message is its header (:data:`REQ_HEAD`, or :data:`RESP_HEAD` for a response), the body
+    ``body(message)`` writes and ``parse(*header, body)`` reads (None: a kind it does not
+    know), and the CRC-16 check of :func:`seal`; a field out of range or a body too short for
+    its kind is a :class:`TelegramError` worded alike in both protocols.
+    """
+
+    def __init__(self, what: Literal["request", "response"], body: Callable[[_M], bytes],
+                 parse: Callable[..., _M | None]) -> None:
+        self.what = what
+        self.head, self._header = _HEADERS[what]
+        self._body = body
+        self._parse = parse
+
+    def encode(self, message: _M) -> bytes:
+        try:
+            return seal(self.head.pack(*self._header(message)) + self._body(message))
+        except struct.error as exc:
+            raise TelegramError(f"field out of range: {exc}") from None
+
+    def decode(self, message: bytes) -> _M:
+        body = unseal(message)
+        if len(body) < self.head.size:
+            raise TelegramError(f"{self.what} header truncated")
+        header = self.head.unpack_from(body)
+        try:
+            decoded = self._parse(*header, body[self.head.size:])
+        except struct.error:
+            raise TelegramError(f"malformed {self.what} of kind 0x{header[0]:02X}") from None
+        if decoded is None:
+            raise TelegramError(f"unknown {self.what} kind 0x{header[0]:02X}")
+        return decoded
+
+
+_HEADERS = {"request": (REQ_HEAD, attrgetter("kind", "session", "seq")),
+            "response": (RESP_HEAD, attrgetter("kind", "session", "seq", "state"))}
+
+
 def _values(fmt_count: int, data: bytes) -> tuple[int, ...]:
     return struct.unpack(f"<{fmt_count}h", data)
 
@@ -313,32 +358,31 @@ def encode_request(req: Request) -> bytes:
     Raises:
         TelegramError: a field does not fit (too many values, out of int16 range).
     """
-    try:
-        head = REQ_HEAD.pack(req.kind, req.session, req.seq)
-        if isinstance(req, Hello):
-            return seal(head + struct.pack("<B", req.version))
-        if isinstance(req, Config):
-            n = len(req.ports)
-            if not 1 <= n <= MAX_PORTS or len(req.min_deg) != n or len(req.max_deg) != n:
-                raise TelegramError("CONFIG needs 1-3 ports with one min and max each")
-            ports = list(req.ports) + [0xFF] * (MAX_PORTS - n)
-            lo = list(req.min_deg) + [0] * (MAX_PORTS - n)
-            hi = list(req.max_deg) + [0] * (MAX_PORTS - n)
-            return seal(head + struct.pack(
-                "<B3BHHBBBB3h3h", n, *ports, req.n_rows, req.tick_ms, req.kp_num, req.kp_den,
-                req.max_power, req.tolerance_deg, *lo, *hi))
-        if isinstance(req, Setpoints):
-            count = len(req.values)
-            if count > SETPOINT_VALUES_PER_MESSAGE:
-                raise TelegramError(f"{count} values exceed {SETPOINT_VALUES_PER_MESSAGE}")
-            return seal(head + struct.pack(f"<HB{count}h", req.first_row, count, *req.values))
-        if isinstance(req, LogRead):
-            return seal(head + struct.pack("<HB", req.first_row, req.count))
-        if isinstance(req, Go):
-            return seal(head + struct.pack("<H", req.delay_ms))
-        return seal(head)
-    except struct.error as exc:
-        raise TelegramError(f"field out of range: {exc}") from None
+    return _REQUESTS.encode(req)
+
+
+def _request_body(req: Request) -> bytes:
+    if isinstance(req, Hello):
+        return struct.pack("<B", req.version)
+    if isinstance(req, Config):
+        n = len(req.ports)
+        if not 1 <= n <= MAX_PORTS or len(req.min_deg) != n or len(req.max_deg) != n:
+            raise TelegramError("CONFIG needs 1-3 ports with one min and max each")
+        ports = list(req.ports) + [0xFF] * (MAX_PORTS - n)
+        lo = list(req.min_deg) + [0] * (MAX_PORTS - n)
+        hi = list(req.max_deg) + [0] * (MAX_PORTS - n)
+        return struct.pack("<B3BHHBBBB3h3h", n, *ports, req.n_rows, req.tick_ms, req.kp_num, req.kp_den,
+                           req.max_power, req.tolerance_deg, *lo, *hi)
+    if isinstance(req, Setpoints):
+        count = len(req.values)
+        if count > SETPOINT_VALUES_PER_MESSAGE:
+            raise TelegramError(f"{count} values exceed {SETPOINT_VALUES_PER_MESSAGE}")
+        return struct.pack(f"<HB{count}h", req.first_row, count, *req.values)
+    if isinstance(req, LogRead):
+        return struct.pack("<HB", req.first_row, req.count)
+    if isinstance(req, Go):
+        return struct.pack("<H", req.delay_ms)
+    return b""
 
 
 def decode_request(message: bytes) -> Request:
@@ -347,38 +391,34 @@ def decode_request(message: bytes) -> Request:
     Raises:
         TelegramError: damaged (check fails), unknown kind, or malformed body.
     """
-    body = unseal(message)
-    if len(body) < REQ_HEAD.size:
-        raise TelegramError("request header truncated")
-    kind, session, seq = REQ_HEAD.unpack_from(body)
-    rest = body[REQ_HEAD.size:]
-    try:
-        if kind == Kind.HELLO:
-            return Hello(session, seq, struct.unpack("<B", rest)[0])
-        if kind == Kind.CONFIG:
-            (n, p0, p1, p2, n_rows, tick_ms, kp_num, kp_den, max_power, tol,
-             l0, l1, l2, h0, h1, h2) = struct.unpack("<B3BHHBBBB3h3h", rest)
-            if not 1 <= n <= MAX_PORTS:
-                raise TelegramError(f"CONFIG with {n} ports")
-            return Config(session, seq, (p0, p1, p2)[:n], n_rows, tick_ms, kp_num, kp_den,
-                          max_power, tol, (l0, l1, l2)[:n], (h0, h1, h2)[:n])
-        if kind == Kind.SETPOINTS:
-            first_row, count = struct.unpack_from("<HB", rest)
-            data = rest[3:]
-            if len(data) != 2 * count:
-                raise TelegramError("SETPOINTS length does not match its count")
-            return Setpoints(session, seq, first_row, _values(count, data))
-        if kind == Kind.LOGREAD:
-            first_row, count = struct.unpack("<HB", rest)
-            return LogRead(session, seq, first_row, count)
-        if kind == Kind.GO:
-            return Go(session, seq, struct.unpack("<H", rest)[0])
-        simple = {Kind.PREPARE: Prepare, Kind.QUERY: Query, Kind.STOP: Stop}
-        if kind in simple and not rest:
-            return simple[Kind(kind)](session, seq)  # type: ignore[return-value]
-    except struct.error:
-        raise TelegramError(f"malformed request of kind 0x{kind:02X}") from None
-    raise TelegramError(f"unknown request kind 0x{kind:02X}")
+    return _REQUESTS.decode(message)
+
+
+def _request(kind: int, session: int, seq: int, rest: bytes) -> Request | None:
+    if kind == Kind.HELLO:
+        return Hello(session, seq, struct.unpack("<B", rest)[0])
+    if kind == Kind.CONFIG:
+        (n, p0, p1, p2, n_rows, tick_ms, kp_num, kp_den, max_power, tol,
+         l0, l1, l2, h0, h1, h2) = struct.unpack("<B3BHHBBBB3h3h", rest)
+        if not 1 <= n <= MAX_PORTS:
+            raise TelegramError(f"CONFIG with {n} ports")
+        return Config(session, seq, (p0, p1, p2)[:n], n_rows, tick_ms, kp_num, kp_den,
+                      max_power, tol, (l0, l1, l2)[:n], (h0, h1, h2)[:n])
+    if kind == Kind.SETPOINTS:
+        first_row, count = struct.unpack_from("<HB", rest)
+        data = rest[3:]
+        if len(data) != 2 * count:
+            raise TelegramError("SETPOINTS length does not match its count")
+        return Setpoints(session, seq, first_row, _values(count, data))
+    if kind == Kind.LOGREAD:
+        first_row, count = struct.unpack("<HB", rest)
+        return LogRead(session, seq, first_row, count)
+    if kind == Kind.GO:
+        return Go(session, seq, struct.unpack("<H", rest)[0])
+    simple = {Kind.PREPARE: Prepare, Kind.QUERY: Query, Kind.STOP: Stop}
+    if kind in simple and not rest:
+        return simple[Kind(kind)](session, seq)  # type: ignore[return-value]
+    return None
 
 
 # ---------------------------------------------------------------------------
@@ -436,22 +476,20 @@ Response = Welcome | Ack | LogData
 
 def encode_response(resp: Response) -> bytes:
     """Encode a response (the brick's side)."""
-    try:
-        head = RESP_HEAD.pack(resp.kind, resp.session, resp.seq, resp.state)
-        if isinstance(resp, Welcome):
-            return seal(head + struct.pack("<BBHHHHB", resp.version, resp.code,
-                                            resp.expected_seq, resp.max_values,
-                                            resp.rows_stored, resp.logged, resp.control_ms))
-        if isinstance(resp, Ack):
-            return seal(head + struct.pack("<BHHHhH", resp.code, resp.expected_seq,
-                                            resp.rows_stored, resp.logged, resp.value,
-                                            resp.checksum))
-        count = len(resp.values)
-        if count > LOG_VALUES_PER_MESSAGE:
-            raise TelegramError(f"{count} values exceed {LOG_VALUES_PER_MESSAGE}")
-        return seal(head + struct.pack(f"<HB{count}h", resp.first_row, count, *resp.values))
-    except struct.error as exc:
-        raise TelegramError(f"field out of range: {exc}") from None
+    return _RESPONSES.encode(resp)
+
+
+def _response_body(resp: Response) -> bytes:
+    if isinstance(resp, Welcome):
+        return struct.pack("<BBHHHHB", resp.version, resp.code, resp.expected_seq, resp.max_values,
+                           resp.rows_stored, resp.logged, resp.control_ms)
+    if isinstance(resp, Ack):
+        return struct.pack("<BHHHhH", resp.code, resp.expected_seq, resp.rows_stored, resp.logged,
+                           resp.value, resp.checksum)
+    count = len(resp.values)
+    if count > LOG_VALUES_PER_MESSAGE:
+        raise TelegramError(f"{count} values exceed {LOG_VALUES_PER_MESSAGE}")
+    return struct.pack(f"<HB{count}h", resp.first_row, count, *resp.values)
 
 
 def decode_response(message: bytes) -> Response:
@@ -460,25 +498,25 @@ def decode_response(message: bytes) -> Response:
     Raises:
         TelegramError: damaged, unknown kind or malformed.
     """
-    body = unseal(message)
-    if len(body) < RESP_HEAD.size:
-        raise TelegramError("response header truncated")
-    kind, session, seq, state = RESP_HEAD.unpack_from(body)
-    rest = body[RESP_HEAD.size:]
-    try:
-        if kind == Kind.WELCOME:
-            return Welcome(session, seq, state, *struct.unpack("<BBHHHHB", rest))
-        if kind == Kind.ACK:
-            return Ack(session, seq, state, *struct.unpack("<BHHHhH", rest))
-        if kind == Kind.LOGDATA:
-            first_row, count = struct.unpack_from("<HB", rest)
-            data = rest[3:]
-            if len(data) != 2 * count:
-                raise TelegramError("LOGDATA length does not match its count")
-            return LogData(session, seq, state, first_row, _values(count, data))
-    except struct.error:
-        raise TelegramError(f"malformed response of kind 0x{kind:02X}") from None
-    raise TelegramError(f"unknown response kind 0x{kind:02X}")
+    return _RESPONSES.decode(message)
+
+
+def _response(kind: int, session: int, seq: int, state: int, rest: bytes) -> Response | None:
+    if kind == Kind.WELCOME:
+        return Welcome(session, seq, state, *struct.unpack("<BBHHHHB", rest))
+    if kind == Kind.ACK:
+        return Ack(session, seq, state, *struct.unpack("<BHHHhH", rest))
+    if kind == Kind.LOGDATA:
+        first_row, count = struct.unpack_from("<HB", rest)
+        data = rest[3:]
+        if len(data) != 2 * count:
+            raise TelegramError("LOGDATA length does not match its count")
+        return LogData(session, seq, state, first_row, _values(count, data))
+    return None
+
+
+_REQUESTS = Envelope[Request]("request", _request_body, _request)
+_RESPONSES = Envelope[Response]("response", _response_body, _response)
 
 
 def rows_per_setpoint_message(n_ports: int) -> int:

@@ -22,7 +22,10 @@ from __future__ import annotations
 
 import enum
 import struct
-from dataclasses import dataclass
+from collections.abc import Callable
+from dataclasses import dataclass, fields
+from operator import attrgetter
+from typing import Any, NamedTuple
 
 from nxt_link.errors import TelegramError, error_for_status
 
@@ -288,6 +291,38 @@ Command = (
 )
 
 
+# Each command's and reply's fields after its header, written once for both directions:
+# the encoders pack a message's fields with its layout, the decoders unpack them with the
+# same layout, and the telegram lengths the decoders check are the layouts' sizes.
+
+
+class _Layout(NamedTuple):
+    """What follows a telegram's header (``type opcode``, or ``02 opcode status``).
+
+    ``size`` bytes (the least, where the length varies), ``pack(message)`` their bytes, and
+    ``unpack(telegram, offset)`` the fields again, in the order the message class declares
+    them after the header's field (a command's ``reply`` flag, a reply's ``status``).
+    """
+
+    size: int
+    pack: Callable[[Any], bytes]
+    unpack: Callable[[Any, int], tuple[Any, ...]]
+
+
+#: The layout of a message with no fields after its header.
+_EMPTY = _Layout(0, lambda _message: b"", lambda _telegram, _offset: ())
+
+
+def _fixed(cls: type, fmt: str) -> _Layout:
+    """The layout of a message whose fields after the header are ``fmt``'s, in class order."""
+    body = struct.Struct(fmt)
+    names = [f.name for f in fields(cls) if f.name not in ("reply", "status")]
+    get = attrgetter(*names)
+    if len(names) == 1:  # attrgetter gives the one field alone, not in a tuple
+        return _Layout(body.size, lambda message: body.pack(get(message)), body.unpack_from)
+    return _Layout(body.size, lambda message: body.pack(*get(message)), body.unpack_from)
+
+
 def _name_field(name: str) -> bytes:
     try:
         raw = name.encode("ascii")
@@ -298,16 +333,57 @@ def _name_field(name: str) -> bytes:
     return raw.ljust(FILENAME_FIELD, b"\0")
 
 
+def _text(field: bytes) -> str:
+    """A NUL-padded text field as the firmware reads it: up to the first NUL."""
+    return field.split(b"\0", 1)[0].decode("latin-1")
+
+
+#: STARTPROGRAM's file name, and GETCURRENTPROGRAMNAME's in the reply.
+_NAME = _Layout(FILENAME_FIELD, lambda message: _name_field(message.name),
+                lambda telegram, at: (_text(telegram[at:at + FILENAME_FIELD]),))
+
+
+def _pack_message_write(cmd: MessageWrite) -> bytes:
+    if len(cmd.message) > MAX_MESSAGE_PAYLOAD:
+        raise TelegramError(f"mailbox message of {len(cmd.message)} bytes exceeds {MAX_MESSAGE_PAYLOAD}")
+    return struct.pack("<BB", cmd.inbox, len(cmd.message) + 1) + cmd.message + b"\0"
+
+
+def _unpack_message_write(telegram: bytes, at: int) -> tuple[int, bytes]:
+    """Structurally only: the data field without its last byte, whatever that byte is."""
+    inbox, size = telegram[at], telegram[at + 1]
+    data = telegram[at + 2:at + 2 + size]
+    if len(data) < size:
+        raise TelegramError(f"MESSAGE_WRITE truncated: size field {size}, {len(data)} data bytes")
+    return inbox, bytes(data[:-1]) if size else b""
+
+
+_COMMAND_LAYOUTS: dict[type[Command], _Layout] = {
+    StartProgram: _NAME,
+    StopProgram: _EMPTY,
+    PlayTone: _fixed(PlayTone, "<HH"),
+    SetOutputState: _fixed(SetOutputState, "<BbBBbBI"),
+    SetInputMode: _fixed(SetInputMode, "<BBB"),
+    GetOutputState: _fixed(GetOutputState, "<B"),
+    GetInputValues: _fixed(GetInputValues, "<B"),
+    MessageWrite: _Layout(2, _pack_message_write, _unpack_message_write),  # + size bytes
+    MessageRead: _fixed(MessageRead, "<BB?"),
+    ResetMotorPosition: _fixed(ResetMotorPosition, "<B?"),
+    GetBatteryLevel: _EMPTY,
+    KeepAlive: _EMPTY,
+    GetCurrentProgramName: _EMPTY,
+    GetFirmwareVersion: _EMPTY,
+    GetDeviceInfo: _EMPTY,
+}
+_COMMAND_OF_OPCODE: dict[int, tuple[Opcode, Callable[..., Command], _Layout]] = {
+    cls.opcode: (cls.opcode, cls, layout) for cls, layout in _COMMAND_LAYOUTS.items()}
+_COMMAND_TYPES = frozenset((CommandType.DIRECT, CommandType.DIRECT_NO_REPLY,
+                            CommandType.SYSTEM, CommandType.SYSTEM_NO_REPLY))
+
+
 def _type_byte(cmd: Command) -> int:
     base = CommandType.SYSTEM if cmd.opcode.is_system else CommandType.DIRECT
     return base | (0 if cmd.reply else 0x80)
-
-
-def _pack(fmt: str, *values: int) -> bytes:
-    try:
-        return struct.pack(fmt, *values)
-    except struct.error as exc:
-        raise TelegramError(f"field out of range: {exc}") from None
 
 
 def encode_command(cmd: Command) -> bytes:
@@ -316,31 +392,13 @@ def encode_command(cmd: Command) -> bytes:
     Raises:
         TelegramError: a field does not fit its wire width (e.g. a 59-byte message).
     """
-    head = bytes((_type_byte(cmd), cmd.opcode))
-    if isinstance(cmd, StartProgram):
-        return head + _name_field(cmd.name)
-    if isinstance(cmd, (StopProgram, GetBatteryLevel, KeepAlive, GetCurrentProgramName,
-                        GetFirmwareVersion, GetDeviceInfo)):
-        return head
-    if isinstance(cmd, PlayTone):
-        return head + _pack("<HH", cmd.frequency_hz, cmd.duration_ms)
-    if isinstance(cmd, SetOutputState):
-        return head + _pack("<BbBBbBI", cmd.port, cmd.power, cmd.mode, cmd.regulation_mode,
-                            cmd.turn_ratio, cmd.run_state, cmd.tacho_limit)
-    if isinstance(cmd, SetInputMode):
-        return head + _pack("<BBB", cmd.port, cmd.sensor_type, cmd.sensor_mode)
-    if isinstance(cmd, (GetOutputState, GetInputValues)):
-        return head + _pack("<B", cmd.port)
-    if isinstance(cmd, MessageWrite):
-        if len(cmd.message) > MAX_MESSAGE_PAYLOAD:
-            raise TelegramError(
-                f"mailbox message of {len(cmd.message)} bytes exceeds {MAX_MESSAGE_PAYLOAD}")
-        return head + _pack("<BB", cmd.inbox, len(cmd.message) + 1) + cmd.message + b"\0"
-    if isinstance(cmd, MessageRead):
-        return head + _pack("<BB?", cmd.remote_inbox, cmd.local_inbox, cmd.remove)
-    if isinstance(cmd, ResetMotorPosition):
-        return head + _pack("<B?", cmd.port, cmd.relative)
-    raise TelegramError(f"not a command: {cmd!r}")
+    layout = _COMMAND_LAYOUTS.get(type(cmd))
+    if layout is None:
+        raise TelegramError(f"not a command: {cmd!r}")
+    try:
+        return bytes((_type_byte(cmd), cmd.opcode)) + layout.pack(cmd)
+    except struct.error as exc:
+        raise TelegramError(f"field out of range: {exc}") from None
 
 
 def telegram_header(telegram: bytes) -> tuple[int, int]:
@@ -352,26 +410,6 @@ def telegram_header(telegram: bytes) -> tuple[int, int]:
     if len(telegram) < 2:
         raise TelegramError(f"telegram of {len(telegram)} byte(s) has no opcode")
     return telegram[0], telegram[1]
-
-
-# fixed request lengths (type and opcode included); MESSAGEWRITE is 4 + size
-_REQUEST_LENGTH = {
-    Opcode.START_PROGRAM: 22,
-    Opcode.STOP_PROGRAM: 2,
-    Opcode.PLAY_TONE: 6,
-    Opcode.SET_OUTPUT_STATE: 12,
-    Opcode.SET_INPUT_MODE: 5,
-    Opcode.GET_OUTPUT_STATE: 3,
-    Opcode.GET_INPUT_VALUES: 3,
-    Opcode.MESSAGE_WRITE: 4,
-    Opcode.RESET_MOTOR_POSITION: 4,
-    Opcode.GET_BATTERY_LEVEL: 2,
-    Opcode.KEEP_ALIVE: 2,
-    Opcode.GET_CURRENT_PROGRAM_NAME: 2,
-    Opcode.MESSAGE_READ: 5,
-    Opcode.GET_FIRMWARE_VERSION: 2,
-    Opcode.GET_DEVICE_INFO: 2,
-}
 
 
 def decode_command(telegram: bytes) -> Command:
@@ -387,95 +425,23 @@ def decode_command(telegram: bytes) -> Command:
         TelegramError: not a command type, unknown opcode, or too short.
     """
     ttype, op = telegram_header(telegram)
-    if ttype not in (CommandType.DIRECT, CommandType.DIRECT_NO_REPLY,
-                     CommandType.SYSTEM, CommandType.SYSTEM_NO_REPLY):
+    if ttype not in _COMMAND_TYPES:
         raise TelegramError(f"telegram type 0x{ttype:02X} is not a command")
-    try:
-        opcode = Opcode(op)
-    except ValueError:
-        raise TelegramError(f"unknown opcode 0x{op:02X}") from None
+    known = _COMMAND_OF_OPCODE.get(op)
+    if known is None:
+        raise TelegramError(f"unknown opcode 0x{op:02X}")
+    opcode, make, layout = known
     if opcode.is_system != bool(ttype & 0x01):
         raise TelegramError(f"opcode 0x{op:02X} sent with telegram type 0x{ttype:02X}")
-    need = _REQUEST_LENGTH[opcode]
+    need = 2 + layout.size
     if len(telegram) < need:
         raise TelegramError(
             f"{opcode.name} telegram truncated: {len(telegram)} of {need} bytes")
-    reply = not (ttype & 0x80)
-    p = telegram[2:]
-    if opcode is Opcode.START_PROGRAM:
-        name = p[:FILENAME_FIELD].split(b"\0", 1)[0].decode("latin-1")
-        return StartProgram(name, reply)
-    if opcode is Opcode.STOP_PROGRAM:
-        return StopProgram(reply)
-    if opcode is Opcode.PLAY_TONE:
-        f, d = struct.unpack_from("<HH", p)
-        return PlayTone(f, d, reply)
-    if opcode is Opcode.SET_OUTPUT_STATE:
-        port, power, mode, reg, turn, run, limit = struct.unpack_from("<BbBBbBI", p)
-        return SetOutputState(port, power, mode, reg, turn, run, limit, reply)
-    if opcode is Opcode.SET_INPUT_MODE:
-        port, stype, smode = struct.unpack_from("<BBB", p)
-        return SetInputMode(port, stype, smode, reply)
-    if opcode is Opcode.GET_OUTPUT_STATE:
-        return GetOutputState(p[0], reply)
-    if opcode is Opcode.GET_INPUT_VALUES:
-        return GetInputValues(p[0], reply)
-    if opcode is Opcode.MESSAGE_WRITE:
-        inbox, size = p[0], p[1]
-        data = p[2:2 + size]
-        if len(data) < size:
-            raise TelegramError(
-                f"MESSAGE_WRITE truncated: size field {size}, {len(data)} data bytes")
-        return MessageWrite(inbox, bytes(data[:-1]) if size else b"", reply)
-    if opcode is Opcode.MESSAGE_READ:
-        return MessageRead(p[0], p[1], bool(p[2]), reply)
-    if opcode is Opcode.RESET_MOTOR_POSITION:
-        return ResetMotorPosition(p[0], bool(p[1]), reply)
-    if opcode is Opcode.GET_BATTERY_LEVEL:
-        return GetBatteryLevel(reply)
-    if opcode is Opcode.KEEP_ALIVE:
-        return KeepAlive(reply)
-    if opcode is Opcode.GET_CURRENT_PROGRAM_NAME:
-        return GetCurrentProgramName(reply)
-    if opcode is Opcode.GET_FIRMWARE_VERSION:
-        return GetFirmwareVersion(reply)
-    return GetDeviceInfo(reply)
-
-
-def message_write_fields(telegram: bytes) -> tuple[int, int, bytes]:
-    """Raw ``(inbox, size, data[size])`` of a MESSAGEWRITE telegram, for the firmware checks."""
-    if len(telegram) < 4:
-        raise TelegramError("MESSAGE_WRITE truncated")
-    inbox, size = telegram[2], telegram[3]
-    data = bytes(telegram[4:4 + size])
-    if len(data) < size:
-        raise TelegramError(
-            f"MESSAGE_WRITE truncated: size field {size}, {len(data)} data bytes")
-    return inbox, size, data
+    return make(*layout.unpack(telegram, 2), not ttype & 0x80)
 
 
 # ---------------------------------------------------------------------------
 # replies
-
-#: Total reply length (type, opcode and status included) per opcode, also on error.
-REPLY_LENGTH: dict[Opcode, int] = {
-    Opcode.START_PROGRAM: 3,
-    Opcode.STOP_PROGRAM: 3,
-    Opcode.PLAY_TONE: 3,
-    Opcode.SET_OUTPUT_STATE: 3,
-    Opcode.SET_INPUT_MODE: 3,
-    Opcode.GET_OUTPUT_STATE: 25,
-    Opcode.GET_INPUT_VALUES: 16,
-    Opcode.MESSAGE_WRITE: 3,
-    Opcode.RESET_MOTOR_POSITION: 3,
-    Opcode.GET_BATTERY_LEVEL: 5,
-    Opcode.KEEP_ALIVE: 7,
-    Opcode.GET_CURRENT_PROGRAM_NAME: 23,
-    Opcode.MESSAGE_READ: 64,
-    Opcode.GET_FIRMWARE_VERSION: 7,
-    Opcode.GET_DEVICE_INFO: 33,
-}
-
 
 @dataclass(frozen=True, slots=True)
 class StatusReply:
@@ -585,46 +551,70 @@ Reply = (
 )
 
 
+#: name, Bluetooth address, a NUL, signal strengths, free flash.
+_DEVICE_INFO = struct.Struct("<15s6sxBBBBI")
+#: local inbox, size (the message's, NUL included), the message NUL-padded to its field.
+_MESSAGE_READ = struct.Struct(f"<BB{MAX_MESSAGE_SIZE}s")
+
+
+def _pack_device_info(reply: DeviceInfoReply) -> bytes:
+    if len(reply.bt_address) != 6:
+        raise TelegramError("Bluetooth address must be 6 bytes")
+    name = reply.name.encode("ascii", "replace")[:14]  # "15s" pads it, so one NUL at least
+    return _DEVICE_INFO.pack(name, reply.bt_address, *reply.signal_strengths, reply.free_flash)
+
+
+def _unpack_device_info(telegram: bytes, at: int) -> tuple[str, bytes, tuple[int, ...], int]:
+    name, address, *signal, flash = _DEVICE_INFO.unpack_from(telegram, at)
+    return _text(name), address, tuple(signal), flash
+
+
+def _pack_message_read(reply: MessageReadReply) -> bytes:
+    if len(reply.message) > MAX_MESSAGE_SIZE:
+        raise TelegramError(f"message of {len(reply.message)} bytes exceeds 59")
+    return _MESSAGE_READ.pack(reply.local_inbox, len(reply.message), reply.message)
+
+
+def _unpack_message_read(telegram: bytes, at: int) -> tuple[int, bytes]:
+    local_inbox, size, data = _MESSAGE_READ.unpack_from(telegram, at)
+    if size > MAX_MESSAGE_SIZE:
+        raise TelegramError(f"MESSAGE_READ reply claims {size} bytes")
+    return local_inbox, data[:size]
+
+
+#: Each reply class's payload; an opcode without a reply class of its own gets a :class:`StatusReply`.
+_REPLY_LAYOUTS: dict[type[Reply], _Layout] = {
+    StatusReply: _EMPTY,
+    OutputStateReply: _fixed(OutputStateReply, "<BbBBbBIiii"),
+    InputValuesReply: _fixed(InputValuesReply, "<B??BBHHhh"),
+    BatteryLevelReply: _fixed(BatteryLevelReply, "<H"),
+    KeepAliveReply: _fixed(KeepAliveReply, "<I"),
+    ProgramNameReply: _NAME,
+    MessageReadReply: _Layout(_MESSAGE_READ.size, _pack_message_read, _unpack_message_read),
+    FirmwareVersionReply: _fixed(FirmwareVersionReply, "<BBBB"),
+    DeviceInfoReply: _Layout(_DEVICE_INFO.size, _pack_device_info, _unpack_device_info),
+}
+_REPLY_OF_OPCODE: dict[int, tuple[type[Reply], _Layout]] = {op: (StatusReply, _EMPTY) for op in Opcode} | {
+    cls.opcode: (cls, layout) for cls, layout in _REPLY_LAYOUTS.items() if not issubclass(cls, StatusReply)}
+
+#: Total reply length (type, opcode and status included) per opcode, also on error.
+REPLY_LENGTH: dict[Opcode, int] = {Opcode(op): 3 + layout.size for op, (_, layout) in _REPLY_OF_OPCODE.items()}
+
+
 def encode_reply(reply: Reply) -> bytes:
     """Encode a reply telegram (the brick's side), fixed length per opcode.
 
     Raises:
         TelegramError: a field does not fit.
     """
-    op = int(reply.opcode)
-    head = bytes((CommandType.REPLY, op, reply.status & 0xFF))
-    if isinstance(reply, StatusReply):
-        return head
-    if isinstance(reply, OutputStateReply):
-        return head + _pack("<BbBBbBIiii", reply.port, reply.power, reply.mode,
-                            reply.regulation_mode, reply.turn_ratio, reply.run_state,
-                            reply.tacho_limit, reply.tacho_count, reply.block_tacho_count,
-                            reply.rotation_count)
-    if isinstance(reply, InputValuesReply):
-        return head + _pack("<B??BBHHhh", reply.port, reply.valid, reply.calibrated,
-                            reply.sensor_type, reply.sensor_mode, reply.raw_value,
-                            reply.normalized_value, reply.scaled_value, reply.calibrated_value)
-    if isinstance(reply, BatteryLevelReply):
-        return head + _pack("<H", reply.millivolts)
-    if isinstance(reply, KeepAliveReply):
-        return head + _pack("<I", reply.sleep_limit_ms)
-    if isinstance(reply, ProgramNameReply):
-        return head + _name_field(reply.name)
-    if isinstance(reply, MessageReadReply):
-        if len(reply.message) > MAX_MESSAGE_SIZE:
-            raise TelegramError(f"message of {len(reply.message)} bytes exceeds 59")
-        return (head + _pack("<BB", reply.local_inbox, len(reply.message))
-                + reply.message.ljust(MAX_MESSAGE_SIZE, b"\0"))
-    if isinstance(reply, FirmwareVersionReply):
-        return head + _pack("<BBBB", reply.protocol_minor, reply.protocol_major,
-                            reply.firmware_minor, reply.firmware_major)
-    if isinstance(reply, DeviceInfoReply):
-        name = reply.name.encode("ascii", "replace")[:14].ljust(15, b"\0")
-        if len(reply.bt_address) != 6:
-            raise TelegramError("Bluetooth address must be 6 bytes")
-        return (head + name + reply.bt_address + b"\0"
-                + _pack("<BBBBI", *reply.signal_strengths, reply.free_flash))
-    raise TelegramError(f"not a reply: {reply!r}")
+    head = bytes((CommandType.REPLY, int(reply.opcode), reply.status & 0xFF))
+    layout = _REPLY_LAYOUTS.get(type(reply))
+    if layout is None:
+        raise TelegramError(f"not a reply: {reply!r}")
+    try:
+        return head + layout.pack(reply)
+    except struct.error as exc:
+        raise TelegramError(f"field out of range: {exc}") from None
 
 
 def error_reply(opcode: int, status: int, local_inbox: int = 0) -> bytes:
@@ -658,40 +648,18 @@ def parse_reply(telegram: bytes) -> Reply:
     if len(telegram) < 3:
         raise TelegramError("reply without status byte")
     status = telegram[2]
-    try:
-        opcode = Opcode(op)
-    except ValueError:
+    known = _REPLY_OF_OPCODE.get(op)
+    if known is None:
         if len(telegram) != 3:
-            raise TelegramError(f"reply to unknown opcode 0x{op:02X} has {len(telegram)} bytes") from None
+            raise TelegramError(f"reply to unknown opcode 0x{op:02X} has {len(telegram)} bytes")
         return StatusReply(op, status)
-    want = REPLY_LENGTH[opcode]
-    if len(telegram) != want:
+    cls, layout = known
+    if len(telegram) != 3 + layout.size:
         raise TelegramError(
-            f"{opcode.name} reply has {len(telegram)} bytes, expected {want}")
-    p = telegram[3:]
-    if want == 3:
+            f"{Opcode(op).name} reply has {len(telegram)} bytes, expected {3 + layout.size}")
+    if not layout.size:
         return StatusReply(op, status)
-    if opcode is Opcode.GET_OUTPUT_STATE:
-        return OutputStateReply(status, *struct.unpack("<BbBBbBIiii", p))
-    if opcode is Opcode.GET_INPUT_VALUES:
-        return InputValuesReply(status, *struct.unpack("<B??BBHHhh", p))
-    if opcode is Opcode.GET_BATTERY_LEVEL:
-        return BatteryLevelReply(status, struct.unpack("<H", p)[0])
-    if opcode is Opcode.KEEP_ALIVE:
-        return KeepAliveReply(status, struct.unpack("<I", p)[0])
-    if opcode is Opcode.GET_CURRENT_PROGRAM_NAME:
-        return ProgramNameReply(status, p.split(b"\0", 1)[0].decode("latin-1"))
-    if opcode is Opcode.MESSAGE_READ:
-        local_inbox, size = p[0], p[1]
-        if size > MAX_MESSAGE_SIZE:
-            raise TelegramError(f"MESSAGE_READ reply claims {size} bytes")
-        return MessageReadReply(status, local_inbox, bytes(p[2:2 + size]))
-    if opcode is Opcode.GET_FIRMWARE_VERSION:
-        return FirmwareVersionReply(status, *struct.unpack("<BBBB", p))
-    name = p[:15].split(b"\0", 1)[0].decode("latin-1")
-    address = bytes(p[15:21])
-    s0, s1, s2, s3, flash = struct.unpack("<BBBBI", p[22:30])
-    return DeviceInfoReply(status, name, address, (s0, s1, s2, s3), flash)
+    return cls(status, *layout.unpack(telegram, 3))
 
 
 def decode_reply(telegram: bytes, opcode: int) -> Reply:

@@ -40,8 +40,12 @@ from dataclasses import dataclass, field
 
 from nxt_link.input_module import TOUCH_RAW_PRESSED, TOUCH_RAW_RELEASED, light_percent_to_raw
 
-__all__ = ["Track", "Landmark", "Markers", "Start", "Ports", "RobotBody", "Press", "Blocked",
+__all__ = ["MAX_PRESS_S", "Track", "Landmark", "Markers", "Start", "Ports", "RobotBody", "Press", "Blocked",
            "WorldSpec", "World", "Pose", "delivery_world"]
+
+
+MAX_PRESS_S = 60.0
+"""The longest press of the touch sensor :meth:`World.press` accepts: a finger held a minute."""
 
 
 def _positive(name: str, value: float) -> None:
@@ -185,9 +189,11 @@ class Press:
             raise ValueError("a press time must be >= 0 s")
         if self.visit < 1:
             raise ValueError("visit must be >= 1")
-        if self.delay_s < 0:
+        if not (math.isfinite(self.delay_s) and self.delay_s >= 0):
             raise ValueError("delay_s must be >= 0")
         _positive("hold_s", self.hold_s)
+        if not (isinstance(self.near_mm, int | float) and 0 <= self.near_mm and math.isfinite(self.near_mm)):
+            raise ValueError(f"near_mm must be a distance >= 0 mm, got {self.near_mm!r}")
 
 
 @dataclass(frozen=True, slots=True)
@@ -406,8 +412,8 @@ class World:
 
     def press(self, hold_s: float = 0.3) -> None:
         """Press the touch sensor for ``hold_s`` from the next millisecond (any thread)."""
-        if hold_s <= 0:
-            raise ValueError("a press must last > 0 s")
+        if not 0 < hold_s <= MAX_PRESS_S:     # also refuses NaN, which compares false
+            raise ValueError(f"a press lasts more than 0 and at most {MAX_PRESS_S:g} s, not {hold_s!r}")
         with self._lock:
             self._requests.append(hold_s)
 

@@ -38,7 +38,7 @@ event = "button"
 [events.call]
 source = "brick"
 brick = "r"
-event = "call"
+event = "event 2"
 [events.night]
 source = "sensor"
 brick = "r"
@@ -79,7 +79,7 @@ def test_a_good_binding(domain):
     assert b.bricks["r"].sensors == {"S1": "touch", "S3": "light"}
     assert b.input_events() == [] and b.input_events(simulated=True) == sorted(
         ["bump", "call(1)", "call(2)", "call(3)", "night"])
-    assert b.brick_event("r", "call", (2, 9)).text == "call(2)"
+    assert b.brick_event("r", "event 2", (2, 9)).text == "call(2)"
     assert b.brick_event("r", "button", ()).text == "bump"
     assert b.brick_event("r", "horn", ()) is None
 

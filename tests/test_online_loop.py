@@ -317,7 +317,7 @@ def test_event_files_are_parsed_with_cycles():
 
 
 @pytest.mark.parametrize("text, message, where", [
-    ("@0 press\n", "a cycle is written @N with N >= 1", "ev.txt:1:1"),
+    ("@0 press\n", "a cycle is written @N with N a whole number from 1", "ev.txt:1:1"),
     ("press @3\n", "'@N' must come first", "ev.txt:1:7"),
     ("\n@2\n", "no event after '@2'", "ev.txt:2:1"),
     ("@2 Press\n", "'Press' is not an event", "ev.txt:1:4"),

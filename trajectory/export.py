@@ -196,6 +196,27 @@ def load_trajectory(path: str | Path) -> Trajectory:
     return trajectory_from_dict(data, str(p))
 
 
+MAX_NUMBER = 1e9
+"""The largest magnitude of a number in a trajectory file (seconds, grid units, degrees): the
+scene's bound (:data:`trajectory.toml_locations.MAX_NUMBER`)."""
+
+MAX_INTEGER = 2 ** 31 - 1
+"""The largest magnitude of an integer field (an int32) unless the field says less."""
+
+MAX_TURNS = 4
+"""How many whole turns an arm angle may be lifted by (``kinematics.turns``): joint limits span
+less than a turn, so the inverse kinematics needs 0 or 1 either way; beyond a few it is a
+hand-edited file (``10**30`` turns would only overflow the angle)."""
+
+
+def _shown(value: Any) -> str:
+    """A JSON value for a message: a huge integer by its number of digits, long text cut."""
+    if isinstance(value, int) and not isinstance(value, bool) and abs(value) >= 10 ** 15:
+        return f"an integer of {len(str(abs(value)))} digits"
+    text = repr(value)
+    return text if len(text) <= 60 else text[:57] + "..."
+
+
 class _Fields:
     """Typed access to the JSON document; every complaint names the file and the field."""
 
@@ -213,13 +234,20 @@ class _Fields:
         return obj[key]
 
     def number(self, value: Any, field: str) -> float:
-        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-            raise self.fail(field, f"expected a finite number, got {value!r}")
+        """A finite number of magnitude at most :data:`MAX_NUMBER` (an integer is compared as
+        it is: ``math.isfinite(10**400)`` raises ``OverflowError``)."""
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or \
+                (isinstance(value, float) and not math.isfinite(value)):
+            raise self.fail(field, f"expected a finite number, got {_shown(value)}")
+        if not -MAX_NUMBER <= value <= MAX_NUMBER:
+            raise self.fail(field, f"expected a number in {-MAX_NUMBER:g}..{MAX_NUMBER:g}, got {_shown(value)}")
         return float(value)
 
-    def integer(self, value: Any, field: str) -> int:
+    def integer(self, value: Any, field: str, lo: int = -MAX_INTEGER, hi: int = MAX_INTEGER) -> int:
         if isinstance(value, bool) or not isinstance(value, int):
-            raise self.fail(field, f"expected an integer, got {value!r}")
+            raise self.fail(field, f"expected an integer, got {_shown(value)}")
+        if not lo <= value <= hi:
+            raise self.fail(field, f"expected an integer in {lo}..{hi}, got {_shown(value)}")
         return value
 
     def string(self, value: Any, field: str) -> str:
@@ -299,7 +327,7 @@ def _robot(f: _Fields, raw: Any, base: str, ticks: int | None) -> RobotTrajector
     branch = f.integer(f.get(kin, "branch", f"{kb}.branch"), f"{kb}.branch")
     if branch not in (1, -1):
         raise f.fail(f"{kb}.branch", f"expected 1 or -1, got {branch}")
-    turns = f.integer(kin.get("turns", 0), f"{kb}.turns")
+    turns = f.integer(kin.get("turns", 0), f"{kb}.turns", -MAX_TURNS, MAX_TURNS)
     norm = math.hypot(*direction)
     if norm == 0.0:
         raise f.fail(f"{kb}.rail_dir", "must not be zero")

@@ -35,7 +35,17 @@ from ._format import fmt as _fmt
 from .errors import JointLimitError, Location, SceneError, UnreachableError
 from .geometry import segment_geometry
 from .kinematics import Arm, choices_at, point_problem
-from .toml_locations import KeyPath, KeyPathReader, kind_of, locate_keys, nearest_location, toml_error
+from .toml_locations import (
+    KeyPath,
+    KeyPathReader,
+    integer_problem,
+    kind_of,
+    locate_keys,
+    nearest_location,
+    number_problem,
+    parse_toml,
+    toml_error,
+)
 from .workspace import Workspace
 
 __all__ = [
@@ -275,7 +285,7 @@ def parse_scene(text: str, filename: str = "scene.toml") -> Scene:
         On the first problem, located at ``filename:line:col``.
     """
     try:
-        data = tomllib.loads(text)
+        data = parse_toml(text)
     except tomllib.TOMLDecodeError as exc:
         message, line, col = toml_error(exc)
         raise SceneError(message, Location(filename, line, col)) from None
@@ -315,16 +325,16 @@ class _Reader(KeyPathReader):
         if default is not None and not self.has(path):
             return default
         value = self.require(path)
-        if isinstance(value, bool) or not isinstance(value, (int, float)):
-            raise self.fail(path, f"{self.show(path)} must be a number, not {kind_of(value)}")
-        if not math.isfinite(value):
-            raise self.fail(path, f"{self.show(path)} must be finite, not {value}")
+        problem = number_problem(value)
+        if problem is not None:
+            raise self.fail(path, f"{self.show(path)} {problem}")
         return float(value)
 
     def integer(self, path: KeyPath) -> int:
         value = self.require(path)
-        if isinstance(value, bool) or not isinstance(value, int):
-            raise self.fail(path, f"{self.show(path)} must be an integer, not {kind_of(value)}")
+        problem = integer_problem(value)
+        if problem is not None:
+            raise self.fail(path, f"{self.show(path)} {problem}")
         return value
 
     def string(self, path: KeyPath, default: str | None = None) -> str:

@@ -17,12 +17,68 @@ Paths use the same shape as the parsed document: ``("robots", "r1", "arm_length"
 
 from __future__ import annotations
 
+import math
 import re
 import tomllib
 from abc import ABC, abstractmethod
 from typing import Any
 
-__all__ = ["KeyPath", "KeyPathReader", "kind_of", "locate_keys", "nearest_location", "toml_error"]
+__all__ = ["KeyPath", "KeyPathReader", "MAX_INTEGER", "MAX_NUMBER", "integer_problem", "kind_of", "locate_keys",
+           "nearest_location", "number_problem", "parse_toml", "toml_error"]
+
+MAX_NUMBER = 1e9
+"""The largest magnitude a number of a scene, world or binding file may have: a millimetre,
+second, degree or grid unit a billion times over is a typo (and a value near ``1e308``
+overflows to infinity in the first product, or costs a bignum as an integer)."""
+
+MAX_INTEGER = 2 ** 31 - 1
+"""The largest magnitude of an integer field unless its schema says less (an int32)."""
+
+_LONG_DIGITS = re.compile(r"[0-9_]{4301,}")
+
+
+def parse_toml(text: str) -> dict[str, Any]:
+    """``tomllib.loads``, with the one ``ValueError`` it lets through made a
+    :class:`tomllib.TOMLDecodeError` with a position: an integer of more than 4,300 digits
+    (Python's limit on converting digit strings) would otherwise escape as a traceback."""
+    try:
+        return tomllib.loads(text)
+    except tomllib.TOMLDecodeError:
+        raise
+    except ValueError:
+        m = _LONG_DIGITS.search(text)
+        pos = m.start() if m else 0
+        line = text.count("\n", 0, pos) + 1
+        col = pos - (text.rfind("\n", 0, pos) + 1) + 1
+        raise tomllib.TOMLDecodeError(f"a number of more than 4300 digits (at line {line}, column {col})") from None
+
+
+def number_problem(value: object, lo: float = -MAX_NUMBER, hi: float = MAX_NUMBER) -> str | None:
+    """Why ``value`` is not a number in ``lo..hi`` (a phrase), or None. Integers are compared
+    as they are (``float(10**400)`` raises), NaN and infinities are refused."""
+    if isinstance(value, bool) or not isinstance(value, int | float):
+        return f"must be a number, not {kind_of(value)}"
+    if isinstance(value, float) and not math.isfinite(value):
+        return f"must be finite, not {value}"
+    if not lo <= value <= hi:
+        return f"= {_short(value)} is outside {lo:g}..{hi:g}"
+    return None
+
+
+def integer_problem(value: object, lo: int = -MAX_INTEGER, hi: int = MAX_INTEGER) -> str | None:
+    """Why ``value`` is not an integer in ``lo..hi`` (a phrase), or None."""
+    if isinstance(value, bool) or not isinstance(value, int):
+        return f"must be an integer, not {kind_of(value)}"
+    if not lo <= value <= hi:
+        return f"= {_short(value)} is outside {lo}..{hi}"
+    return None
+
+
+def _short(value: int | float) -> str:
+    """A number for a message: a huge integer by its size, not its thousand digits."""
+    if isinstance(value, int) and abs(value) >= 10 ** 15:
+        return f"{'-' if value < 0 else ''}an integer of {len(str(abs(value)))} digits"
+    return f"{value:g}" if isinstance(value, float) else str(value)
 
 KeyPath = tuple[str | int, ...]
 

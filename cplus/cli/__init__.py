@@ -13,7 +13,7 @@ import os
 import sys
 from collections.abc import MutableMapping
 
-from cplus.cli.common import EXIT_INPUT, EXIT_INTERRUPTED, EXIT_OK, CliError
+from cplus.cli.common import EXIT_INPUT, EXIT_OK, CliError
 
 __all__ = ["COMMANDS", "main", "run"]
 
@@ -77,9 +77,10 @@ def main(argv: list[str] | None = None) -> int:
     except CPlusError as exc:
         print(exc.render(), file=sys.stderr)
         return EXIT_INPUT
-    except KeyboardInterrupt:
-        print("cplus: interrupted", file=sys.stderr)
-        return EXIT_INTERRUPTED
+    except KeyboardInterrupt as exc:
+        from cplus.cli.signals import exit_code_of, reason_of
+        print(f"cplus: {reason_of(exc)}", file=sys.stderr)
+        return exit_code_of(exc)
     except RecursionError:   # the front end bounds nesting; this is the last line of defence
         print(f"cplus {name}: error: the input is nested too deeply to be processed", file=sys.stderr)
         return EXIT_INPUT

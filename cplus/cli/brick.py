@@ -28,13 +28,14 @@ from __future__ import annotations
 
 import argparse
 import logging
+import math
 import os
 import signal
 import sys
 import threading
 from dataclasses import replace
 
-from cplus.cli.common import EXIT_INPUT, EXIT_LINK, EXIT_OK, CliError, OneLineArgumentParser
+from cplus.cli.common import EXIT_INPUT, EXIT_LINK, EXIT_OK, CliError, OneLineArgumentParser, number
 from nxt_link.emulator import (
     BrickEmulator,
     EmulatorConfig,
@@ -55,22 +56,16 @@ __all__ = ["build_parser", "config_from_args", "main"]
 
 
 def _probability(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
+    value = number(text)
     if not 0.0 <= value < 1.0:
         raise argparse.ArgumentTypeError(f"probability must be in [0, 1), got {text}")
     return value
 
 
 def _non_negative(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
-    if value < 0:
-        raise argparse.ArgumentTypeError(f"must be >= 0, got {text}")
+    value = number(text)
+    if not (math.isfinite(value) and value >= 0):     # NaN compares false: an inf/nan delay is no delay
+        raise argparse.ArgumentTypeError(f"must be a finite number >= 0, got {text}")
     return value
 
 
@@ -230,6 +225,10 @@ def main(args: argparse.Namespace) -> int:
     except ValueError as exc:
         print(f"cplus brick: error: {exc}", file=sys.stderr)
         return EXIT_INPUT
+    problem = link_problem(args.link)
+    if problem is not None:
+        print(f"cplus brick: error: --link {args.link}: {problem}", file=sys.stderr)
+        return EXIT_INPUT
     if args.verbose:
         logging.basicConfig(level=logging.DEBUG if args.verbose > 1 else logging.INFO,
                             format="%(relativeCreated)8.0f %(name)s %(message)s")
@@ -286,6 +285,26 @@ def main(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
+def link_problem(path: str | None) -> str | None:
+    """Why the pty cannot be published at ``path``, or None. The link replaces only what a
+    brick left there: nothing, or a symlink to a pseudo-terminal that is gone (a brick killed
+    before it could clean up). A file, a directory, any other link, or the link of a pty that
+    still exists (a brick serving there) is refused: publishing would replace it, and the exit
+    would delete it."""
+    if path is None or not os.path.lexists(path):
+        return None
+    if os.path.islink(path):
+        target = os.readlink(path)
+        if target.startswith("/dev/pts/"):
+            if not os.path.exists(target):
+                return None
+            return (f"it is the link of {target}, a pty in use (a brick serving there?): stop that brick, or "
+                    "remove the link if none is, or choose another path")
+        return f"it is a symlink to {target}, not a brick's link: choose another path, or remove it"
+    what = "a directory" if os.path.isdir(path) else "a file"
+    return f"it exists ({what}) and would be replaced: choose another path, or remove it"
+
+
 def _stdin_readable() -> bool:
     """Standard input can be read without stopping the process: not a terminal (a pipe,
     a file), or a terminal this process has in the foreground (a background job reading
@@ -303,16 +322,57 @@ def _stdin_readable() -> bool:
 
 
 def _presses_from_stdin(world: World) -> None:
-    """Each line on standard input presses the touch sensor (``press [SECONDS]``)."""
-    for line in sys.stdin:
-        words = line.split()
-        hold = 0.3
-        if len(words) >= 2 and words[0] == "press":
-            try:
-                hold = float(words[1])
-            except ValueError:
-                hold = 0.3
-        if hold <= 0:
-            hold = 0.3
+    """Each line on standard input presses the touch sensor: ``press [SECONDS]`` or an empty
+    line (0.3 s). Anything else, a hold that is not a number in (0, 60] s (``press nan``), a
+    line that is not UTF-8 or longer than 4 KiB, is refused with one line naming it, and the
+    reader goes on."""
+    raw = getattr(sys.stdin, "buffer", None)
+    read = raw.readline if raw is not None else sys.stdin.readline
+    number = 0
+    while True:
+        try:
+            chunk = read(4097)
+        except (OSError, ValueError):
+            return
+        if not chunk:
+            return
+        number += 1
+        text = chunk.decode("utf-8", errors="replace") if isinstance(chunk, bytes) else chunk
+        if len(chunk) > 4096 and not text.endswith("\n"):
+            _skip_line(read)
+            _ignored(number, "longer than 4096 characters")
+            continue
+        hold, problem = press_hold(text)
+        if hold is None:
+            _ignored(number, problem)
+            continue
         world.press(hold)
         print(f"cplus brick: touch sensor pressed for {hold:g} s", file=sys.stderr, flush=True)
+
+
+def press_hold(line: str) -> tuple[float | None, str]:
+    """How long a line of standard input holds the touch sensor, or None and why not."""
+    from nxt_link.world import MAX_PRESS_S
+    words = line.split()
+    if not words or words == ["press"]:
+        return 0.3, ""
+    if words[0] != "press" or len(words) != 2:
+        return None, f"{line.strip()[:40]!r}: write 'press' or 'press SECONDS' (or an empty line)"
+    try:
+        hold = float(words[1])
+    except ValueError:
+        hold = math.nan
+    if not 0 < hold <= MAX_PRESS_S:
+        return None, f"{line.strip()[:40]!r}: a press lasts more than 0 and at most {MAX_PRESS_S:g} s"
+    return hold, ""
+
+
+def _skip_line(read) -> None:
+    while True:
+        more = read(4097)
+        if not more or (more.endswith(b"\n") if isinstance(more, bytes) else more.endswith("\n")):
+            return
+
+
+def _ignored(number: int, why: str) -> None:
+    print(f"cplus brick: ignored standard input line {number}: {why}", file=sys.stderr, flush=True)

@@ -17,7 +17,9 @@ Exit codes (the README's table):
 7    ``online``: the observed state is ambiguous (the fluents left open are named)
 8    ``online``: a robot was lost (a brick stopped answering)
 9    ``--no-refine``: the plan shown is not collision-free
-130  interrupted
+124  a second SIGINT/SIGTERM ended a command that moves robots at once (:mod:`cplus.cli.signals`)
+130  interrupted (SIGINT)
+143  SIGTERM (``online``, ``execute``, ``run``: the bricks stopped and the logs written first)
 ==== ==================================================================================
 """
 from __future__ import annotations
@@ -29,7 +31,7 @@ import sys
 
 __all__ = ["EXIT_OK", "EXIT_NO_PLAN", "EXIT_LINK", "EXIT_INPUT", "EXIT_LIMIT", "EXIT_NO_SAFE_PLAN",
            "EXIT_GAVE_UP", "EXIT_CONTRADICTED", "EXIT_AMBIGUOUS", "EXIT_ROBOT_LOST", "EXIT_UNSAFE",
-           "EXIT_INTERRUPTED", "CliError", "OneLineArgumentParser", "nonneg", "positive", "positive_int", "externals",
+           "EXIT_INTERRUPTED", "CliError", "OneLineArgumentParser", "nonneg", "number", "positive", "positive_int", "externals",
            "Warnings", "horizon_progress", "clear_progress", "query", "file_loc", "robot_exit_code"]
 
 EXIT_OK = 0
@@ -78,21 +80,31 @@ def terminal_columns() -> int:
     return columns or 80
 
 
-def nonneg(text: str) -> int:
+def _integer(text: str, least: int, what: str) -> int:
+    """``text`` as an integer >= ``least``; no integer and too small an integer are one error."""
     try:
         v = int(text)
     except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a non-negative integer, got '{text}'") from None
-    if v < 0:
-        raise argparse.ArgumentTypeError(f"expected a non-negative integer, got '{text}'")
+        v = least - 1
+    if v < least:
+        raise argparse.ArgumentTypeError(f"expected a {what} integer, got '{text}'")
     return v
 
 
-def positive(text: str) -> float:
+def nonneg(text: str) -> int:
+    return _integer(text, 0, "non-negative")
+
+
+def number(text: str) -> float:
+    """``text`` as a float, or the one usage error every number option gives for anything else."""
     try:
-        v = float(text)
+        return float(text)
     except ValueError:
         raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
+
+
+def positive(text: str) -> float:
+    v = number(text)
     if not v > 0:
         raise argparse.ArgumentTypeError("must be > 0")
     if not math.isfinite(v):
@@ -102,23 +114,14 @@ def positive(text: str) -> float:
 
 def seconds(text: str) -> float:
     """A duration: a finite number of seconds, 0 allowed."""
-    try:
-        v = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
+    v = number(text)
     if not v >= 0 or v == float("inf"):
         raise argparse.ArgumentTypeError(f"expected seconds >= 0, got {text!r}")
     return v
 
 
 def positive_int(text: str) -> int:
-    try:
-        v = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a positive integer, got '{text}'") from None
-    if v < 1:
-        raise argparse.ArgumentTypeError(f"expected a positive integer, got '{text}'")
-    return v
+    return _integer(text, 1, "positive")
 
 
 def parse_bricks(items: list[str], prog: str) -> dict[str, str]:
@@ -198,11 +201,12 @@ def clear_progress(enabled: bool) -> None:
         print("\r\033[K", end="", file=sys.stderr, flush=True)
 
 
-def query(domain, label: str, path: str):
-    """The query ``label`` of ``domain``; an unknown label is an error located at the file."""
+def query(domain, label: str, path: str, nmquery: bool = False):
+    """The query (``nmquery``: the nmquery) ``label`` of ``domain``; an unknown label is an
+    error located at the file."""
     from cplus.errors import QueryError
     try:
-        return domain.query(label)
+        return domain.nmquery(label) if nmquery else domain.query(label)
     except QueryError as exc:
         exc.loc = file_loc(path)
         raise

@@ -9,7 +9,8 @@ ports.  A run that fails after the start still writes its log and report, marked
 with the reason and the time it stopped.
 
 Exit codes: 0 done, 1 the link or a brick failed (or the bricks started more than a tick
-apart), 2 bad input, 130 interrupted.
+apart), 2 bad input, 130 SIGINT, 143 SIGTERM (the bricks stopped, the log and report written;
+:mod:`cplus.cli.signals`), 124 a second signal.
 """
 from __future__ import annotations
 
@@ -25,7 +26,6 @@ import nxt_link
 import trajectory
 from cplus.cli.common import (
     EXIT_INPUT,
-    EXIT_INTERRUPTED,
     EXIT_LINK,
     EXIT_OK,
     CliError,
@@ -35,6 +35,7 @@ from cplus.cli.common import (
     parse_bricks,
     positive,
 )
+from cplus.cli.signals import Shutdown, exit_code_of, motors_off, reason_of
 from cplus.robot.execution import (
     EmulatorSettings,
     check_ports,
@@ -216,8 +217,10 @@ class _Outputs:
     scene: trajectory.Scene | None
     err: TextIO
 
-    def write(self, log: nxt_link.ExecutionLog) -> bool:
-        """Log, plot and report; returns False (after one line on stderr) if one failed."""
+    def write(self, log: nxt_link.ExecutionLog, plot: bool = True) -> bool:
+        """Log, report and plot, in that order (the plot is the slow one: a run stopped by a
+        signal, ``plot=False``, leaves it out so that the stop stays within its 2 s); returns
+        False (after one line on stderr) if one failed."""
         args = self.args
         unit_mm = self.scene.grid.unit_mm if self.scene is not None else None
         report = tracking_report(self.traj, log, unit_mm)
@@ -227,7 +230,15 @@ class _Outputs:
             if args.log:
                 _write(args.log, log.dumps() + "\n")
                 self._wrote(args.log)
-            if args.plot and self.scene is not None:
+            if args.report:
+                _write(args.report, report.text(header))
+                self._wrote(args.report)
+            else:
+                sys.stdout.write(report.text(header))
+                sys.stdout.flush()
+            if args.plot and self.scene is not None and not plot:
+                print(f"cplus execute: no plot {args.plot}: the run was stopped by a signal", file=self.err)
+            elif args.plot and self.scene is not None:
                 _mkdir_for(args.plot)
                 title = f"{self.scene.name}: executed (solid) vs planned (dashed)"
                 if not log.complete:
@@ -236,12 +247,6 @@ class _Outputs:
                                           {k: v for k, v in report.executed_paths.items() if len(v)},
                                           args.plot, title=title)
                 self._wrote(args.plot)
-            if args.report:
-                _write(args.report, report.text(header))
-                self._wrote(args.report)
-            else:
-                sys.stdout.write(report.text(header))
-                sys.stdout.flush()
         except trajectory.TrajectoryError as exc:
             print(f"cplus execute: {exc}", file=self.err)
             return False
@@ -300,28 +305,34 @@ def main(args: argparse.Namespace) -> int:
             print(f"{prog}: bricks " + ", ".join(f"{n}={p}" for n, p in bricks.items())
                   + kind, file=err, flush=True)
 
-    try:
-        log = execute_trajectory(traj, ports or None, options=execution_options(args),
-                                 emulator=EmulatorSettings(latency=args.latency, time_scale=args.time_scale,
-                                                           seed=args.seed),
-                                 on_progress=progress, on_bricks=announce, scene=scene)
-    except SetpointError as exc:
-        print(f"{prog}: refused before anything moved: {exc}", file=err)
-        return EXIT_INPUT
-    except ExecutionFailed as exc:
-        outputs.write(exc.log)  # type: ignore[arg-type]
-        print(f"{prog}: {exc}", file=err)
-        return EXIT_LINK
-    except ExecutionInterrupted as exc:
-        outputs.write(exc.log)  # type: ignore[arg-type]
-        print(f"{prog}: interrupted (bricks told to stop)", file=err)
-        return EXIT_INTERRUPTED
-    except (LinkError, nxt_link.SimulationStalled) as exc:
-        print(f"{prog}: {exc}", file=err)
-        return EXIT_LINK
-    except KeyboardInterrupt:
-        print(f"{prog}: interrupted (bricks told to stop)", file=err)
-        return EXIT_INTERRUPTED
+    with Shutdown(prog) as shutdown:
+        opened: list = []
+        shutdown.on_force(lambda: motors_off(opened))
+        try:
+            log = execute_trajectory(traj, ports or None, options=execution_options(args),
+                                     emulator=EmulatorSettings(latency=args.latency, time_scale=args.time_scale,
+                                                               seed=args.seed),
+                                     on_progress=progress, on_bricks=announce, scene=scene,
+                                     on_connected=lambda bricks: opened.extend(bricks.values()))
+        except SetpointError as exc:
+            print(f"{prog}: refused before anything moved: {exc}", file=err)
+            return EXIT_INPUT
+        except ExecutionFailed as exc:
+            outputs.write(exc.log)  # type: ignore[arg-type]
+            print(f"{prog}: {exc}", file=err)
+            return EXIT_LINK
+        except ExecutionInterrupted as exc:
+            outputs.write(exc.log, plot=shutdown.signum is None)  # type: ignore[arg-type]
+            stopped = getattr(exc.log, "stopped", None)
+            print(f"{prog}: {stopped.reason if stopped is not None else 'interrupted'} (bricks told to stop)",
+                  file=err)
+            return shutdown.exit_code
+        except (LinkError, nxt_link.SimulationStalled) as exc:
+            print(f"{prog}: {exc}", file=err)
+            return EXIT_LINK
+        except KeyboardInterrupt as exc:
+            print(f"{prog}: {reason_of(exc)} (bricks told to stop)", file=err)
+            return exit_code_of(exc)
     if not outputs.write(log):
         return EXIT_INPUT
     error, warning = skew_verdict(traj, log)
@@ -339,6 +350,14 @@ def _mkdir_for(path: str) -> None:
 
 
 def _write(path: str, text: str) -> None:
+    """Write ``text`` to ``path`` whole or not at all (a temporary file renamed over it): a
+    process ended by the shutdown watchdog never leaves half a log."""
     _mkdir_for(path)
-    with open(path, "w", encoding="utf-8") as f:
-        f.write(text)
+    tmp = f"{path}.{os.getpid()}.tmp"
+    try:
+        with open(tmp, "w", encoding="utf-8") as f:
+            f.write(text)
+        os.replace(tmp, path)
+    finally:
+        if os.path.exists(tmp):
+            os.remove(tmp)

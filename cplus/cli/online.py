@@ -9,8 +9,9 @@ file the binding names. ``--simulate`` uses no brick at all: the world does what
 predicts, and ``--events`` brings the surprises.
 
 Exit codes (:mod:`cplus.cli.common`): 0 goal reached, 1 no plan from the observed state,
-2 bad input, 3 ``--max-cycles`` reached, 5 the world contradicted the model, 6 the observed
-state is ambiguous, 7 a robot was lost, 130 interrupted.
+2 bad input, 3 ``--max-cycles`` reached, 6 the world contradicted the model, 7 the observed
+state is ambiguous, 8 a robot was lost, 130 SIGINT, 143 SIGTERM (the bricks told to stop, the log
+ended), 124 a second signal (:mod:`cplus.cli.signals`).
 """
 from __future__ import annotations
 
@@ -36,8 +37,13 @@ from cplus.cli.common import (
     positive,
     seconds,
 )
+from cplus.cli.signals import Shutdown, exit_code_of, motors_off, reason_of
 
 __all__ = ["build_parser", "main", "exit_code"]
+
+MAX_EVENTS_FILE = 16 * 1024 * 1024
+"""The largest ``--events FILE`` read (characters): a script of a few hundred thousand lines,
+read and checked in seconds; anything larger is a mistake (a device, a log)."""
 
 
 def build_parser() -> OneLineArgumentParser:
@@ -259,9 +265,13 @@ def _behaviours(args: argparse.Namespace, robot: str, ports: dict[str, str]) -> 
     elif args.events:
         try:
             with open(args.events, encoding="utf-8") as f:
-                text = f.read()
+                text = f.read(MAX_EVENTS_FILE + 1)     # bounded: --events /dev/zero is an error, not a hang
         except (OSError, UnicodeDecodeError) as exc:
             print(f"cplus online: error: cannot read {args.events}: {getattr(exc, 'strerror', None) or exc}",
+                  file=err)
+            return EXIT_INPUT
+        if len(text) > MAX_EVENTS_FILE:
+            print(f"cplus online: error: {args.events}: an event file has at most {MAX_EVENTS_FILE} characters",
                   file=err)
             return EXIT_INPUT
         lines = parse_events(text, args.events)
@@ -272,18 +282,22 @@ def _behaviours(args: argparse.Namespace, robot: str, ports: dict[str, str]) -> 
     if not log.open():
         return EXIT_INPUT
     observers: list = ([] if args.quiet else [Progress(err)]) + log.observer({"binding": robot})
-    try:
-        result = OnlineLoop(model, executor, sources, observers, max_cycles=args.max_cycles,
-                            clock=getattr(executor, "clock", MONOTONIC)).run()
-    except SimulationStalled as exc:
-        print(f"cplus online: error: {exc}", file=err)
-        return EXIT_ROBOT_LOST
-    except KeyboardInterrupt:
-        print("cplus online: interrupted (the robot was told to stop)", file=err)
-        return EXIT_INTERRUPTED
-    finally:
-        log.close(args.quiet)
-    return exit_code(result.status)
+    loop = OnlineLoop(model, executor, sources, observers, max_cycles=args.max_cycles,
+                      clock=getattr(executor, "clock", MONOTONIC))   # emulated bricks: their simulated clock
+    with Shutdown("cplus online") as shutdown:
+        shutdown.on_stop(loop.stop)
+        _forced_stop(shutdown, lambda: [b.brick for b in getattr(executor, "bricks", {}).values()], observers)
+        try:
+            result = loop.run()
+        except SimulationStalled as exc:
+            print(f"cplus online: error: {exc}", file=err)
+            return EXIT_ROBOT_LOST
+        except KeyboardInterrupt as exc:
+            print(f"cplus online: {reason_of(exc)} (the robot was told to stop)", file=err)
+            return exit_code_of(exc)
+        finally:
+            log.close(args.quiet)
+    return shutdown.exit_code if result.status.value == "stopped" else exit_code(result.status)
 
 
 def _executor(args: argparse.Namespace, model, binding, ports: dict[str, str]):
@@ -327,18 +341,36 @@ def _arms(args: argparse.Namespace, scene: str, ports: dict[str, str]) -> int:
         return EXIT_INPUT
     executor = ArmsExecutor(robots, ports or None, stalls, time_scale=args.time_scale, latency=not args.no_latency)
     observers: list = ([] if args.quiet else [Progress(err)]) + log.observer({"scene": scene})
-    try:
-        result = run_arms(task, label, executor, observers=observers, threshold_deg=args.tracking_threshold,
-                          max_faults=args.max_faults, max_horizon=args.max_horizon)
-    except SimulationStalled as exc:
-        print(f"cplus online: error: {exc}", file=err)
-        return EXIT_ROBOT_LOST
-    except KeyboardInterrupt:
-        print("cplus online: interrupted (the bricks were told to stop)", file=err)
-        return EXIT_INTERRUPTED
-    finally:
-        log.close(args.quiet)
-    return exit_code(result.status)
+    with Shutdown("cplus online") as shutdown:
+        _forced_stop(shutdown, lambda: list(executor.bricks.values()), observers)
+        try:
+            result = run_arms(task, label, executor, observers=observers, threshold_deg=args.tracking_threshold,
+                              max_faults=args.max_faults, max_horizon=args.max_horizon)
+        except SimulationStalled as exc:
+            print(f"cplus online: error: {exc}", file=err)
+            return EXIT_ROBOT_LOST
+        except KeyboardInterrupt as exc:
+            print(f"cplus online: {reason_of(exc)} (the bricks were told to stop)", file=err)
+            return exit_code_of(exc)
+        finally:
+            log.close(args.quiet)
+    return shutdown.exit_code if result.status.value == "stopped" else exit_code(result.status)
+
+
+def _forced_stop(shutdown, bricks, observers) -> None:
+    """What the shutdown watchdog does when the orderly stop is late: motors off on every
+    brick, and the log's end record (``"forced": true``)."""
+    from cplus.robot.online.loop import JsonLinesLog
+    shutdown.on_force(lambda: motors_off(bricks()))
+    for obs in observers:
+        if isinstance(obs, JsonLinesLog):
+            shutdown.on_force(lambda obs=obs: obs.end_forced(f"{_stop_reason(shutdown)}, forced after "
+                                                             f"{shutdown.grace_s:g} s (motors commanded off)"))
+
+
+def _stop_reason(shutdown) -> str:
+    from cplus.cli.signals import Stopped
+    return str(Stopped(shutdown.signum)) if shutdown.signum is not None else "interrupted"
 
 
 def _stalls(items: Sequence[str], robots: Sequence[str]) -> dict:
@@ -351,7 +383,12 @@ def _stalls(items: Sequence[str], robots: Sequence[str]) -> dict:
             raise CliError(f"cplus online: error: --stall expects ROBOT:PORT@SECONDS[+DURATION] with ROBOT one of "
                            f"{', '.join(robots)}, got {item!r}")
         try:
-            out.setdefault(name, []).append(Stall.parse(spec))
+            stall = Stall.parse(spec)
         except ValueError as exc:
             raise CliError(f"cplus online: error: --stall: {exc}") from None
+        earlier = [s for s in out.get(name, []) if s.port == stall.port]
+        if earlier:        # the emulator holds one stall per motor: say so now, not in a traceback later
+            raise CliError(f"cplus online: error: --stall {item} and --stall {name}:{earlier[0]} are both on "
+                           f"{name}'s motor {'ABC'[stall.port]}: give one stall per motor")
+        out.setdefault(name, []).append(stall)
     return out

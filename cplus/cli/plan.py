@@ -34,7 +34,10 @@ __all__ = ["build_parser", "main", "add_common", "add_robot_options"]
 def build_parser() -> OneLineArgumentParser:
     p = OneLineArgumentParser(prog="cplus plan", description="Answer the queries of a C+ file.")
     p.add_argument("file", help="the C+ file ('-' reads standard input)")
-    p.add_argument("--query", "-q", metavar="LABEL", help="run only this query ('states': every state)")
+    which = p.add_mutually_exclusive_group()
+    which.add_argument("--query", "-q", metavar="LABEL", help="run only this query ('states': every state)")
+    which.add_argument("--nmquery", metavar="LABEL",
+                       help="run only this nmquery (its rules completed on their own, as CCALC's nmquery)")
     p.add_argument("-n", type=nonneg, default=None, metavar="N",
                    help="number of solutions (0 = all; default 1, all for '--query states')")
     p.add_argument("--json", action="store_true", help="print the result as cplus.plan/1 JSON")
@@ -104,18 +107,21 @@ def _plan_domain(args: argparse.Namespace) -> int:
     t0 = time.perf_counter()
     domain = Domain.load(args.file, externals(args.extern))
     warn(domain.diagnostics)
-    labels = [args.query] if args.query else domain.labels
-    if not labels:
+    if args.query or args.nmquery:
+        wanted_labels = [(args.nmquery, True) if args.nmquery else (args.query, False)]
+    else:
+        wanted_labels = [(lab, False) for lab in domain.labels] + [(lab, True) for lab in domain.nm_labels]
+    if not wanted_labels:
         from cplus.errors import QueryError
         raise QueryError("this file has no queries; use '--query states' to list its states",
                          file_loc(args.file))
-    queries = [query(domain, lab, args.file) for lab in labels]
+    queries = [query(domain, lab, args.file, nm) for lab, nm in wanted_labels]
     loaded = f"% {args.file}: loaded in {time.perf_counter() - t0:.3f} s; "
     code = EXIT_OK
     docs = []
     for q in queries:
         if len(queries) > 1 and not args.json:
-            print(f"% query {q.label}")
+            print(f"% {'nmquery' if q.nm else 'query'} {q.label}")
         t1 = time.perf_counter()
         theory = domain.theory_for(q)     # only what the query's initial state can reach
         warn(domain.diagnostics)
@@ -127,7 +133,7 @@ def _plan_domain(args: argparse.Namespace) -> int:
         every_state = q.label == "states" and q.loc is None   # the built-in query, not a file's
         wanted = args.n if args.n is not None else 0 if every_state else 1
         result = domain.solve(q.label, wanted, args.solver or DEFAULT_SOLVER, args.max_horizon,
-                              horizon_progress(args.stats))
+                              horizon_progress(args.stats), nmquery=q.nm)
         clear_progress(args.stats)
         warn(domain.diagnostics)
         if args.stats and result.stats:
@@ -160,6 +166,10 @@ def _plan_robot_task(args: argparse.Namespace, scene_path: str) -> int:
     from cplus.robot import RefineStatus, RobotTask, TaskError, check_outputs, export_plan, refine
     if args.n != 1:
         print("cplus plan: -n applies to plain domains; a robot task yields one refined plan", file=sys.stderr)
+        return EXIT_INPUT
+    if args.nmquery:
+        print("cplus plan: --nmquery applies to plain domains; a robot task refines the plans of its queries",
+              file=sys.stderr)
         return EXIT_INPUT
     check_outputs(plot=args.plot, trajectory_json=args.trajectory, csv=args.csv,
                   points_per_step=args.points_per_step, step_time=args.step_time)

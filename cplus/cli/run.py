@@ -92,6 +92,14 @@ def _validate(args: argparse.Namespace) -> tuple[str, dict[str, str]]:
 
 
 def main(args: argparse.Namespace) -> int:
+    """``cplus run``: SIGINT and SIGTERM are handled for the whole job (planning included), and
+    the execution inside shares the handling (:class:`cplus.cli.signals.Shutdown` nests)."""
+    from cplus.cli.signals import Shutdown
+    with Shutdown("cplus run"):
+        return _main(args)
+
+
+def _main(args: argparse.Namespace) -> int:
     from cplus.output import PLAN_FORMAT, Display, format_result
     from cplus.robot import RefineStatus, RobotTask, export_plan, refine
     try:

@@ -17,7 +17,7 @@ from collections.abc import Callable, Iterator
 from cplus import ir
 from cplus.errors import GroundingError, Location
 from cplus.ground.compile import Ctx, bind, compile_formula
-from cplus.ground.pf import PF, mk_and
+from cplus.ground.pf import PF, mk_and, mk_or, neg
 from cplus.ground.restrict import fixed_at_zero, has_step_var
 from cplus.ground.theory import GroundTheory
 from cplus.limits import MAX_SOLVER_VARS, clause_bytes, count, memory_budget, too_large
@@ -239,6 +239,9 @@ class QuerySession:
         for formula, loc in query.items:
             dynamic = ir.mentions(formula, (ir.MaxStepT,)) or has_step_var(formula)
             self.items.append([formula, loc, compile_formula(formula, self.ctx), dynamic, False])
+        self.rules = [(None if head is None else compile_formula(head, self.ctx), compile_formula(body, self.ctx),
+                       ir.free_vars(ir.conj((body,) if head is None else (head, body))), loc)
+                      for head, body, loc in query.rules or ()]
         self.horizon = Horizon(theory, solver, solver_factory, templates,
                                None if templates is not None else self._fixed_at_zero())
         self.stats: list[HorizonStats] = []
@@ -288,6 +291,8 @@ class QuerySession:
     def _add_items(self, m: int) -> None:
         h = self.horizon
         self.act = h.new_var()
+        if self.query.nm:
+            self._add_completion(m)
         for item in self.items:
             if item[4]:
                 continue
@@ -299,6 +304,51 @@ class QuerySession:
             else:
                 h.builder.add(pf)
                 item[4] = True
+
+    def _add_completion(self, m: int) -> None:
+        """An nmquery at horizon m, as CCALC answers it: its ground rules are literally
+        completed on their own, over every atom of the history (``a <-> B1 | ... | Bk`` for
+        the bodies of its rules with head ``a``, the literal ``-p`` of a Boolean ``p`` too, so
+        an atom no rule causes is false), and the histories satisfy both this completion and
+        the domain's.  Rules whose head lies outside 0..m have no atom there and are left out.
+        Constants internal to the encoding have no name an nmquery could cause, and are left
+        to the domain's completion."""
+        h = self.horizon
+        act = self.act
+        assert act is not None
+        bodies: dict[int, list[PF]] = {}
+        for head_fn, body_fn, variables, loc in self.rules:
+            def leaf(env: dict, head_fn=head_fn, body_fn=body_fn) -> None:
+                self._oor = False
+                head = True if head_fn is None else head_fn(env, None)
+                out = self._oor
+                body = body_fn(env, None)
+                if head_fn is None:
+                    h.builder.add(neg(body), guard=act)       # caused false if body
+                elif type(head) is int and not out:
+                    bodies.setdefault(head, []).append(body)
+            self._m = m
+            try:
+                bind(self.sig, variables, [], leaf, {"$maxstep": m})
+            except GroundingError as exc:
+                if exc.loc is None:
+                    exc.loc = loc
+                raise
+        for gc in self.sig.ground:
+            d = gc.decl
+            if d.hidden:
+                continue
+            pairs = self.atoms.head_lits(gc)
+            if len(pairs) < 2:
+                continue
+            steps: list[int | None] = [None] if d.kind == "rigid" else list(range(m if d.is_action else m + 1))
+            for t in steps:
+                for aid, _ in pairs:
+                    if aid < 0 and not gc.boolean:
+                        continue
+                    v = h.var(abs(aid), t) * (1 if aid > 0 else -1)
+                    f = mk_or(bodies.get(v, ()))
+                    h.builder.add(mk_and([mk_or([-v, f]), mk_or([v, neg(f)])]), guard=act)
 
     def assert_items(self, m: int) -> None:
         """Add every query condition at horizon m unconditionally (for a fixed horizon)."""

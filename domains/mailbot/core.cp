@@ -37,20 +37,20 @@
   address(package, office)     :: exogenousAction;
   cancel(package)              :: exogenousAction.
 
-caused pending(P) if -phase(P)=idle.
+caused pending(P) if -(phase(P)=idle).
 default -pending(P).
 
 % Picking up at the origin, delivering at the destination, at most `capacity` on board.
 pickup(P) causes phase(P)=carried.
 pickup(P) causes load=N+1 if load=N where N < capacity.
-nonexecutable pickup(P) if -phase(P)=waiting.
-nonexecutable pickup(P) if origin(P)=O & -at=O.
+nonexecutable pickup(P) if -(phase(P)=waiting).
+nonexecutable pickup(P) if origin(P)=O & -(at=O).
 nonexecutable pickup(P) if load=capacity.
 
 deliver(P) causes phase(P)=idle & origin(P)=none & dest(P)=none.
 deliver(P) causes load=N-1 if load=N where N > 0.
-nonexecutable deliver(P) if -phase(P)=carried.
-nonexecutable deliver(P) if dest(P)=O & -at=O.
+nonexecutable deliver(P) if -(phase(P)=carried).
+nonexecutable deliver(P) if dest(P)=O & -(at=O).
 
 % One action at a time.
 nonexecutable pickup(P) & pickup(P1) where P < P1.

@@ -2,18 +2,24 @@
 
 Both are one line a user can act on: which file, which byte offset or which
 instruction (program counter, clump, opcode name), and what is wrong with it.
+Both are :class:`~nxt_link.errors.LinkError` s, so that a caller catching the
+package's errors catches these too: whatever bytes a file holds, loading it
+raises nothing else than :class:`RxeError`, and running it nothing else than
+:class:`VMError`.
 """
 from __future__ import annotations
+
+from nxt_link.errors import LinkError
 
 __all__ = ["RxeError", "VMError"]
 
 
-class RxeError(ValueError):
+class RxeError(LinkError, ValueError):
     """An ``.rxe`` file the firmware would refuse to activate (malformed, truncated,
     wrong version), with the file name and, where it helps, the byte offset."""
 
 
-class VMError(RuntimeError):
+class VMError(LinkError, RuntimeError):
     """A fatal run-time error: the firmware would abort the program.
 
     Attributes:

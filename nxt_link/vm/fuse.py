@@ -1,7 +1,7 @@
 """Fused blocks: straight-line runs of instructions compiled into one Python function.
 
 The interpreter's unit of work is one closure per instruction (see
-:mod:`nxt_link.vm.machine`); calling it and checking what it returned costs more
+:mod:`nxt_link.vm.compiler`); calling it and checking what it returned costs more
 than most instructions themselves (a ``mov`` is one list store). A *block* is
 the run of instructions from a *leader* (a clump's first instruction, a jump
 target, the instruction after a branch, a call, a wait...) up to and including

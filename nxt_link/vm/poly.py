@@ -207,7 +207,9 @@ def convert(t1: DType, t2: DType, v2: Any) -> Any:
 
 def poly_unop(op: int, cc: int, t1: DType, t2: DType, v2: Any) -> Any:
     """``cCmdInterpPolyUnop2``: the new value of the destination."""
-    if t2.is_scalar or t2.tc == TC.MUTEX:
+    if TC.MUTEX in (t1.tc, t2.tc):
+        raise PolyError(f"a mutex is no operand ({t1.name} destination, {t2.name} source)")
+    if t2.is_scalar:
         if not t1.is_scalar:
             raise PolyError(f"{t1.name} destination for a scalar source")
         return _scalar_op1(op, cc, t1, t2, v2)
@@ -235,6 +237,9 @@ def _scalar_op2(op: int, cc: int, t1: DType, t2: DType, t3: DType, v2: Any, v3: 
 
 def poly_binop(op: int, cc: int, t1: DType, t2: DType, t3: DType, v2: Any, v3: Any) -> Any:
     """``cCmdInterpPolyBinop``: the new value of the destination."""
+    if TC.MUTEX in (t1.tc, t2.tc, t3.tc):
+        raise PolyError(f"a mutex is no operand ({t1.name} destination, {t2.name} and {t3.name} "
+                        f"sources)")
     agg2, agg3 = not t2.is_scalar, not t3.is_scalar
     if not agg2 and not agg3:
         if not t1.is_scalar:
@@ -273,7 +278,9 @@ def compare_aggregates(cc: int, t2: DType, t3: DType, v2: Any, v3: Any) -> int:
 
 
 def _cmp_rec(cc: int, t2: DType, t3: DType, v2: Any, v3: Any) -> tuple[bool, int]:
-    if t2.is_scalar or t2.tc == TC.MUTEX:
+    if not (t2.is_scalar and t3.is_scalar) and (t2.is_scalar or t3.is_scalar or TC.MUTEX in (t2.tc, t3.tc)):
+        raise PolyError(f"comparing a {t2.name} with a {t3.name}")
+    if t2.is_scalar:
         a, b = int_of(t2.tc, v2), int_of(t3.tc, v3)
         if compare_int(5, a, b, t2.tc, t3.tc):
             return True, compare_int(cc, a, b, t2.tc, t3.tc)

@@ -186,7 +186,8 @@ class _Loader:
         defaults = d[defaults_off:defaults_off + defaults_size]
         initial, slots = self.inflate(toc, types, top, defaults[:dyn_off], dyn_off)
         dyn = defaults[dyn_off:]
-        self.fill_arrays(toc, types, initial, dyn, dva_offset, mm_head, mm_tail)
+        self.fill_arrays(toc, types, initial, dyn, dva_offset, mm_head, mm_tail,
+                         POOL_SIZE - pool - static_size)
         clumps = self.parse_clumps(records, d, clumps_off + 4 * clump_count, code_count)
         code = struct.unpack_from(f"<{code_count}H", d, code_off)
         return Executable(self.name, (major, minor), ds_size, static_size, types, slots, top,
@@ -220,7 +221,8 @@ class _Loader:
                 if elem.tc == TC.MUTEX or elem.tc == TC.VOID:
                     raise self.fail(f"dataspace entry {i}: array of {TC.NAMES[elem.tc]}")
                 node = DType(tc, i, elem=elem, elem_size=_elem_size(elem),
-                             string=elem.tc == TC.UBYTE)
+                             string=elem.tc == TC.UBYTE, nested=_holds_array(elem))
+                self.check_element(node)
             else:
                 node = DType(tc, i)
                 j = i + 1
@@ -233,6 +235,21 @@ class _Loader:
             top.append(i)
             _, i = build(i, 0)
         return [t for t in types if t is not None], top
+
+    def check_element(self, t: DType) -> None:
+        """An array's elements hold no mutex nor void (the firmware cannot copy them)."""
+        elem = t.elem
+        assert elem is not None
+
+        def walk(m: DType) -> None:
+            if m.tc == TC.CLUSTER:
+                for x in m.members:
+                    walk(x)
+            elif m.tc == TC.MUTEX or m.tc == TC.VOID:
+                raise self.fail(f"dataspace entry {t.index}: array elements of type {elem.name} "
+                                f"hold a {TC.NAMES[m.tc]}")
+
+        walk(elem)
 
     def inflate(self, toc: list[tuple[int, int, int]], types: list[DType], top: list[int],
                 static: bytes, dyn_off: int) -> tuple[dict[int, Any], list[int]]:
@@ -280,8 +297,14 @@ class _Loader:
 
     def fill_arrays(self, toc: list[tuple[int, int, int]], types: list[DType],
                     initial: dict[int, Any], dyn: bytes, dva_offset: int, head: int,
-                    tail: int) -> None:
-        """Decode the arrays' initial contents through the dope-vector array."""
+                    tail: int, room: int) -> None:
+        """Decode the arrays' initial contents through the dope-vector array.
+
+        Their pool bytes, nested arrays included, are counted as they are decoded,
+        before anything is built, against ``room`` (what the pool has left after the
+        static data and the clump records): a file whose dope vectors claim more
+        elements than the brick could hold is refused at once instead of being
+        inflated."""
         base = self.static_size
         if not base <= dva_offset <= base + len(dyn) - 10:
             raise self.fail(f"dope vector array at offset {dva_offset} lies outside the dynamic "
@@ -300,13 +323,27 @@ class _Loader:
         if not (head < dva_count and (tail < dva_count or tail == _NOT_A_DS_ID)):
             raise self.fail(f"memory manager list ({head}..{tail}) outside the dope vector array")
 
+        allocated = 0
+
         def decode(t: DType, dvi: int, where: str) -> Any:
+            nonlocal allocated
             if not 0 < dvi < dva_count:
                 raise self.fail(f"{where}: dope vector index {dvi} outside 1..{dva_count - 1}")
             off, es, count = dv(dvi)
             assert t.elem is not None
             if count == 0:
                 return default_value(t)
+            need = _extent(t.elem, toc)
+            if es < need:
+                raise self.fail(f"{where}: dope vector {dvi} gives {es}-byte elements, the "
+                                f"array's elements ({t.elem.name}) reach byte {need}")
+            size = count * t.elem_size
+            allocated += size + (-size) % 4
+            if allocated > room:
+                raise self.fail(f"{where}: dope vector {dvi} claims {count} elements: the initial "
+                                f"arrays need more than the {room} bytes of RAM the brick has left "
+                                f"for them ({POOL_SIZE} less {POOL_SIZE - room} of static data and "
+                                f"clump records)")
             start = off - base
             if start < 0 or start + es * count > len(dyn):
                 raise self.fail(f"{where}: initial contents ({count} x {es} bytes at offset "
@@ -359,6 +396,21 @@ def _scalar(tc: int, data: bytes, off: int) -> Any:
            TC.SLONG: "<i", TC.FLOAT: "<f"}[tc]
     v = struct.unpack_from(fmt, data, off)[0]
     return float(v) if tc == TC.FLOAT else v
+
+
+def _extent(t: DType, toc: list[tuple[int, int, int]]) -> int:
+    """Bytes from an element's start to the end of its last member (the TOC offsets of
+    an array's element type are relative to the element)."""
+    if t.tc == TC.CLUSTER:
+        return max(_extent(m, toc) for m in t.members)
+    return toc[t.index][2] + TC.SIZE[t.tc]
+
+
+def _holds_array(t: DType) -> bool:
+    """``t`` is an array or a cluster with an array among its members (at any depth)."""
+    if t.tc == TC.CLUSTER:
+        return any(_holds_array(m) for m in t.members)
+    return t.tc == TC.ARRAY
 
 
 def _elem_size(t: DType) -> int:

@@ -41,7 +41,7 @@ from typing import TYPE_CHECKING, Any
 from nxt_link.vm.values import Mutex
 
 if TYPE_CHECKING:
-    from nxt_link.vm.machine import VM
+    from nxt_link.vm.core import VMCore as VM
 
 __all__ = ["SpinDetector", "SPIN_AFTER", "SPIN_SOON"]
 

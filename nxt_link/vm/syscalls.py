@@ -21,8 +21,8 @@ from nxt_link.vm.opcodes import TC
 from nxt_link.vm.values import int_of, store
 
 if TYPE_CHECKING:
+    from nxt_link.vm.core import VMCore as VM
     from nxt_link.vm.flash import Flash
-    from nxt_link.vm.machine import VM
 
 __all__ = ["SYSCALLS", "Syscall", "SyscallError"]
 

@@ -27,7 +27,8 @@ from typing import Any
 from nxt_link.vm.opcodes import TC
 
 __all__ = ["DType", "Mutex", "wrap", "to_f32", "int_of", "float_of", "store",
-           "default_value", "copy_value", "flatten", "unflatten", "flat_size",
+           "default_value", "copy_value", "flatten", "unflatten", "flat_size", "pool_bytes",
+           "held_bytes",
            "is_string_type", "UNSIGNED", "SIGNED", "INT_TYPES"]
 
 M32 = 0xFFFFFFFF
@@ -51,6 +52,8 @@ class DType:
     #: bytes one element takes in the pool (arrays only; the firmware's layout)
     elem_size: int = 0
     string: bool = field(default=False)
+    #: arrays only: the elements hold arrays, whose contents take pool bytes of their own
+    nested: bool = False
 
     @property
     def is_scalar(self) -> bool:
@@ -182,6 +185,27 @@ def copy_value(t: DType, v: Any) -> Any:
     if t.tc == TC.CLUSTER:
         return [copy_value(m, e) for m, e in zip(t.members, v)]
     return v
+
+
+def pool_bytes(t: DType, v: Any) -> int:
+    """Bytes the array value ``v`` of array type ``t`` takes in the firmware's pool: its
+    elements, rounded up to 4, and the contents of the arrays they hold (each nested
+    array is an array of its own there, behind its own dope vector)."""
+    size = len(v) * t.elem_size
+    size += (-size) % 4
+    if t.nested:
+        assert t.elem is not None
+        size += sum(held_bytes(t.elem, e) for e in v)
+    return size
+
+
+def held_bytes(t: DType, v: Any) -> int:
+    """Pool bytes of the arrays held in a value of type ``t`` (0 for a scalar)."""
+    if t.tc == TC.ARRAY:
+        return pool_bytes(t, v)
+    if t.tc == TC.CLUSTER:
+        return sum(held_bytes(m, e) for m, e in zip(t.members, v))
+    return 0
 
 
 def flat_size(t: DType, v: Any) -> int:

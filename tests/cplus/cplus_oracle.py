@@ -193,7 +193,8 @@ def show(f: Formula) -> str:
         return f"{term_text(f[2])} {f[1]} {term_text(f[3])}"
     if k == "not":
         g = f[1]
-        return "-" + show(g) if g[0] == "eq" else f"-({show(g)})"
+        # `-p` for a Boolean atom; `-(c=v)` otherwise: CCALC reads `-c=v` as `(-c)=v`
+        return "-" + show(g) if g[0] == "eq" and "=" not in show(g) else f"-({show(g)})"
     if k == "q":
         quantifier = "\\/" if f[1] == "ex" else "/\\"
         return f"[{quantifier}{f[2]} | {show(f[3])}]"

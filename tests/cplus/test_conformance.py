@@ -28,6 +28,14 @@ CORPUS = Path(os.environ.get("CPLUS_CORPUS", Path(__file__).resolve().parents[1]
 
 REQUIRED = ("id", "path", "query_label", "step_range", "solutions_requested", "expected")
 
+CCALC_DIFFERS = {
+    # The corpus's answer is Cplus2ASP's open-ended search; CCALC answers a query without
+    # `maxstep` at maxstep 0 (ccalc.pl, process_query: `MaxStep2 = 0`), and the tower needs 7.
+    "examples/cplus/etc/hanoi#test": {"result": "UNSAT", "plan_length": None, "failed": [0]},
+}
+"""Cases whose expected answer (Cplus2ASP's) is not CCALC's: checked against CCALC's answer
+here, the corpus data left as it is (reported in issue 24)."""
+
 
 def _manifest() -> list[dict]:
     path = CORPUS / "manifest.json"
@@ -48,6 +56,10 @@ def test_corpus_case(case, corpus):
     counted = expected.get("num_models") is not None
     result = domain.solve(case["query_label"], solutions=0 if counted else 1, max_horizon=200)
     got = "SAT" if result.histories else "UNSAT"
+    ccalc = CCALC_DIFFERS.get(case["id"])
+    if ccalc is not None:
+        assert (got, result.maxstep, result.failed) == (ccalc["result"], ccalc["plan_length"], ccalc["failed"])
+        return
     assert got == expected["result"]
     lo, hi = case["step_range"]["min"], case["step_range"]["max"]
     if got == "SAT":

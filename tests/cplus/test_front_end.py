@@ -25,7 +25,7 @@ def shape(e) -> str:
     if isinstance(e, ast.Name):
         return e.name + (f"({','.join(shape(a) for a in e.args)})" if e.args else "")
     if isinstance(e, ast.Unary):
-        return {"not": "not", "-": "neg", "abs": "abs"}[e.op] + f"({shape(e.arg)})"
+        return {"not": "not", "-": "neg", "cneg": "neg", "abs": "abs"}[e.op] + f"({shape(e.arg)})"
     if isinstance(e, ast.Binary):
         return f"({shape(e.left)} {e.op} {shape(e.right)})"
     if isinstance(e, ast.Stamp):
@@ -40,7 +40,10 @@ def shape(e) -> str:
 
 @pytest.mark.parametrize("text, expected", [
     # the examples of operator precedence (docs/language.md, section 4)
-    ("-door(d1)=open & bell ++ alarm", "((not((door(d1) = open)) & bell) ++ alarm)"),
+    # CCALC (Prolog): prefix minus binds tighter than `=`, so `-door(d1)=open` is `(-door(d1))=open`
+    ("-door(d1)=open & bell ++ alarm", "(((neg(door(d1)) = open) & bell) ++ alarm)"),
+    ("-(door(d1)=open) & bell", "(not((door(d1) = open)) & bell)"),
+    ("-c+1=v", "((neg(c) + 1) = v)"),
     ("p & q ->> r ++ s <->> t", "(((p & q) ->> (r ++ s)) <->> t)"),
     ("level(T)+1 >= cap(T)*2", "((level(T) + 1) >= (cap(T) * 2))"),
     ("A+B-C*D mod 2 = 0", "(((A + B) - ((C * D) mod 2)) = 0)"),

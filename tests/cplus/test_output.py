@@ -38,10 +38,19 @@ QUERY = ":- query maxstep :: 1; 0: at=l1 & -moved; 1: at=l2."
 @pytest.mark.parametrize("display, state1, actions", [
     ("", "1:  moved  at=l2", "ACTIONS:  go(l2)"),   # boolean sorts before loc
     (":- hide moved.", "1:  at=l2", "ACTIONS:  go(l2)"),
-    (":- show at=L.", "1:  at=l2", "ACTIONS:  go(l2)"),            # show alone keeps actions
+    # CCALC 2 (in_show_list): a show spec without `positive` or `all` shows only what it names,
+    # actions included, so a spec naming no action prints no ACTIONS line
+    (":- show at=L.", "1:  at=l2", None),
     (":- hide all. :- show moved.", "1:  moved", None),           # hide all: only what is shown
     (":- hide all. :- show go(L); at=l2.", "1:  at=l2", "ACTIONS:  go(l2)"),
-    (":- show at=L; moved. :- hide at=l2.", "1:  moved", "ACTIONS:  go(l2)"),  # hide wins
+    (":- show at=L; moved; go(L). :- hide at=l2.", "1:  moved", "ACTIONS:  go(l2)"),  # hide wins
+    (":- show positive.", "1:  moved  at=l2", "ACTIONS:  go(l2)"),  # the default, said
+    (":- show negative.", "0:  -moved", None),                    # false Boolean atoms only
+    (":- show all.", "0:  at=l1  -moved", "ACTIONS:  go(l2)"),    # positive and negative literals
+    (":- show none.", "1:", None),
+    (":- show at; go.", "1:  at=l2", "ACTIONS:  go(l2)"),         # a constant without its arguments
+    (":- show positive; -moved.", "0:  at=l1  -moved", "ACTIONS:  go(l2)"),
+    (":- show moved. :- show go(L).", "1:  moved", "ACTIONS:  go(l2)"),  # show statements add up
 ])
 def test_show_and_hide(display, state1, actions):
     out = text(BASE + display + "\n" + QUERY)
@@ -70,3 +79,35 @@ def test_the_example_domains(name, label, length, count):
     assert r.maxstep == length
     if count:
         assert len(r.histories) == count
+
+
+def test_values_none_are_never_shown_by_default():
+    """CCALC prints no `c=none` for a fluent (`positive` leaves it out, `negative` shows it);
+    a non-Boolean action's `none` is its value and is printed."""
+    src = """:- sorts loc. :- objects l1 :: loc.
+:- constants target :: inertialFluent(loc*); pick :: exogenousAction(loc*).
+%s
+:- query maxstep :: 1; 0: target=none & pick=none."""
+    out = text(src % "")
+    assert "target=none" not in out and "0:" in out.splitlines()[1]
+    assert "ACTIONS:  pick=none" in out
+    assert "0:  target=none" in text(src % ":- show negative.")
+
+
+def test_abnormalities_are_shown_by_ab_or_all():
+    """An abnormality action of an `unless` clause is shown only by `ab`, `all` or a pattern."""
+    src = """:- constants p :: inertialFluent; a :: exogenousAction.
+a causes p unless broken.
+caused broken if a.
+%s
+:- query maxstep :: 1; 0: a."""
+    assert "broken" not in text(src % "")
+    assert "ACTIONS:  a  broken" in text(src % ":- show positive; ab.")
+    assert "ACTIONS:  broken" in text(src % ":- show ab.")
+    assert "ACTIONS:  a  broken" in text(src % ":- show all.")
+
+
+def test_a_constant_named_like_a_keyword_is_the_keyword_with_a_warning():
+    d = Domain.from_text(":- constants negative :: simpleFluent. :- show negative. :- query maxstep :: 0; 0: negative.")
+    assert any("ambiguous" in w.message for w in d.diagnostics.items)
+    assert d.format(d.solve()).strip() == "0:"

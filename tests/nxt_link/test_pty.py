@@ -112,7 +112,7 @@ def test_cplus_brick_prints_the_path_and_stops_cleanly_on_sigterm():
 @pytest.mark.parametrize("argv, message", [
     ([], "the following arguments are required: --name"),
     (["--name", "r1", "--drop", "1.5"], "probability must be in [0, 1)"),
-    (["--name", "r1", "--delay", "-3"], "must be >= 0"),
+    (["--name", "r1", "--delay", "-3"], "must be a finite number >= 0"),
     (["--name", "r1", "--disconnect-after", "0"], "must be >= 1"),
     (["--name", "r1", "--time-scale", "0"], "must be > 0"),
     (["--name", "r1", "--bogus"], "unrecognized arguments: --bogus"),

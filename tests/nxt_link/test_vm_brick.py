@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import os
 import signal
+import struct
 import subprocess
 import sys
 import time
@@ -13,7 +14,7 @@ from pathlib import Path
 import nxt.error
 import nxt.locator
 import pytest
-from vmtools import NXC_DIR
+from vmtools import FINCLUMP, NXC_DIR, tiny_rxe
 
 from nxt_link.brick import Brick
 from nxt_link.clock import SimClock
@@ -22,6 +23,7 @@ from nxt_link.execution import ExecutionOptions, SetpointStream, execute_streams
 from nxt_link.serial_transport import SerialTransport
 from nxt_link.session import SessionTiming
 from nxt_link.vm import compile_nxc
+from nxt_link.vm.opcodes import TC
 
 pytestmark = pytest.mark.slow   # processes and ptys, in real time
 
@@ -113,10 +115,33 @@ def test_cplus_brick_without_nbc_runs_the_model_and_says_so():
     assert "nbc not found: running the Python model of cplus_follow.nxc" in err
 
 
+def test_cplus_brick_serves_a_program_that_never_gives_the_cpu_back(tmp_path):
+    """Two tasks handing over to each other with ExitTo: the brick keeps its milliseconds
+    (so it answers), and SIGTERM stops it (``_brick_process`` asserts exit code 0)."""
+    src = tmp_path / "pingpong.nxc"
+    src.write_text("task b();\ntask a() { ExitTo(b); }\ntask b() { ExitTo(a); }\n"
+                   "task main() { ExitTo(a); }\n")
+    prog = tmp_path / "pingpong.rxe"
+    prog.write_bytes(compile_nxc(src).rxe)
+    path, err = _brick_process("--program", str(prog))
+    assert path.endswith("tty") and "aborted" not in err
+
+
+def _bomb() -> bytes:
+    """A file whose dope vectors claim 65,535 rows of 65,535 zero-byte elements."""
+    toc = [(TC.ARRAY, 0, 0), (TC.ARRAY, 0, 0), (TC.SWORD, 0, 0)]
+    return tiny_rxe(FINCLUMP, toc=toc, static=struct.pack("<H", 1),
+                    dope_vectors=[(32, 0, 0xFFFF), (32, 0, 0xFFFF)], contents=struct.pack("<H", 2))
+
+
 @pytest.mark.parametrize("make, text", [
     (lambda d: (d / "x.rxe", b"junk"), "x.rxe: not an NXT executable"),
     (lambda d: (d / "a_very_long_program_name.rxe", b""), "at most 19 characters"),
     (lambda d: (d / "missing.rxe", None), "cannot read"),
+    (lambda d: (d / "bomb.rxe", _bomb()),
+     "bomb.rxe: array at dataspace entry 0: dope vector 1 gives 0-byte elements"),
+    (lambda d: (d / "cut.rxe", compiled_follower()[0]["cplus_follow.rxe"][:5000]),
+     "cut.rxe: truncated: the header promises"),
 ])
 def test_cplus_brick_refuses_a_bad_program_in_one_line(tmp_path, make, text):
     path, data = make(tmp_path)

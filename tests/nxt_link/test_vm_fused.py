@@ -24,9 +24,9 @@ from nxt_link.execution import ExecutionOptions, SetpointStream, execute_streams
 from nxt_link.firmware import Firmware, FirmwareParams
 from nxt_link.session import SessionTiming
 from nxt_link.vm import compile_nxc
-from nxt_link.vm.machine import _wrap_expr, _wrap_src
 from nxt_link.vm.opcodes import TC
 from nxt_link.vm.spin import SpinDetector
+from nxt_link.vm.templates import wrap_expr, wrap_src
 from nxt_link.vm.values import Mutex, wrap
 
 PROGRAMS = ("vm_arith", "vm_float", "vm_arrays", "vm_strings", "vm_calls", "vm_tasks", "vm_io",
@@ -242,5 +242,5 @@ def test_a_zero_of_another_sign_is_another_state(rxe):
             0x80000000, 0xFFFFFFFF, 0x100000000, -0x80, -0x81, -0x8000, -0x80000001])))
 def test_the_templates_wrap_integers_as_the_brick_does(tc, x):
     ns = {"x": x}
-    exec(_wrap_src(tc, "x", "out"), ns)
-    assert ns["out"] == wrap(tc, x) == eval(_wrap_expr(tc, "x"), {"x": x})
+    exec(wrap_src(tc, "x", "out"), ns)
+    assert ns["out"] == wrap(tc, x) == eval(wrap_expr(tc, "x"), {"x": x})

@@ -12,7 +12,9 @@ commanded state, applied duty and counters. The first difference raises
 from __future__ import annotations
 
 import shutil
+import struct
 import subprocess
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
@@ -20,6 +22,7 @@ from nxt_link.emulator import BrickEmulator
 from nxt_link.firmware import Firmware, FirmwareParams
 from nxt_link.vm import Compiled, compile_nxc, load_rxe
 from nxt_link.vm.errors import VMError
+from nxt_link.vm.rxe import FORMAT_STRING
 
 NXC_DIR = Path(__file__).resolve().parent / "nxc"
 
@@ -218,9 +221,49 @@ task main()
 """)
 
 
+#: FINCLUMP -1 -1: the end of a clump that schedules nobody
+FINCLUMP = (0x602A, 0xFFFF, 0xFFFF)
+
+
+def tiny_rxe(code: tuple[int, ...] | list[int], *, toc: list[tuple[int, int, int]],
+             static: bytes, dope_vectors: Sequence[tuple[int, int, int]] = (),
+             contents: bytes = b"", dataspace_size: int | None = None) -> bytes:
+    """An executable of one clump, written byte by byte, to say what no compiler would.
+
+    Args:
+        code: the clump's code words.
+        toc: dataspace table of contents, ``(type code, flags, offset)`` per entry.
+        static: the static defaults (one value per top-level entry without flag 1);
+            their length is also the static dataspace size.
+        dope_vectors: ``(offset, element size, count)`` of dope vectors 1, 2, ...
+            (dope vector 0, the array of them, is added at the start of the dynamic
+            data, right after the static data).
+        contents: bytes after the dope vectors, at dataspace offset
+            ``len(static) + 10 * (len(dope_vectors) + 1)``.
+        dataspace_size: what the header claims (default: the real size).
+    """
+    static_size = len(static)
+    dvs = [(static_size, 10, len(dope_vectors) + 1)] + list(dope_vectors)
+    dyn = b"".join(struct.pack("<HHHHH", off, es, n, 0xFFFF, 0xFFFF) for off, es, n in dvs)
+    dyn += contents
+    ds_size = static_size + len(dyn) if dataspace_size is None else dataspace_size
+    header = FORMAT_STRING + bytes((0, 6)) + struct.pack(
+        "<11H", len(toc), ds_size, static_size, static_size + len(dyn), static_size, len(dyn),
+        0, len(dvs) - 1, static_size, 1, len(code))
+
+    def even(b: bytes) -> bytes:
+        return b + b"\0" * (len(b) % 2)
+
+    body = even(b"".join(struct.pack("<BBH", *e) for e in toc))
+    body += even(static + dyn)
+    body += struct.pack("<BBH", 0, 0, 0)  # one clump: runs at once, no dependents, word 0
+    return header + body + struct.pack(f"<{len(code)}H", *code)
+
+
 def nbc_version() -> str:
     return subprocess.run(["nbc"], capture_output=True, text=True).stdout.splitlines()[0]
 
 
 __all__ = ["Twin", "Disagreement", "make_twin", "run_program", "results", "compile_test_program",
-           "VMError", "output_state", "templates_program"]
+           "VMError", "output_state", "templates_program", "tiny_rxe",
+           "FINCLUMP"]

@@ -208,11 +208,13 @@ def execute_trajectory(traj: trajectory.Trajectory, ports: Mapping[str, str] | N
                        on_progress: Callable[[nxt_link.Progress], None] | None = None,
                        on_bricks: Callable[[Mapping[str, str]], None] | None = None,
                        scene: trajectory.Scene | None = None,
+                       on_connected: Callable[[Mapping[str, nxt_link.Brick]], None] | None = None,
                        ) -> nxt_link.ExecutionLog:
     """Execute ``traj`` on bricks at ``ports`` (robot name -> device), or on emulated bricks.
 
     With emulated bricks the options' ``time_scale`` is the emulator's (1 on simulated
-    time, where the bricks' clock is the PC's).
+    time, where the bricks' clock is the PC's). ``on_connected`` receives the bricks once
+    they are opened, before anything moves.
 
     Raises:
         SetpointError: the trajectory cannot be executed (nothing moved).
@@ -255,5 +257,7 @@ def execute_trajectory(traj: trajectory.Trajectory, ports: Mapping[str, str] | N
                 transport = nxt_link.SerialTransport(ports[name], clock=clock or MONOTONIC)  # type: ignore[operator]
                 stack.callback(transport.close)
                 bricks[name] = nxt_link.Brick(transport, name=name)
+        if on_connected is not None:      # e.g. a shutdown watchdog that must reach the bricks
+            on_connected(bricks)
         return nxt_link.execute_streams(streams, bricks, options=opts, on_progress=on_progress,
                                         session_ids=session_ids)

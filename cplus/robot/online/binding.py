@@ -41,7 +41,16 @@ from typing import Any
 from cplus.errors import CPlusError, Location, Source
 from cplus.robot.online.estimation import Act, Roles, user_actions
 from cplus.signature import GroundConst, render_value
-from trajectory.toml_locations import KeyPath, KeyPathReader, kind_of, locate_keys, nearest_location, toml_error
+from nxt_link.behaviour_protocol import MAX_ARGS, Event, Sense
+from trajectory.toml_locations import (
+    KeyPath,
+    KeyPathReader,
+    kind_of,
+    locate_keys,
+    nearest_location,
+    parse_toml,
+    toml_error,
+)
 
 __all__ = ["ROBOT_FORMAT", "SENSOR_PORTS", "MOTOR_PORTS", "SENSOR_TYPES", "EVENT_SOURCES", "BindingError",
            "BrickSpec", "ActionBinding", "EventBinding", "SensedBinding", "RobotBinding", "load_binding",
@@ -53,6 +62,9 @@ MOTOR_PORTS = ("A", "B", "C")
 SENSOR_TYPES = ("touch", "light", "light_ambient", "sound")
 EVENT_SOURCES = ("brick", "sensor", "input", "inferred")
 _INT32 = (-(2 ** 31), 2 ** 31 - 1)
+INT16 = (-(2 ** 15), 2 ** 15 - 1)
+"""A behaviour's arguments travel as int16 (the ACT message): checked at load, literal or not."""
+
 _NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_]*\Z")
 
 
@@ -94,7 +106,7 @@ class ActionBinding:
         for a in self.args:
             if isinstance(a, int):
                 out.append(a)
-            elif a[1:].isdigit():
+            elif a[1:].isascii() and a[1:].isdigit():
                 out.append(self.gc.args[int(a[1:]) - 1])
             else:
                 value = act.attribute(a[1:])
@@ -205,7 +217,7 @@ def parse_binding(text: str, path: str, domain) -> RobotBinding:
     """Validate the text of a binding file against a domain. Raises :class:`BindingError`."""
     source = Source(path, text)
     try:
-        data = tomllib.loads(text)
+        data = parse_toml(text)
     except tomllib.TOMLDecodeError as exc:
         message, line, col = toml_error(exc)
         raise BindingError(message, Location.of_token(source, line, col)) from None
@@ -275,6 +287,21 @@ class _Reader(KeyPathReader):
         if not isinstance(value, list):
             raise self.fail(path, f"{self.show(path)} must be an array, not {kind_of(value)}")
         return value
+
+    def reported(self, path: KeyPath, codes: type[Event] | type[Sense]) -> str:
+        """A name a brick can report: a brick event or a sensing value, as the behaviour client
+        names them (the protocol's code names, ``button``, ``landmark``; a code the protocol
+        does not name as ``event 7``, ``sense 9``). Anything else is a typo that would never
+        match: a press ignored or a fluent never sensed, found only at the end of a run."""
+        name = self.string(path)
+        known = [c.name.lower() for c in codes]
+        prefix = codes.__name__.lower()
+        word, _, number = name.partition(" ")
+        if name in known or (word == prefix and number and len(number) <= 3 and all(c in "0123456789" for c in number)
+                             and int(number) <= 255 and int(number) not in {c.value for c in codes}):
+            return name
+        raise self.fail(path, f"{self.show(path)} = {name[:40]!r}: a brick reports {', '.join(known)} (or "
+                        f"'{prefix} N' for another code N of its program)")
 
     def brick_ref(self, path: KeyPath, bricks: Mapping[str, BrickSpec]) -> str:
         name = self.string(path)
@@ -370,7 +397,10 @@ class _Reader(KeyPathReader):
             behaviour = self.integer(base + ("behaviour",), 1, 255)
             args: list[int | str] = []
             if self.has(base + ("args",)):
-                for i, a in enumerate(self.array(base + ("args",))):
+                given = self.array(base + ("args",))
+                if len(given) > MAX_ARGS:
+                    raise self.fail(base + ("args",), f"{len(given)} arguments: a behaviour takes at most {MAX_ARGS}")
+                for i, a in enumerate(given):
                     args.append(self.arg(base + ("args", i), a, gcs))
             for gc in gcs:
                 if gc in out:
@@ -382,21 +412,39 @@ class _Reader(KeyPathReader):
         if isinstance(a, bool) or not isinstance(a, (int, str)):
             raise self.fail(path, f"{self.show(path)} must be an integer or \"$N\", not {kind_of(a)}")
         if isinstance(a, int):
-            return self.integer(path)
+            return self.integer(path, *INT16)
         if not a.startswith("$") or not a[1:]:
             raise self.fail(path, f"{self.show(path)} = {a!r}: write an integer, \"$N\" for the action's N-th "
                             "argument, or \"$name\" for one of its attributes")
         ref = a[1:]
         for gc in gcs:
-            if ref.isdigit():
+            if ref.isascii() and ref.isdigit():
+                if len(ref) > 3:
+                    raise self.fail(path, f"{a}: {gc.text} has {gc.decl.arity} argument(s)")
                 n = int(ref)
                 if not 1 <= n <= gc.decl.arity:
                     raise self.fail(path, f"{a}: {gc.text} has {gc.decl.arity} argument(s)")
                 if not isinstance(gc.args[n - 1], int) or isinstance(gc.args[n - 1], bool):
                     raise self.fail(path, f"{a} of {gc.text} is {render_value(gc.args[n - 1])}, not an integer")
-            elif not any(ad.name == ref for ad in gc.decl.attributes):
-                raise self.fail(path, f"{a}: {gc.decl.name} has no attribute '{ref}'")
+                if not INT16[0] <= gc.args[n - 1] <= INT16[1]:
+                    raise self.fail(path, f"{a} of {gc.text} is {gc.args[n - 1]}, outside the int16 a behaviour's "
+                                    f"argument travels as ({INT16[0]}..{INT16[1]})")
+            else:
+                self.attribute_arg(path, a, gc, ref)
         return a
+
+    def attribute_arg(self, path: KeyPath, a: str, gc: GroundConst, ref: str) -> None:
+        """``"$name"``: an attribute of the action whose every value is an int16 (found now,
+        not at the first action that sends one)."""
+        attrs = [ad for ad in gc.decl.attributes if ad.name == ref]
+        if not attrs:
+            raise self.fail(path, f"{a}: {gc.decl.name} has no attribute '{ref}'")
+        for at in attrs[0].instances.values():
+            bad = [v for v in at.domain if v != "none" and (isinstance(v, bool) or not isinstance(v, int)
+                                                           or not INT16[0] <= v <= INT16[1])]
+            if bad:
+                raise self.fail(path, f"{a}: attribute {at.text} takes the value {render_value(bad[0])}, "
+                                f"not an int16 a behaviour's argument can carry ({INT16[0]}..{INT16[1]})")
 
     def event_bindings(self, bricks: Mapping[str, BrickSpec],
                        actions: Mapping[GroundConst, ActionBinding]) -> dict[GroundConst, EventBinding]:
@@ -416,7 +464,7 @@ class _Reader(KeyPathReader):
             if "brick" in wanted:
                 fields["brick"] = self.brick_ref(base + ("brick",), bricks)
             if source == "brick":
-                fields["event"] = self.string(base + ("event",))
+                fields["event"] = self.reported(base + ("event",), Event)
                 for gc in gcs:
                     if any(not isinstance(a, int) or isinstance(a, bool) for a in gc.args):
                         raise self.fail(base, f"{gc.text}: a brick reports integer arguments only")
@@ -465,7 +513,7 @@ class _Reader(KeyPathReader):
                 raise self.fail(base, "a sensed fluent needs exactly one of 'value' (a sensing value of the brick's "
                                 "behaviours) or 'port' (a sensor the PC reads)")
             if "value" in spec:
-                fields["value"] = self.string(base + ("value",))
+                fields["value"] = self.reported(base + ("value",), Sense)
             else:
                 port = self.sensor_port(base + ("port",))
                 if port not in bricks[brick].sensors:
@@ -488,10 +536,10 @@ class _Reader(KeyPathReader):
                 table = {}
                 for k in self.table(base + ("map",)):
                     path = base + ("map", k)
-                    try:
-                        reading = int(k)
-                    except ValueError:
-                        raise self.fail(path, f"map key '{k}' must be an integer reading") from None
+                    reading = _reading(k)
+                    if reading is None:
+                        raise self.fail(path, f"map key '{k[:40]}' must be an integer reading, written in ASCII "
+                                        f"digits ({_INT32[0]}..{_INT32[1]})")
                     table[reading] = self.value_of(path, gc, self.get(path))
                 fields["table"] = table
             if "ignore" in spec:
@@ -503,3 +551,13 @@ class _Reader(KeyPathReader):
                                 "a map table")
             out[gc] = SensedBinding(gc, brick, self.loc(base), **fields)
         return out
+
+
+def _reading(key: str) -> int | None:
+    """A ``map`` key as a reading: an optional minus and ASCII digits in int32 (``int`` would
+    also take ``"٣"``, ``" 3"`` and ``"1_0"``, and raise on ten thousand digits)."""
+    digits = key[1:] if key.startswith("-") else key
+    if not digits or len(digits) > 10 or any(c not in "0123456789" for c in digits):
+        return None
+    value = int(key)
+    return value if _INT32[0] <= value <= _INT32[1] else None

@@ -31,8 +31,8 @@ from typing import TextIO
 from cplus.errors import CPlusError, Location, Source
 from cplus.robot.online.loop import EventSource
 
-__all__ = ["EventLine", "EventsError", "LineEvents", "ScriptedEvents", "check_events", "parse_events",
-           "parse_line"]
+__all__ = ["EventLine", "EventsError", "LineEvents", "MAX_CYCLE", "MAX_LINE", "ScriptedEvents", "check_events",
+           "parse_events", "parse_line"]
 
 _TOKEN = re.compile(r"@\S*|[^\s(]+(\([^()]*(\([^()]*\)[^()]*)*\))?")
 
@@ -48,6 +48,26 @@ class EventLine:
     cycle: int | None
     events: tuple[str, ...]
     locations: tuple[Location, ...]
+
+
+MAX_CYCLE = 10 ** 9
+"""The largest cycle an ``@N`` may name: a run of a billion cycles is beyond any robot, and the
+bound keeps a thousand-digit ``@N`` from costing a bignum (or Python's digit limit)."""
+
+MAX_LINE = 65536
+"""The longest line standard input may send (characters); a longer one is refused whole, so a
+stream without line breaks cannot fill the memory."""
+
+
+def _cycle(token: str, loc: Location) -> int:
+    """The N of ``@N``: ASCII digits only (``str.isdigit`` also accepts ``²`` and ``٣``, which
+    ``int`` then rejects or reads as 3), from 1 to :data:`MAX_CYCLE`."""
+    digits = token[1:]
+    if not digits or len(digits) > len(str(MAX_CYCLE)) or any(c not in "0123456789" for c in digits) \
+            or not 1 <= int(digits) <= MAX_CYCLE:
+        raise EventsError(f"'{token}': a cycle is written @N with N a whole number from 1 to {MAX_CYCLE} "
+                          "(the first transition ends at cycle 1)", loc)
+    return int(digits)
 
 
 def parse_line(text: str, source: Source, offset: int = 0) -> EventLine | None:
@@ -68,10 +88,7 @@ def parse_line(text: str, source: Source, offset: int = 0) -> EventLine | None:
         if token.startswith("@"):
             if events or cycle is not None:
                 raise EventsError("'@N' must come first on its line", loc)
-            if not token[1:].isdigit() or int(token[1:]) < 1:
-                raise EventsError(f"'{token}': a cycle is written @N with N >= 1 (the first transition ends at cycle 1)",
-                                  loc)
-            cycle = int(token[1:])
+            cycle = _cycle(token, loc)
         else:
             if token.count("(") != token.count(")") or not re.fullmatch(r"[a-z]\w*(\(.+\))?", token):
                 raise EventsError(f"'{token}' is not an event (write it as a ground action: press, request(3))", loc)
@@ -113,29 +130,43 @@ class ScriptedEvents(EventSource):
     """Events at fixed cycles (a script): deterministic, and idle steps never wait for them."""
 
     def __init__(self, lines: Iterable[EventLine]) -> None:
-        self.pending = list(lines)
+        # in order of the cycle they are due at (a line without @N at once), file order within
+        # a cycle: each poll takes a prefix, so a script of n lines costs O(n log n) in all
+        # (taking the due lines out of a list by equality made 4,000 lines take 40 s)
+        numbered = sorted(enumerate(lines), key=lambda item: (item[1].cycle or 0, item[0]))
+        self._order = [e for _, e in numbered]
+        self._next = 0
+
+    @property
+    def pending(self) -> list[EventLine]:
+        """The lines not delivered yet, in the order they are due."""
+        return self._order[self._next:]
 
     def poll(self, cycle: int) -> list[str]:
-        due = [e for e in self.pending if e.cycle is None or e.cycle <= cycle]
-        self.pending = [e for e in self.pending if e not in due]
-        return [text for e in due for text in e.events]
+        start = end = self._next
+        while end < len(self._order) and (self._order[end].cycle or 0) <= cycle:
+            end += 1
+        self._next = end
+        return [text for e in self._order[start:end] for text in e.events]
 
     def waiting(self, cycle: int) -> bool:
-        return bool(self.pending)
+        return self._next < len(self._order)
 
     def wait(self, timeout: float) -> None:
         return None
 
     def finished(self) -> bool:
-        return not self.pending
+        return self._next >= len(self._order)
 
 
 class LineEvents(EventSource):
     """Events typed on a stream (standard input), read by a background thread.
 
     A line that cannot be read, or names no event of ``names``, is reported by :meth:`notes`
-    (the loop's record notes it) and otherwise ignored: a typo at the keyboard never stops a
-    robot.
+    with its line number (the loop's record and the progress line show it) and otherwise
+    ignored: a typo at the keyboard never stops a robot, and never stops the reader either,
+    so every later line still counts. A line longer than :data:`MAX_LINE` characters, or not
+    UTF-8, is refused the same way; the reader keeps at most one such line in memory.
     """
 
     def __init__(self, stream: TextIO, names: Iterable[str], name: str = "<stdin>") -> None:
@@ -149,19 +180,53 @@ class LineEvents(EventSource):
         self._thread = threading.Thread(target=self._read, name="cplus-events", daemon=True)
         self._thread.start()
 
-    def _read(self) -> None:
+    def _lines(self):
+        """``(number, text or None, why)`` for each line: bytes are decoded here, line by line,
+        so that one line that is not UTF-8 costs that line only (a text stream's decoder would
+        end the iteration), and lines are read with a bound."""
+        raw = getattr(self.stream, "buffer", None)
+        read = raw.readline if raw is not None else self.stream.readline
         number = 0
-        for line in self.stream:
+        while True:
+            chunk = read(MAX_LINE + 1)
+            if not chunk:
+                return
             number += 1
-            text = line.rstrip("\r\n")
-            try:
-                parsed = parse_line(text, Source(f"{self.name}:{number}", text))
-                if parsed is not None:
-                    check_events([parsed], self.names)
-                    self._queue.put(parsed)
-            except EventsError as exc:
-                self._rejected.put(f"ignored {self.name} line {number}: {exc.message}")
-        self._queue.put(None)
+            too_long = len(chunk) > MAX_LINE and not chunk.endswith(b"\n" if raw is not None else "\n")
+            while too_long:                      # skip the rest of the line, a bounded piece at a time
+                more = read(MAX_LINE + 1)
+                if not more or more.endswith(b"\n" if raw is not None else "\n"):
+                    break
+            if too_long:
+                yield number, None, f"longer than {MAX_LINE} characters"
+                continue
+            if isinstance(chunk, bytes):
+                try:
+                    chunk = chunk.decode("utf-8")
+                except UnicodeDecodeError:
+                    yield number, None, "not UTF-8 text"
+                    continue
+            yield number, chunk.rstrip("\r\n"), ""
+
+    def _read(self) -> None:
+        try:
+            for number, text, why in self._lines():
+                if text is None:
+                    self._rejected.put(f"ignored {self.name} line {number}: {why}")
+                    continue
+                try:
+                    parsed = parse_line(text, Source(f"{self.name}:{number}", text))
+                    if parsed is not None:
+                        check_events([parsed], self.names)
+                        self._queue.put(parsed)
+                except EventsError as exc:
+                    self._rejected.put(f"ignored {self.name} line {number}: {exc.message}")
+                except Exception as exc:  # noqa: BLE001 - a reader that dies loses every later line
+                    self._rejected.put(f"ignored {self.name} line {number}: {exc}")
+        except (OSError, ValueError) as exc:     # the stream itself failed (closed under us)
+            self._rejected.put(f"stopped reading {self.name}: {exc}")
+        finally:
+            self._queue.put(None)
 
     def _drain(self) -> None:
         while True:
@@ -176,8 +241,11 @@ class LineEvents(EventSource):
 
     def poll(self, cycle: int) -> list[str]:
         self._drain()
-        due = [e for e in self._held if e.cycle is None or e.cycle <= cycle]
-        self._held = [e for e in self._held if e not in due]
+        due: list[EventLine] = []
+        later: list[EventLine] = []
+        for e in self._held:                     # one pass: linear in the lines held
+            (due if e.cycle is None or e.cycle <= cycle else later).append(e)
+        self._held = later
         return [text for e in due for text in e.events]
 
     def wait(self, timeout: float) -> None:

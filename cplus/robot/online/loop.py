@@ -305,14 +305,43 @@ class JsonLinesLog(Observer):
         self.stream = stream
         self.extra = dict(extra or {})
         self.annotate = annotate
+        self._lock = threading.Lock()
+        self._ended = False
+        self._cycles = 0
+        self._t0 = time.monotonic()
 
-    def _write(self, obj: dict) -> None:
-        self.stream.write(json.dumps(obj, separators=(",", ":")) + "\n")
-        self.stream.flush()
+    def _write(self, obj: dict, end: bool = False) -> None:
+        """One whole line, under a lock: the run's thread and a shutdown watchdog
+        (:meth:`end_forced`) may both want to write, and the log must stay JSON lines with
+        one end record."""
+        line = json.dumps(obj, separators=(",", ":")) + "\n"
+        with self._lock:
+            if self._ended:
+                return
+            self._ended = end
+            self.stream.write(line)
+            self.stream.flush()
+
+    def end_forced(self, message: str, timeout_s: float = 0.2) -> None:
+        """The end record of a run whose thread did not get to write it (a watchdog ending the
+        process): status ``stopped``, ``"forced": true``. Nothing if the end was written."""
+        if not self._lock.acquire(timeout=timeout_s):
+            return                                   # a write is stuck: leave the lines as they are
+        try:
+            if self._ended:
+                return
+            self._ended = True
+            record = {"record": "end", "status": OnlineStatus.STOPPED.value, "message": message, "cycles": self._cycles,
+                      "forced": True, "seconds": round(time.monotonic() - self._t0, 6)}
+            self.stream.write(json.dumps(record, separators=(",", ":")) + "\n")
+            self.stream.flush()
+        finally:
+            self._lock.release()
 
     def on_start(self, loop: OnlineLoop) -> None:
         roles = loop.model.roles
         started = datetime.now(UTC).isoformat(timespec="seconds")
+        self._t0 = time.monotonic()
         self._write({"record": "start", "format": ONLINE_FORMAT, "started": started, "domain": loop.model.domain.path,
                      "goal": loop.model.query.label, "max_plan_length": loop.model.goal_query.hi,
                      "agent": sorted(gc.text for gc in roles.agent),
@@ -324,10 +353,11 @@ class JsonLinesLog(Observer):
         line = record.to_json()
         if self.annotate is not None:
             self.annotate(record, line)
+        self._cycles += 1
         self._write(line)
 
     def on_end(self, result: RunResult) -> None:
-        self._write(result.to_json())
+        self._write(result.to_json(), end=True)
 
 
 class OnlineLoop:
@@ -374,8 +404,8 @@ class OnlineLoop:
             result = self._run()
         except RobotLost as exc:           # while connecting or sensing before the first cycle
             result = self._end(OnlineStatus.ROBOT_LOST, str(exc))
-        except KeyboardInterrupt:
-            result = self._end(OnlineStatus.STOPPED, "interrupted")
+        except KeyboardInterrupt as exc:       # Ctrl-C, or a SIGTERM raised as one (its text says which)
+            result = self._end(OnlineStatus.STOPPED, str(exc) or "interrupted")
             raise
         finally:
             if result is None or result.status not in (OnlineStatus.GOAL_REACHED, OnlineStatus.MAX_CYCLES):

@@ -407,8 +407,8 @@ def run_arms(task: RobotTask, label: str, executor: ArmsExecutor, *, observers: 
             carry = time.perf_counter() - t1
     except (LinkError, OSError) as exc:
         return end(OnlineStatus.ROBOT_LOST, str(exc), state)
-    except KeyboardInterrupt:
-        end(OnlineStatus.STOPPED, "interrupted", state)
+    except KeyboardInterrupt as exc:       # its text says which signal, when one was raised as it
+        end(OnlineStatus.STOPPED, str(exc) or "interrupted", state)
         raise
     finally:
         executor.close()

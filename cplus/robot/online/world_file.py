@@ -65,7 +65,6 @@ Every problem is a :class:`WorldFileError` located at ``file:line:col``.
 """
 from __future__ import annotations
 
-import math
 import tomllib
 from collections.abc import Callable, Sequence
 from pathlib import Path
@@ -74,7 +73,18 @@ from typing import Any
 import nxt_link.world as w
 from cplus.errors import CPlusError, Location, Source
 from nxt_link import legolog_program
-from trajectory.toml_locations import KeyPath, KeyPathReader, locate_keys, nearest_location, toml_error
+from trajectory.toml_locations import (
+    MAX_INTEGER,
+    MAX_NUMBER,
+    KeyPath,
+    KeyPathReader,
+    integer_problem,
+    locate_keys,
+    nearest_location,
+    number_problem,
+    parse_toml,
+    toml_error,
+)
 
 __all__ = ["WORLD_FORMAT", "WorldFileError", "load_world", "parse_world"]
 
@@ -108,7 +118,7 @@ def parse_world(text: str, filename: str = "world.toml") -> w.WorldSpec:
     """Parse and validate the text of a ``cplus.world/1`` file (see the module docstring)."""
     source = Source(filename, text)
     try:
-        data = tomllib.loads(text)
+        data = parse_toml(text)
     except tomllib.TOMLDecodeError as exc:
         message, line, col = toml_error(exc)
         raise WorldFileError(message, _at(source, line, col)) from None
@@ -157,29 +167,32 @@ class _Reader(KeyPathReader):
             self.table(p, allowed)
         return paths
 
-    def number(self, path: KeyPath, default: float | None = None) -> float:
+    def number(self, path: KeyPath, default: float | None = None, lo: float = -MAX_NUMBER) -> float:
+        """A finite number in ``lo..MAX_NUMBER``: every length, time and percentage of a world
+        is one, and lengths and times are never negative (``lo=0``)."""
         if default is not None and not self.has(path):
             return default
         value = self.require(path)
-        if isinstance(value, bool) or not isinstance(value, int | float):
-            raise self.fail(path, f"{self.show(path)} must be a number, not {_kind(value)}")
-        if not math.isfinite(value):
-            raise self.fail(path, f"{self.show(path)} must be finite, not {value}")
+        problem = number_problem(value, lo)
+        if problem is not None:
+            raise self.fail(path, f"{self.show(path)} {problem}")
         return float(value)
 
-    def optional_number(self, path: KeyPath) -> float | None:
-        return self.number(path) if self.has(path) else None
+    def optional_number(self, path: KeyPath, lo: float = -MAX_NUMBER) -> float | None:
+        return self.number(path, lo=lo) if self.has(path) else None
 
-    def integer(self, path: KeyPath, default: int | None = None) -> int:
+    def integer(self, path: KeyPath, default: int | None = None, lo: int = -MAX_INTEGER,
+                hi: int = MAX_INTEGER) -> int:
         if default is not None and not self.has(path):
             return default
         value = self.require(path)
-        if isinstance(value, bool) or not isinstance(value, int):
-            raise self.fail(path, f"{self.show(path)} must be an integer, not {_kind(value)}")
+        problem = integer_problem(value, lo, hi)
+        if problem is not None:
+            raise self.fail(path, f"{self.show(path)} {problem}")
         return value
 
-    def optional_integer(self, path: KeyPath) -> int | None:
-        return self.integer(path) if self.has(path) else None
+    def optional_integer(self, path: KeyPath, lo: int = -MAX_INTEGER, hi: int = MAX_INTEGER) -> int | None:
+        return self.integer(path, lo=lo, hi=hi) if self.has(path) else None
 
     def string(self, path: KeyPath, default: str | None = None) -> str:
         if default is not None and not self.has(path):
@@ -259,14 +272,14 @@ class _Reader(KeyPathReader):
         out = []
         numbers: dict[int, KeyPath] = {}
         for p in self.tables("landmarks", ("number", "at_mm", "name", "visible", "misses")):
-            number = self.integer(p + ("number",))
+            number = self.integer(p + ("number",), lo=1, hi=15)
             if number in numbers:
                 raise self.fail(p + ("number",), f"landmark {number} is defined twice")
             numbers[number] = p
-            out.append(self.build(p, w.Landmark, number, self.number(p + ("at_mm",)),
+            out.append(self.build(p, w.Landmark, number, self.number(p + ("at_mm",), lo=0),
                                   self.string(p + ("name",), ""),
                                   self.boolean(p + ("visible",), True),
-                                  self.integer(p + ("misses",), 0)))
+                                  self.integer(p + ("misses",), 0, lo=0)))
         self._landmark_paths = numbers
         return tuple(out)
 
@@ -280,7 +293,7 @@ class _Reader(KeyPathReader):
         landmark = self.optional_integer(base + ("landmark",))
         if landmark is not None and landmark not in self._landmark_paths:
             raise self.fail(base + ("landmark",), f"start.landmark: no landmark {landmark}")
-        return self.build(base, w.Start, self.optional_number(base + ("at_mm",)), landmark,
+        return self.build(base, w.Start, self.optional_number(base + ("at_mm",), lo=0), landmark,
                           1 if direction == "forward" else -1)
 
     def ports(self) -> w.Ports:
@@ -351,14 +364,14 @@ class _Reader(KeyPathReader):
                 raise self.fail(p + ("at_landmark",), f"{self.show(p)}.at_landmark: no "
                                                       f"landmark {at_landmark}")
             out.append(self.build(
-                p, w.Press, self.optional_number(p + ("at_s",)), at_landmark,
-                self.integer(p + ("visit",), d.visit), self.number(p + ("delay_s",), d.delay_s),
-                self.number(p + ("hold_s",), d.hold_s), self.number(p + ("near_mm",), d.near_mm)))
+                p, w.Press, self.optional_number(p + ("at_s",), lo=0), at_landmark,
+                self.integer(p + ("visit",), d.visit, lo=1), self.number(p + ("delay_s",), d.delay_s, lo=0),
+                self.number(p + ("hold_s",), d.hold_s, lo=0), self.number(p + ("near_mm",), d.near_mm, lo=0)))
         return tuple(out)
 
     def blocked(self) -> tuple[w.Blocked, ...]:
-        return tuple(self.build(p, w.Blocked, self.number(p + ("from_mm",)),
-                                self.number(p + ("to_mm",)), self.optional_integer(p + ("times",)))
+        return tuple(self.build(p, w.Blocked, self.number(p + ("from_mm",), lo=0),
+                                self.number(p + ("to_mm",), lo=0), self.optional_integer(p + ("times",), lo=1))
                      for p in self.tables("blocked", ("from_mm", "to_mm", "times")))
 
 

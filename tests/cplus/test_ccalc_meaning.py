@@ -1,0 +1,168 @@
+"""CCALC's meaning where cplus used to read a construct its own way (issue 24, items 0-2).
+
+Each test has CCALC's answer written in it: from CCALC 2's source (ccalc.pl: ``process_query``,
+``nmquery_aux``, ``generate_completion_clauses(query)``, ``in_show_list``) or its semantics.
+"""
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+
+import pytest
+
+from cplus import Domain
+from cplus.errors import CPlusError
+
+LAMP = """:- constants lit :: inertialFluent; flip :: exogenousAction.
+flip causes lit.
+"""
+
+
+def histories(src: str, label: str = "0", nmquery: bool = False):
+    d = Domain.from_text(src)
+    return d.solve(label, solutions=0, nmquery=nmquery)
+
+
+# ----------------------------------------------------------------------------- -c=v
+
+def test_minus_before_a_comparison_is_arithmetic_minus_with_a_warning():
+    """CCALC: `0: -c=1` is `(-c)=1`, c = -1, out of 0..2: "No solution with maxstep 0."
+    (here it used to give c=0 or c=2)."""
+    d = Domain.from_text(":- constants c :: simpleFluent(0..2). :- query maxstep :: 0; 0: -c=1.")
+    assert d.solve(solutions=0).histories == []
+    assert any("means '(-c)'" in w.message and "-(c=v)" in w.message for w in d.diagnostics.items)
+    # `-(c=1)` is the negation: c is 0 or 2
+    r = histories(":- constants c :: simpleFluent(0..2). :- query maxstep :: 0; 0: -(c=1).")
+    assert sorted(h.value("c", 0) for h in r.histories) == [0, 2]
+    # `-c=-2` holds for c = 2 only
+    r = histories(":- constants c :: simpleFluent(0..2). :- query maxstep :: 0; 0: -c = -2.")
+    assert [h.value("c", 0) for h in r.histories] == [2]
+
+
+def test_minus_before_a_comparison_changes_a_law_body():
+    """`caused lit if -dir=3`: CCALC reads dir = -3, never true here, so lit is never caused."""
+    src = """:- constants dir :: simpleFluent(0..3); lit :: sdFluent.
+caused lit if -dir=3. default -lit.
+:- query maxstep :: 0; 0: lit."""
+    assert histories(src).histories == []
+    assert len(histories(src.replace("-dir=3", "-(dir=3)")).histories) == 3
+
+
+def test_minus_before_a_comparison_of_a_non_integer_constant_is_refused():
+    """CCALC: `Invalid expression`; the error says what to write instead."""
+    with pytest.raises(CPlusError) as exc:
+        Domain.from_text(":- sorts s. :- objects a, b :: s. :- constants c :: simpleFluent(s).\n"
+                         ":- query maxstep :: 0; 0: -c=a.")
+    assert "2:27" in str(exc.value.loc) and "write '-(c=...)'" in exc.value.message
+
+
+# ----------------------------------------------------------------------------- maxstep
+
+def test_a_query_without_maxstep_is_answered_at_maxstep_0():
+    """CCALC (process_query): `MaxStep2 = 0` when the query gives none: "No solution with
+    maxstep 0." where a plan needs a step (here it used to search upwards)."""
+    r = histories(LAMP + ":- query 0: -lit; maxstep: lit.")
+    assert (r.histories, r.failed) == ([], [0])
+    assert r.status.value == "no_plan"
+
+
+# ----------------------------------------------------------------------------- var(s, k)
+
+def test_anonymous_variables_may_be_quantified():
+    """CCALC's zoo test quantifies `var(step, a)`."""
+    r = histories(LAMP + ":- query maxstep :: 2; 0: -lit; [\\/var(step,a) | var(step,a) < maxstep & "
+                  "(var(step,a): flip)]; 2: -flip.")
+    assert r.maxstep == 2 and r.histories and all(any(h.value("flip", t) for t in (0, 1)) for h in r.histories)
+
+
+# ----------------------------------------------------------------------------- nmquery
+
+NM = LAMP + """
+:- nmquery label :: 0; maxstep :: 1;
+   default 0: lit; default 0: -lit; default 0: flip; default 0: -flip;
+   caused 1: lit if 0: flip; default 1: -lit.
+:- query maxstep :: 1; (0: flip) ->> (1: lit).
+"""
+
+
+def test_an_nmquery_is_completed_on_its_own():
+    """The nmquery's completion says `1: lit <-> 0: flip`: with the domain's (`1: lit <-> 0: flip
+    ++ 0: lit`) the history where lit only persists by inertia is gone (3 histories); the query
+    with the rule read as a formula keeps all 4."""
+    assert len(histories(NM).histories) == 4
+    nm = histories(NM, nmquery=True)
+    assert len(nm.histories) == 3
+    assert all(h.value("flip", 0) or not h.value("lit", 0) for h in nm.histories)
+
+
+def test_an_nmquery_whose_query_form_is_inconsistent():
+    """`default 0: lit; default 0: -lit` leaves lit free; as query items `0: lit; 0: -lit` it
+    is inconsistent."""
+    src = LAMP + """:- nmquery label :: 1; maxstep :: 0; default 0: lit; default 0: -lit.
+:- query label :: 1; maxstep :: 0; 0: lit; 0: -lit."""
+    assert histories(src, "1").histories == []
+    assert len(histories(src, "1", nmquery=True).histories) == 2
+
+
+def test_an_atom_no_nmquery_rule_causes_is_false():
+    """Literal completion of the nmquery's rules: `0: lit` alone (caused lit) makes lit true,
+    and an nmquery that causes neither flip nor -flip has no history at maxstep 1."""
+    src = LAMP + ":- nmquery maxstep :: 0; 0: lit.\n:- nmquery label :: 2; maxstep :: 1; 0: lit."
+    assert [h.value("lit", 0) for h in histories(src, nmquery=True).histories] == [True]
+    assert histories(src, "2", nmquery=True).histories == []
+
+
+def test_queries_and_nmqueries_have_their_own_labels():
+    d = Domain.from_text(NM)
+    assert d.labels == ["0"] and d.nm_labels == ["0"]
+    with pytest.raises(CPlusError, match="no nmquery with label 'x'"):
+        d.solve("x", nmquery=True)
+
+
+def test_the_head_of_an_nmquery_rule_is_a_literal():
+    with pytest.raises(CPlusError, match="nmquery rule"):
+        Domain.from_text(LAMP + ":- nmquery maxstep :: 0; caused (0: lit) ++ (0: -lit).")
+
+
+def test_cplus_plan_nmquery(tmp_path):
+    f = tmp_path / "nm.cp"
+    f.write_text(NM)
+    run = lambda *a: subprocess.run([sys.executable, "-m", "cplus", "plan", str(f), *a],  # noqa: E731
+                                    capture_output=True, text=True, timeout=120)
+    out = run("--nmquery", "0", "-n", "0")
+    assert out.returncode == 0 and out.stdout.count("Solution") == 3
+    doc = json.loads(run("--nmquery", "0", "--json").stdout)
+    assert doc["results"][0]["query"]["kind"] == "nmquery"
+    both = run()
+    assert "% query 0" in both.stdout and "% nmquery 0" in both.stdout
+    bad = run("--nmquery", "nope")
+    assert bad.returncode == 2 and "error: no nmquery with label 'nope'" in bad.stderr
+
+
+# ----------------------------------------------------------------------------- declarations
+
+def test_a_law_may_name_a_constant_declared_after_it():
+    """CCALC grounds the laws once the whole file is read (its traffic examples rely on it)."""
+    src = """:- sorts s. :- objects x, y :: s. :- variables X :: s.
+caused p(X) if q.
+:- constants p(s), q :: sdFluent.
+caused q if r. default -q. default -p(X).
+:- constants r :: simpleFluent.
+:- query maxstep :: 0; 0: r."""
+    (h,) = histories(src).histories
+    assert h.state_text(0) == {"p(x)": True, "p(y)": True, "q": True, "r": True}
+    with pytest.raises(CPlusError, match="unknown name 'zz'"):
+        Domain.from_text(":- constants p :: inertialFluent.\ncaused p if zz.")
+
+
+def test_a_domain_of_statically_determined_fluents_prints_them():
+    """Kept on purpose (docs/language.md, section 10): CCALC prints no fluent of such a domain."""
+    d = Domain.from_text(":- constants q :: sdFluent. caused q. :- query maxstep :: 0; 0: q.")
+    assert d.format(d.solve()).strip() == "0:  q"
+
+
+def test_a_time_stamped_formula_outside_a_query_is_ignored_with_ccalcs_meaning_said():
+    d = Domain.from_text(LAMP + "0: lit.\n:- query maxstep :: 0; 0: -lit.")
+    assert any("CCALC makes it a rule of the theory" in w.message for w in d.diagnostics.items)
+    assert len(d.solve().histories) == 1

@@ -1,0 +1,192 @@
+"""SIGTERM (and a second signal) while bricks move: `cplus online` and `cplus execute` stop
+within a bounded time with exit code 143 (124 for a second signal), one line on stderr, the
+bricks' motors commanded off and the log complete. The bricks are emulated in this test
+process (served on ptys and given with --brick), so the test reads their motors; the signal is
+sent once the command says the robot is moving (no timing involved)."""
+from __future__ import annotations
+
+import json
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+pytestmark = pytest.mark.slow
+
+ROOT = Path(__file__).resolve().parents[1]
+DELIVERY = ROOT / "domains" / "delivery"
+
+
+def start(argv: list[str]) -> subprocess.Popen:
+    return subprocess.Popen([sys.executable, "-m", "cplus", *argv], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                            stdin=subprocess.DEVNULL, text=True, cwd=ROOT)
+
+
+def read_until(proc: subprocess.Popen, marker: str) -> str:
+    seen = ""
+    while marker not in seen:
+        line = proc.stderr.readline()      # type: ignore[union-attr]
+        assert line, f"ended before {marker!r}:\n{seen}"
+        seen += line
+    return seen
+
+
+def finish(proc: subprocess.Popen, timeout_s: float = 10.0) -> tuple[int, str, float]:
+    """Wait (bounded) for the process; its code, the rest of stderr, and how long it took."""
+    t0 = time.monotonic()
+    try:
+        _, err = proc.communicate(timeout=timeout_s)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+    return proc.returncode, err, time.monotonic() - t0
+
+
+def motors_stopped(server, within_s: float = 3.0) -> bool:
+    """Every motor of an emulated brick has no power (polled until it holds, bounded)."""
+    deadline = time.monotonic() + within_s
+    while time.monotonic() < deadline:
+        if all(out.applied_duty_pct == 0 and out.power == 0 for out in server.emulator.firmware.outputs):
+            return True
+        time.sleep(0.02)
+    return False
+
+
+def motors_running(server) -> bool:
+    return any(out.applied_duty_pct != 0 for out in server.emulator.firmware.outputs)
+
+
+@pytest.fixture
+def delivery_brick():
+    from cplus.robot.online.world_file import load_world
+    from nxt_link import BrickEmulator, EmulatorConfig, LinkParams, PtyBrickServer
+    spec = load_world(DELIVERY / "world.toml")
+    server = PtyBrickServer(BrickEmulator(EmulatorConfig(name="robot", world=spec, link=LinkParams.instant())))
+    server.start()
+    yield server
+    server.stop()
+
+
+def json_lines(path: Path) -> list[dict]:
+    return [json.loads(line) for line in path.read_text().splitlines()]   # every line whole JSON
+
+
+def test_sigterm_stops_online_with_143_motors_off_and_the_log_ended(delivery_brick, tmp_path):
+    log = tmp_path / "run.jsonl"
+    proc = start(["online", str(DELIVERY / "delivery.cp"), "--brick", f"robot={delivery_brick.path}",
+                  "--log", str(log)])
+    read_until(proc, "| send follow")
+    deadline = time.monotonic() + 10
+    while not motors_running(delivery_brick) and time.monotonic() < deadline:
+        time.sleep(0.01)                     # the follow behaviour drives: the robot moves
+    proc.send_signal(signal.SIGTERM)
+    code, err, took = finish(proc)
+    assert code == 143, err
+    assert took < 2.0 + 1.0                  # 2 s, and the interpreter's start-up slack for a loaded machine
+    assert "Traceback" not in err and "stopped by SIGTERM (the robot was told to stop)" in err
+    assert motors_stopped(delivery_brick)
+    lines = json_lines(log)
+    assert lines[0]["record"] == "start" and lines[-1]["record"] == "end"
+    assert lines[-1]["status"] == "stopped" and lines[-1]["message"] == "stopped by SIGTERM"
+
+
+def test_a_second_signal_ends_online_at_once_with_124(delivery_brick, tmp_path):
+    log = tmp_path / "run.jsonl"
+    proc = start(["online", str(DELIVERY / "delivery.cp"), "--brick", f"robot={delivery_brick.path}",
+                  "--log", str(log)])
+    read_until(proc, "| send follow")
+    proc.send_signal(signal.SIGTERM)
+    proc.send_signal(signal.SIGTERM)
+    code, err, _ = finish(proc)
+    assert code in (124, 143), err           # 143 when the first one was handled before the second came
+    assert "Traceback" not in err
+    assert motors_stopped(delivery_brick)
+    lines = json_lines(log)
+    assert lines[-1]["record"] == "end" and lines[-1]["status"] == "stopped"
+
+
+@pytest.fixture
+def arm_bricks():
+    from nxt_link import BrickEmulator, EmulatorConfig, LinkParams, PtyBrickServer
+    servers = {name: PtyBrickServer(BrickEmulator(EmulatorConfig(name=name, link=LinkParams.instant())))
+               for name in ("r1", "r2")}
+    for s in servers.values():
+        s.start()
+    yield servers
+    for s in servers.values():
+        s.stop()
+
+
+@pytest.fixture
+def slow_trajectory(tmp_path) -> Path:
+    from trajectory import StepState, build_trajectory, parse_scene, save_json
+    from trajectory.scene import EXAMPLE_SCENE
+    held = {"pl1": "r1", "pl2": "r2"}
+    there = StepState({"r1": (4, 1), "r2": (4, 4)}, {"pl1": (4, 1), "pl2": (4, 4)}, held)
+    back = StepState({"r1": (1, 1), "r2": (1, 4)}, {"pl1": (1, 1), "pl2": (1, 4)}, held)
+    traj = build_trajectory(parse_scene(EXAMPLE_SCENE, "example.toml"), [back, there, back], check=False,
+                            points_per_step=20, step_time_s=4.0)
+    return save_json(traj, tmp_path / "t.json")
+
+
+def test_sigterm_stops_execute_with_143_motors_off_and_the_log_written(arm_bricks, slow_trajectory, tmp_path):
+    log = tmp_path / "exec.json"
+    proc = start(["execute", str(slow_trajectory), "--log", str(log), "--no-latency",
+                  *[a for name, s in arm_bricks.items() for a in ("--brick", f"{name}={s.path}")]])
+    read_until(proc, "running")
+    proc.send_signal(signal.SIGTERM)
+    code, err, took = finish(proc)
+    assert code == 143, err
+    assert took < 3.0 and "Traceback" not in err
+    assert err.rstrip().splitlines()[-1] == "cplus execute: stopped by SIGTERM (bricks told to stop)"
+    assert all(motors_stopped(s) for s in arm_bricks.values())
+    data = json.loads(log.read_text())
+    assert data["complete"] is False and data["stopped"]["reason"] == "stopped by SIGTERM"
+
+
+STUCK = """
+import sys, time
+from cplus.cli.signals import Shutdown
+with Shutdown("stuck", err=sys.stderr) as shutdown:
+    shutdown.on_force(lambda: open(sys.argv[1], "w").write("motors off"))
+    try:
+        print("running", file=sys.stderr, flush=True)
+        time.sleep(60)
+    except KeyboardInterrupt as exc:
+        print(f"stopping: {exc}", file=sys.stderr, flush=True)
+        while True:                          # a cleanup that never ends (a link that retries)
+            try:
+                time.sleep(60)
+            except KeyboardInterrupt:
+                pass
+"""
+
+
+def _stuck(tmp_path) -> tuple[subprocess.Popen, Path]:
+    marker = tmp_path / "forced"
+    proc = subprocess.Popen([sys.executable, "-c", STUCK, str(marker)], stderr=subprocess.PIPE, text=True, cwd=ROOT)
+    read_until(proc, "running")
+    return proc, marker
+
+
+def test_the_watchdog_ends_a_stuck_stop_within_2_s_with_the_signal_code(tmp_path):
+    proc, marker = _stuck(tmp_path)
+    proc.send_signal(signal.SIGTERM)
+    code, err, took = finish(proc)
+    assert code == 143 and took < 2.5, err
+    assert "stopping: stopped by SIGTERM" in err and "the orderly stop took more than 1.5 s" in err
+    assert marker.read_text() == "motors off"
+
+
+def test_a_second_signal_ends_a_stuck_stop_at_once_with_124(tmp_path):
+    proc, marker = _stuck(tmp_path)
+    proc.send_signal(signal.SIGINT)
+    read_until(proc, "stopping: interrupted (SIGINT)")
+    proc.send_signal(signal.SIGTERM)
+    code, err, _ = finish(proc)
+    assert code == 124, err
+    assert "SIGTERM again: stopping the motors and ending now" in err and marker.read_text() == "motors off"
