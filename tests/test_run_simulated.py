@@ -92,3 +92,19 @@ def test_a_loaded_and_slow_machine_changes_nothing(quiet_run, tmp_path, monkeypa
             p.wait()
     for name, data in quiet_run.items():
         assert loaded[name] == data, name
+
+
+def test_cplus_online_twice_gives_the_same_log(tmp_path, capsys):
+    """The delivery robot emulated in its world (a press on the way, a re-plan): the same log
+    twice but for what is wall-clock by nature, the start's date and the planner's
+    ``decision_ms``."""
+    def run(log: Path) -> list[dict]:
+        assert main(["online", str(ROOT / "domains" / "delivery" / "delivery.cp"), "--log", str(log), "-q"]) == 0
+        lines = [json.loads(x) for x in log.read_text().splitlines()]
+        for line in lines:
+            line.pop("started", None)
+            line.pop("decision_ms", None)
+        return lines
+    first = run(tmp_path / "a.jsonl")
+    assert first == run(tmp_path / "b.jsonl")
+    assert any(line.get("events") == ["press"] for line in first) and first[-1]["seconds"] > 10
