@@ -38,7 +38,7 @@ from nxt_link.behaviours import (
     BrickPanicError,
 )
 from nxt_link.brick import Brick, RetryPolicy
-from nxt_link.clock import MonotonicClock, VirtualClock
+from nxt_link.clock import MonotonicClock, SimClock, SimulationStalled, VirtualClock
 from nxt_link.emulator import BrickEmulator, EmulatorConfig, FaultParams, LinkParams
 from nxt_link.errors import LinkError, LinkTimeoutError, ProtocolError
 from nxt_link.execlog import BrickLog, ExecutionLog
@@ -69,6 +69,9 @@ __all__ = [
     "PtyBrickServer",
     "VirtualClock",
     "MonotonicClock",
+    "SimClock",
+    "SimulationStalled",
+    "EmulatedBricks",
     "LinkError",
     "LinkTimeoutError",
     "ProtocolError",
@@ -94,4 +97,8 @@ def __getattr__(name: str) -> object:
         from nxt_link.serial_transport import SerialTransport
 
         return SerialTransport
+    if name == "EmulatedBricks":
+        from nxt_link.inprocess import EmulatedBricks
+
+        return EmulatedBricks
     raise AttributeError(f"module 'nxt_link' has no attribute {name!r}")

@@ -44,12 +44,11 @@ file) is raised at once as its :class:`~nxt_link.errors.ProtocolError`.
 from __future__ import annotations
 
 import logging
-import threading
 from collections.abc import Callable
 from dataclasses import dataclass
 
 from nxt_link import telegram as tg
-from nxt_link.clock import Deadline
+from nxt_link.clock import Deadline, new_lock
 from nxt_link.errors import (
     LinkDisconnectedError,
     LinkTimeoutError,
@@ -165,8 +164,9 @@ class Brick:
         self.name = name or transport.name
         self.policy = policy or RetryPolicy()
         self.on_event = on_event
-        self._lock = threading.Lock()
         self.clock = transport.clock
+        # one request at a time; on a simulated clock its waiters wait on the clock
+        self._lock = new_lock(self.clock)
         self._timer = _ReplyTimer(self.policy)
         self.last_valid_s: float | None = None
         self._asking_since: float | None = None  # first send after the last valid frame

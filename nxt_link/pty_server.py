@@ -14,7 +14,13 @@ nxt-python's device-file backend (which needs a real tty). Details that matter
   fresh one and re-points the symlink, so a client reconnects by reopening the
   same path, as with a bound ``/dev/rfcommN``;
 * simulated time runs at ``time_scale`` times real time (tests run the brick
-  10-20x faster); link latency, if modelled, is in simulated time too.
+  10-20x faster); link latency, if modelled, is in simulated time too;
+* or, given a :class:`~nxt_link.clock.SimClock`, on simulated time shared with the PC side
+  in the same process: the server's thread is a participant of that clock, waits on it for
+  its next link event or for bytes (counted on the clock's :class:`~nxt_link.clock.Channel`
+  of the pty), and the brick runs exactly as far as the clock has moved. Nothing then
+  depends on real time, so a slow or loaded machine changes how long a run takes, not what
+  happens in it.
 
 One daemon thread per server; the emulator is touched only from that thread.
 """
@@ -22,6 +28,7 @@ from __future__ import annotations
 
 import errno
 import logging
+import math
 import os
 import select
 import tempfile
@@ -29,6 +36,7 @@ import threading
 import time
 import tty
 
+from nxt_link.clock import READABLE, STOPPED, TIME, Channel, SimClock, start_thread
 from nxt_link.emulator import BrickEmulator
 
 __all__ = ["PtyBrickServer"]
@@ -36,6 +44,9 @@ __all__ = ["PtyBrickServer"]
 log = logging.getLogger(__name__)
 
 _IDLE_WAIT_S = 0.02
+#: Real time within which counted bytes must show up on the pty (they are already written;
+#: only the kernel's flip buffer delays them): a safety net, far longer than it takes.
+ARRIVAL_S = 5.0
 
 
 class PtyBrickServer:
@@ -45,15 +56,21 @@ class PtyBrickServer:
         emulator: the brick.
         link_path: where to publish the symlink; default: a fresh private
             temporary directory (removed at stop).
-        time_scale: simulated milliseconds per real millisecond.
+        time_scale: simulated milliseconds per real millisecond (wall-clock mode).
+        clock: a :class:`~nxt_link.clock.SimClock`: run on it instead of real time (then
+            ``time_scale`` must stay 1, and the clients must use the same clock).
     """
 
     def __init__(self, emulator: BrickEmulator, *, link_path: str | None = None,
-                 time_scale: float = 1.0) -> None:
+                 time_scale: float = 1.0, clock: SimClock | None = None) -> None:
         if time_scale <= 0:
             raise ValueError("time scale must be > 0")
+        if clock is not None and time_scale != 1:
+            raise ValueError("a brick on simulated time has no time scale")
         self.emulator = emulator
         self.time_scale = time_scale
+        self.clock = clock
+        self.channel: Channel | None = None
         self._own_dir: str | None = None
         if link_path is None:
             self._own_dir = tempfile.mkdtemp(prefix=f"cplus-brick-{emulator.config.name}-")
@@ -82,6 +99,8 @@ class PtyBrickServer:
             os.unlink(tmp)
         except FileNotFoundError:
             pass
+        if self.clock is not None:
+            self.channel = self.clock.open_channel(self.tty_name)
         os.symlink(self.tty_name, tmp)
         os.replace(tmp, self.path)
         log.info("%s: serving on %s -> %s", self.emulator.config.name, self.path, self.tty_name)
@@ -94,15 +113,38 @@ class PtyBrickServer:
                 except OSError:
                     pass
         self._master = self._slave = -1
+        if self.clock is not None and self.channel is not None:
+            self.clock.close_channel(self.channel)
+            self.channel = None
+
+    def _reopen_pty(self) -> None:
+        """A simulated disconnect: a fresh pty behind the same path. On simulated time the
+        old channel closes only once the new path is published, so a client woken by the
+        drop finds the new pty at once (whatever the threads' real timing)."""
+        old = self.channel
+        self.channel = None
+        for fd in (self._master, self._slave):
+            if fd >= 0:
+                try:
+                    os.close(fd)
+                except OSError:
+                    pass
+        self._master = self._slave = -1
+        self._open_pty()
+        if self.clock is not None and old is not None:
+            self.clock.close_channel(old)
 
     # -- lifecycle ----------------------------------------------------------------
 
     def start(self) -> str:
         """Create the pty, publish the path, start serving; return the path."""
         self._open_pty()
-        self._thread = threading.Thread(target=self._run, name=f"brick-{self.emulator.config.name}",
-                                        daemon=True)
-        self._thread.start()
+        name = f"brick-{self.emulator.config.name}"
+        if self.clock is not None:
+            self._thread = start_thread(self.clock, name, self._run)
+        else:
+            self._thread = threading.Thread(target=self._run, name=name, daemon=True)
+            self._thread.start()
         return self.path
 
     def stop(self) -> None:
@@ -112,6 +154,9 @@ class PtyBrickServer:
             os.write(self._wake_w, b"x")
         except OSError:
             pass
+        participant = getattr(self._thread, "_sim_participant", None)
+        if self.clock is not None and participant is not None:
+            self.clock.detach(participant)
         if self._thread is not None:
             self._thread.join(timeout=5)
         self._close_pty()
@@ -143,7 +188,10 @@ class PtyBrickServer:
     def _run(self) -> None:
         cpu0 = time.thread_time()
         try:
-            self._serve()
+            if self.clock is not None:
+                self._serve_simulated(self.clock)
+            else:
+                self._serve()
         except BaseException as exc:  # surfaced through .error and the log
             self.error = exc
             log.exception("brick %s: emulator failed", self.emulator.config.name)
@@ -162,8 +210,7 @@ class PtyBrickServer:
             now = self._sim_ms(wall0)
             emu.advance_to(now)
             if emu.link_epoch != epoch:
-                self._close_pty()
-                self._open_pty()
+                self._reopen_pty()
                 emu.restore_link()
                 epoch = emu.link_epoch
             for data in emu.take_output(now):
@@ -191,14 +238,77 @@ class PtyBrickServer:
                     emu.receive(data, self._sim_ms(wall0))
             self.cpu_s = time.thread_time() - cpu0
 
+    def _serve_simulated(self, clock: SimClock) -> None:
+        """The serving loop on simulated time: run the brick to the clock's time, deliver
+        what is due, then wait on the clock for the next link event or for bytes."""
+        emu = self.emulator
+        t0 = clock.now() - emu.now_ms / 1000.0
+        epoch = emu.link_epoch
+        floor_ms = float(emu.now_ms)   # a deadline reached counts as reached, float noise aside
+        cpu0 = time.thread_time()
+        while not self._stop.is_set():
+            now = max(floor_ms, (clock.now() - t0) * 1000.0)
+            emu.advance_to(now)
+            if emu.link_epoch != epoch:
+                self._reopen_pty()
+                emu.restore_link()
+                epoch = emu.link_epoch
+            for data in emu.take_output(now):
+                self._write(data)
+            nxt = emu.next_event_ms()
+            if nxt is not None and nxt <= now:
+                nxt = math.floor(now) + 1.0   # due at the next firmware millisecond
+            channel = self.channel
+            assert channel is not None
+            why = clock.wait_readable(channel.to_brick, None if nxt is None else t0 + nxt / 1000.0)
+            self.cpu_s = time.thread_time() - cpu0
+            if why == STOPPED:
+                break
+            if why == TIME and nxt is not None:
+                floor_ms = max(floor_ms, nxt)
+            elif why == READABLE:
+                data = self._read_counted(clock, channel)
+                if data:
+                    emu.receive(data, max(floor_ms, (clock.now() - t0) * 1000.0))
+
+    def _read_counted(self, clock: SimClock, channel: Channel) -> bytes:
+        """The bytes the clock counted on their way to the brick (already written: only the
+        kernel may still hold them back for a moment)."""
+        pipe = channel.to_brick
+        if pipe.closed:
+            return b""
+        ready, _, _ = select.select([self._master], [], [], ARRIVAL_S)
+        if not ready:
+            log.warning("%s: %d counted byte(s) never arrived", self.emulator.config.name, pipe.pending)
+            clock.lost(pipe)
+            return b""
+        try:
+            data = os.read(self._master, 4096)
+        except BlockingIOError:
+            data = b""
+        except OSError as exc:
+            if exc.errno != errno.EIO:
+                raise
+            data = b""
+        clock.consumed(pipe, len(data))
+        return data
+
     def _write(self, data: bytes) -> None:
+        pipe = None
+        if self.clock is not None and self.channel is not None:
+            pipe = self.channel.to_pc
+            self.clock.wrote(pipe, len(data))
         try:
             n = os.write(self._master, data)
         except BlockingIOError:
             n = 0
         except OSError as exc:
             log.debug("write to pty failed: %s", exc)
+            if pipe is not None:
+                self.clock.consumed(pipe, len(data))  # type: ignore[union-attr]
             return
+        if pipe is not None and n < len(data):
+            self.clock.consumed(pipe, len(data) - n)  # type: ignore[union-attr]
         if n < len(data):
             # nobody is reading and the tty buffer is full: like a radio with no
             # listener, the rest of the frame is lost

@@ -16,7 +16,7 @@ from nxt_link.execlog import BrickLog, ExecutionLog
 
 ROOT = Path(__file__).resolve().parent.parent
 SCENE = ROOT / "domains" / "payload" / "scene.toml"
-FAST = ["--no-latency", "--time-scale", "10", "--quiet"]
+FAST = ["--no-latency", "--quiet"]   # emulated bricks: simulated time
 
 
 def execute_main(argv):
@@ -72,8 +72,9 @@ def test_execute_on_emulated_bricks_writes_log_report_and_plot(traj_file, tmp_pa
 
 @pytest.mark.slow
 def test_execute_on_given_ports(traj_file, tmp_path, capsys):
+    clock = nxt_link.SimClock()   # given ports of bricks emulated here: used on their clock
     servers = [nxt_link.PtyBrickServer(nxt_link.BrickEmulator(nxt_link.EmulatorConfig(
-        name=n, link=nxt_link.LinkParams.instant(), stale_frame_ms=2500)), time_scale=10)
+        name=n, link=nxt_link.LinkParams.instant())), clock=clock)
         for n in ("r1", "r2")]
     for s in servers:
         s.start()
@@ -152,18 +153,20 @@ def test_plot_needs_a_scene(traj_file, tmp_path, capsys):
 
 @pytest.fixture
 def bricks_on_ptys():
-    """Two emulated bricks on ptys (instant link, 10x time), for --brick; stopped at the end."""
+    """Two emulated bricks on ptys (instant link, simulated time), for --brick; stopped at the
+    end."""
     servers = []
+    clock = nxt_link.SimClock()
 
     def start(program: str | None = None) -> list:
         for name in ("r1", "r2"):
             emu = nxt_link.BrickEmulator(nxt_link.EmulatorConfig(
-                name=name, link=nxt_link.LinkParams.instant(), stale_frame_ms=2500,
+                name=name, link=nxt_link.LinkParams.instant(),
                 program_running=program is None))
             if program is not None:
                 emu.firmware.files.add(program)
                 emu.firmware.start_program_now(program)
-            server = nxt_link.PtyBrickServer(emu, time_scale=10)
+            server = nxt_link.PtyBrickServer(emu, clock=clock)
             server.start()
             servers.append(server)
         return servers
@@ -301,19 +304,19 @@ def test_cplus_run_refuses_an_out_that_is_a_file(tmp_path, capsys):
 
 
 @pytest.mark.slow
-def test_cplus_run_is_fast_by_default_and_names_every_file(tmp_path, capsys):
+def test_cplus_run_runs_on_simulated_time_by_default_and_names_every_file(tmp_path, capsys):
     out = tmp_path / "out"
     code = run_main([str(ROOT / "domains/payload/payload.cp"), "--out", str(out), "--step-time",
                      "0.5", "--points-per-step", "5"])
     err = capsys.readouterr().err
     assert code == 0, err
-    assert "on emulated bricks (10x real time, no latency)" in err
+    assert "on emulated bricks (simulated time, no latency)" in err
     for name in ("plan.txt", "plan.json", "plan.png", "trajectory.json", "trajectory.csv",
                  "execution.json", "execution.png", "report.txt"):
         assert (out / name).is_file()
         assert f"wrote {out / name}\n" in err, name
     log = ExecutionLog.loads((out / "execution.json").read_text())
-    assert log.complete and log.time_scale == 10
+    assert log.complete and log.time_scale == 1
 
 
 def test_cplus_run_keeps_real_time_for_given_bricks(tmp_path):
@@ -322,7 +325,7 @@ def test_cplus_run_keeps_real_time_for_given_bricks(tmp_path):
     out = str(tmp_path / "out")
     args = run.build_parser().parse_args([domain, "--out", out])
     run._validate(args)
-    assert (args.time_scale, args.latency) == (10.0, False)  # emulated: fast by default
+    assert (args.time_scale, args.latency) == (None, False)  # emulated: simulated time by default
     args = run.build_parser().parse_args([domain, "--out", out, "--brick", "r1=/dev/rfcomm0",
                                           "--brick", "r2=/dev/rfcomm1"])
     run._validate(args)

@@ -62,7 +62,8 @@ def slow_trajectory(tmp_path) -> Path:
 
 def test_ctrl_c_stops_execute_with_130(slow_trajectory, tmp_path):
     log = tmp_path / "exec.json"
-    code, err = interrupt_when(["execute", str(slow_trajectory), "--log", str(log)], "running")
+    # real time (emulated bricks run on simulated time by default, and would be done at once)
+    code, err = interrupt_when(["execute", str(slow_trajectory), "--log", str(log), "--time-scale", "1"], "running")
     assert code == 130, err
     assert "Traceback" not in err and "interrupted" in err.rstrip().splitlines()[-1]
     assert_incomplete(log)
@@ -70,8 +71,9 @@ def test_ctrl_c_stops_execute_with_130(slow_trajectory, tmp_path):
 
 def test_ctrl_c_stops_run_with_130_and_keeps_the_plan(tmp_path):
     out = tmp_path / "out"
-    code, err = interrupt_when(["run", str(ROOT / "domains" / "payload" / "payload.cp"), "--out", str(out)],
-                               "running")
+    # on simulated time: 4 s steps make the run phase last about a second of wall time
+    code, err = interrupt_when(["run", str(ROOT / "domains" / "payload" / "payload.cp"), "--out", str(out),
+                                "--step-time", "4", "--points-per-step", "20"], "running")
     assert code == 130, err
     assert "Traceback" not in err and "interrupted" in err.rstrip().splitlines()[-1]
     assert (out / "plan.json").is_file() and (out / "trajectory.json").is_file()

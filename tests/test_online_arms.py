@@ -162,7 +162,7 @@ def test_the_stall_scenario_end_to_end(tmp_path, capsys):
     """`cplus online` on the payload task, emulated bricks on ptys, r1's motor A held for 2 s
     while the carriage moves (102 degrees of tracking error against the threshold's 30)."""
     log = tmp_path / "arms.jsonl"
-    code = main(["online", str(PAYLOAD / "payload.cp"), "--no-latency", "--time-scale", "2",
+    code = main(["online", str(PAYLOAD / "payload.cp"), "--no-latency",          # simulated time
                  "--stall", "r1:A@4+2", "--log", str(log)])
     err = capsys.readouterr().err
     assert code == 0, err

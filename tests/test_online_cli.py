@@ -172,11 +172,10 @@ def test_a_brick_that_cannot_be_opened_is_exit_7(delivery, tmp_path, capsys):
 
 @pytest.mark.slow
 def test_the_delivery_domain_alone_runs_on_its_emulated_world(tmp_path, capsys):
-    """`cplus online domains/delivery/delivery.cp`: the emulated brick in world.toml (ten times
-    faster), a button press on the way and a re-plan, to the goal."""
+    """`cplus online domains/delivery/delivery.cp`: the emulated brick in world.toml (on
+    simulated time), a button press on the way and a re-plan, to the goal."""
     log = tmp_path / "run.jsonl"
-    code, _, err = run([str(DELIVERY / "delivery.cp"), "--time-scale", "10", "--no-latency", "--log", str(log)],
-                       capsys)
+    code, _, err = run([str(DELIVERY / "delivery.cp"), "--no-latency", "--log", str(log)], capsys)
     assert code == 0, err
     assert "emulated NXT bricks robot" in err and "events press" in err and "replan (after press" in err
     lines = records(log)
@@ -193,10 +192,11 @@ def test_a_brick_given_by_its_port(tmp_path, capsys):
     """--brick robot=PTY: a brick served on a pseudo-terminal by another party (here, in the
     test; `cplus brick --world world.toml` does the same as a process)."""
     from cplus.robot.online.world_file import load_world
-    from nxt_link import BrickEmulator, EmulatorConfig, LinkParams, PtyBrickServer
+    from nxt_link import BrickEmulator, EmulatorConfig, LinkParams, PtyBrickServer, SimClock
     spec = load_world(DELIVERY / "world.toml")
+    # served on a simulated clock, which `cplus online` finds behind the port and waits on
     server = PtyBrickServer(BrickEmulator(EmulatorConfig(name="robot", world=spec, link=LinkParams.instant())),
-                            time_scale=10.0)
+                            clock=SimClock())
     server.start()
     try:
         code, _, err = run([str(DELIVERY / "delivery.cp"), "--brick", f"robot={server.path}"], capsys)

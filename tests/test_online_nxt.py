@@ -15,7 +15,7 @@ from cplus.robot.online.loop import Observer, OnlineLoop, OnlineStatus, RunResul
 from cplus.robot.online.nxt_executor import NxtExecutor
 from nxt_link.behaviours import BehaviourTiming
 from nxt_link.brick import RetryPolicy
-from nxt_link.clock import VirtualClock
+from nxt_link.clock import SimClock, VirtualClock
 from nxt_link.emulator import BrickEmulator, EmulatorConfig, LinkParams
 from nxt_link.memory_transport import MemoryTransport
 from nxt_link.world import Blocked, Landmark, Press, WorldSpec, delivery_world
@@ -109,29 +109,64 @@ def test_a_blocked_track_fails_the_follow(setup):
 
 @pytest.mark.slow
 def test_a_brick_that_goes_away_is_lost(setup):
-    """The emulated brick's pseudo-terminal disappears during cycle 2 (a robot switched off)."""
+    """The emulated brick's pseudo-terminal disappears during cycle 2 (a robot switched off):
+    on simulated time, so only the modelled disconnect can lose it, never a slow machine."""
     model, binding = setup
-    ex = NxtExecutor(model, binding, worlds={"robot": world()}, time_scale=10.0, policy=FAST,
+    ex = NxtExecutor(model, binding, worlds={"robot": world()}, policy=FAST,
                      timing=BehaviourTiming(max_silent_s=2.0))
 
     class SwitchOff(Observer):
         def on_act(self, record) -> None:
             if record.cycle == 2:
                 ex.servers["robot"].stop()
-    result = OnlineLoop(model, ex, observers=[SwitchOff()]).run()
+    result = OnlineLoop(model, ex, observers=[SwitchOff()], clock=ex.clock).run()
     assert result.status is OnlineStatus.ROBOT_LOST, result.message
     assert result.message.startswith("brick robot:")
     assert executed(result) == ["follow", "follow", "turn"] and result.records[-1].failure
 
 
+def _over_a_pty(setup, **kw) -> tuple[RunResult, NxtExecutor]:
+    model, binding = setup
+    ex = NxtExecutor(model, binding, worlds={"robot": world(presses=(Press(at_landmark=3),))}, **kw)
+    return OnlineLoop(model, ex, clock=ex.clock).run(), ex
+
+
 @pytest.mark.slow
 def test_the_emulated_robot_over_a_pty(setup):
-    """The same loop through the serial path: the emulator on a pseudo-terminal, ten times
-    faster than real time."""
-    model, binding = setup
-    ex = NxtExecutor(model, binding, worlds={"robot": world(presses=(Press(at_landmark=3),))}, time_scale=10.0)
-    result = OnlineLoop(model, ex).run()
+    """The same loop through the serial path: the emulator on a pseudo-terminal, on simulated
+    time; twice, with the same log (but the wall-clock decision times)."""
+    result, ex = _over_a_pty(setup)
     assert result.status is OnlineStatus.GOAL_REACHED, result.message
     assert result.replans == 1 and any(r.events == ["press"] for r in result.records)
     path = ex.servers["robot"].path
     assert not Path(path).exists()              # the executor closed the link and stopped the emulator
+
+    def records(r: RunResult) -> list[dict]:
+        out = []
+        for rec in r.records:
+            j = rec.to_json()
+            j.pop("decision_ms", None)   # the planner's wall-clock time
+            out.append(j)
+        return out
+    again, _ = _over_a_pty(setup)
+    assert records(again) == records(result) and again.seconds == result.seconds
+
+
+@pytest.mark.slow
+def test_the_emulated_robot_on_the_wall_clock(setup):
+    """--time-scale 1: the emulator on the wall clock, in real time. Only a connection and a
+    poll: faster than real time, or for a whole mission, the wall clock is what a loaded
+    machine can fail (with six CPU-bound processes on two cores, a brick at four times real
+    time fell behind and went silent while connecting), which is why the default is simulated
+    time."""
+    model, binding = setup
+    ex = NxtExecutor(model, binding, worlds={"robot": world()}, time_scale=1.0)
+    assert not isinstance(ex.clock, SimClock)
+    ex.open()
+    try:
+        assert ex.servers["robot"].time_scale == 1.0 and ex.servers["robot"].clock is None
+        assert ex.bricks["robot"].brick.get_battery_level() == 9000
+        assert ex.poll().events == []
+    finally:
+        ex.close()
+    assert ex.servers["robot"].error is None

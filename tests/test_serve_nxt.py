@@ -1,6 +1,6 @@
 """``cplus serve --robot``: the mail robot on the emulated NXT delivery robot (the Legolog
 behaviour program on a brick emulated over a pseudo-terminal, in its line-track world),
-running ten times faster than real time."""
+on simulated time."""
 from __future__ import annotations
 
 import json
@@ -15,7 +15,7 @@ MAILBOT = ROOT / "domains" / "mailbot"
 
 def serve(robot: Path, log: Path, script: Path = MAILBOT / "table1.jsonl") -> subprocess.CompletedProcess:
     return subprocess.run([sys.executable, "-m", "cplus", "serve", str(MAILBOT / "line.cp"), "--robot", str(robot),
-                           "--script", str(script), "--time-scale", "10", "--no-latency", "--log", str(log)],
+                           "--script", str(script), "--no-latency", "--log", str(log)],
                           capture_output=True, text=True, timeout=300)
 
 

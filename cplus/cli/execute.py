@@ -31,6 +31,7 @@ from cplus.cli.common import (
     CliError,
     OneLineArgumentParser,
     distinct_bricks,
+    nonneg,
     parse_bricks,
     positive,
 )
@@ -139,10 +140,13 @@ def add_execution_options(p: argparse.ArgumentParser, *, fast: bool = False) -> 
                               + ("" if fast else " (default)"))
     latency.add_argument("--no-latency", dest="latency", action="store_false",
                          help="emulated bricks answer at once" + (" (default)" if fast else ""))
-    p.add_argument("--time-scale", type=positive, default=None if fast else 1.0, metavar="X",
-                   help="emulated bricks run X times faster than real time (default "
-                        f"{'10, or 1 with --brick' if fast else 1}; 1 = real time); with --brick, "
-                        "the bricks' own time scale")
+    p.add_argument("--time-scale", type=positive, default=None, metavar="X",
+                   help="emulated bricks run on the wall clock, X times faster than real time (1 = real "
+                        "time); default: on simulated time, as fast as the emulation goes and whatever the "
+                        "machine's load; with --brick, the bricks' own time scale (default 1)")
+    p.add_argument("--seed", type=nonneg, default=0, metavar="N",
+                   help="emulated bricks: the random seed of the link model and the session ids (default 0; "
+                        "on simulated time the same seed gives the same log)")
 
 
 def output_problem(path: str) -> str | None:
@@ -187,7 +191,7 @@ def execution_options(args: argparse.Namespace) -> nxt_link.ExecutionOptions:
         controller=nxt_link.ControllerSettings(kp_num=args.kp[0], kp_den=args.kp[1],
                                                tolerance_deg=args.tolerance),
         max_speed_deg_s=args.max_speed, max_start_offset_deg=args.max_start_offset,
-        time_scale=args.time_scale)
+        time_scale=args.time_scale or 1.0)
 
 
 def _scene_for(args: argparse.Namespace, traj: trajectory.Trajectory) -> trajectory.Scene | None:
@@ -306,8 +310,8 @@ def main(args: argparse.Namespace) -> int:
         shutdown.on_force(lambda: motors_off(opened))
         try:
             log = execute_trajectory(traj, ports or None, options=execution_options(args),
-                                     emulator=EmulatorSettings(latency=args.latency,
-                                                               time_scale=args.time_scale),
+                                     emulator=EmulatorSettings(latency=args.latency, time_scale=args.time_scale,
+                                                               seed=args.seed),
                                      on_progress=progress, on_bricks=announce, scene=scene,
                                      on_connected=lambda bricks: opened.extend(bricks.values()))
         except SetpointError as exc:
@@ -323,7 +327,7 @@ def main(args: argparse.Namespace) -> int:
             print(f"{prog}: {stopped.reason if stopped is not None else 'interrupted'} (bricks told to stop)",
                   file=err)
             return shutdown.exit_code
-        except LinkError as exc:
+        except (LinkError, nxt_link.SimulationStalled) as exc:
             print(f"{prog}: {exc}", file=err)
             return EXIT_LINK
         except KeyboardInterrupt as exc:

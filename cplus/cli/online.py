@@ -71,8 +71,10 @@ def build_parser() -> OneLineArgumentParser:
                    help="longest plan when the goal's maxstep range is open (default 40)")
     p.add_argument("--no-latency", action="store_true",
                    help="emulated bricks answer at once instead of with Bluetooth timing")
-    p.add_argument("--time-scale", type=positive, default=1.0, metavar="X",
-                   help="emulated bricks and their worlds run X times faster than real time (default 1)")
+    p.add_argument("--time-scale", type=positive, default=None, metavar="X",
+                   help="emulated bricks and their worlds run on the wall clock, X times faster than real time "
+                        "(1 = real time); default: on simulated time, as fast as the emulation goes and whatever "
+                        "the machine's load")
     p.add_argument("--solver", default=None, help="SAT solver (default glucose4)")
     arms = p.add_argument_group("the payload arms of a robot task (a scene.toml beside the domain)")
     arms.add_argument("--scene", metavar="FILE", help="the scene (default: scene.toml beside the domain, when there "
@@ -238,6 +240,7 @@ def _behaviours(args: argparse.Namespace, robot: str, ports: dict[str, str]) -> 
     from cplus.robot.online.estimation import OnlineModel
     from cplus.robot.online.events import LineEvents, ScriptedEvents, check_events, parse_events
     from cplus.robot.online.loop import EventSource, OnlineLoop
+    from nxt_link.clock import MONOTONIC, SimulationStalled
     err = sys.stderr
     domain = Domain.load(args.domain)
     label = _domain_and_goal(args, domain)
@@ -279,12 +282,16 @@ def _behaviours(args: argparse.Namespace, robot: str, ports: dict[str, str]) -> 
     if not log.open():
         return EXIT_INPUT
     observers: list = ([] if args.quiet else [Progress(err)]) + log.observer({"binding": robot})
-    loop = OnlineLoop(model, executor, sources, observers, max_cycles=args.max_cycles)
+    loop = OnlineLoop(model, executor, sources, observers, max_cycles=args.max_cycles,
+                      clock=getattr(executor, "clock", MONOTONIC))   # emulated bricks: their simulated clock
     with Shutdown("cplus online") as shutdown:
         shutdown.on_stop(loop.stop)
         _forced_stop(shutdown, lambda: [b.brick for b in getattr(executor, "bricks", {}).values()], observers)
         try:
             result = loop.run()
+        except SimulationStalled as exc:
+            print(f"cplus online: error: {exc}", file=err)
+            return EXIT_ROBOT_LOST
         except KeyboardInterrupt as exc:
             print(f"cplus online: {reason_of(exc)} (the robot was told to stop)", file=err)
             return exit_code_of(exc)
@@ -306,6 +313,7 @@ def _arms(args: argparse.Namespace, scene: str, ports: dict[str, str]) -> int:
     from cplus.cli.common import CliError
     from cplus.robot.offline.task import RobotTask
     from cplus.robot.online.payload_monitor import ArmsExecutor, run_arms
+    from nxt_link.clock import SimulationStalled
     err = sys.stderr
     task = RobotTask.load(args.domain, scene)
     label = _domain_and_goal(args, task.domain)
@@ -338,6 +346,9 @@ def _arms(args: argparse.Namespace, scene: str, ports: dict[str, str]) -> int:
         try:
             result = run_arms(task, label, executor, observers=observers, threshold_deg=args.tracking_threshold,
                               max_faults=args.max_faults, max_horizon=args.max_horizon)
+        except SimulationStalled as exc:
+            print(f"cplus online: error: {exc}", file=err)
+            return EXIT_ROBOT_LOST
         except KeyboardInterrupt as exc:
             print(f"cplus online: {reason_of(exc)} (the bricks were told to stop)", file=err)
             return exit_code_of(exc)

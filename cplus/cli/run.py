@@ -2,7 +2,9 @@
 
 Plan and refine (as ``cplus plan``), write the plan, its picture and its trajectory, execute
 the trajectory on the bricks (emulated ones on pseudo-terminals when no ``--brick`` is given:
-10 times faster than real time with instant answers, unless ``--time-scale 1 --latency``),
+on simulated time with instant answers, as fast as the emulation goes and whatever the
+machine's load, unless ``--time-scale X`` asks for the wall clock, e.g. ``--time-scale 1
+--latency`` for real time),
 read the encoder logs back, report the tracking error and draw the execution.  Every product
 goes to ``--out`` and every file written is named on standard error.  Every option and path is
 checked before planning starts.
@@ -32,8 +34,6 @@ from cplus.cli.plan import add_common
 
 __all__ = ["build_parser", "main"]
 
-#: How much faster than real time emulated bricks run by default.
-FAST_TIME_SCALE = 10.0
 #: The brick program's tick range (``nxt_link.SetpointStream``).
 _TICK_MS = (10, 10000)
 
@@ -81,8 +81,8 @@ def _validate(args: argparse.Namespace) -> tuple[str, dict[str, str]]:
                        f"{args.points_per_step} = a tick of {tick:g} ms; it must be a whole number "
                        f"of milliseconds from {_TICK_MS[0]} to {_TICK_MS[1]}")
     ports = distinct_bricks(parse_bricks(args.brick, prog), prog)
-    if args.time_scale is None:  # emulated bricks are fast unless asked; real ones keep time
-        args.time_scale = 1.0 if ports else FAST_TIME_SCALE
+    if args.time_scale is None and ports:  # emulated bricks run on simulated time; real ones keep time
+        args.time_scale = 1.0
     if os.path.exists(args.out) and not os.path.isdir(args.out):
         raise CliError(f"{prog}: error: --out {args.out} is not a directory")
     problem = execute.output_problem(os.path.join(args.out, "plan.txt"))
@@ -144,9 +144,10 @@ def _main(args: argparse.Namespace) -> int:
     export_plan(task, result.states, None, domain_path=args.file, plot=paths["picture"],
                 trajectory_json=paths["trajectory"], csv=paths["csv"], points_per_step=args.points_per_step,
                 step_time=args.step_time, on_write=wrote)
+    clock = ("simulated time" if args.time_scale is None else
+             "real time" if args.time_scale == 1 else f"{args.time_scale:g}x real time")
     where = ("the bricks " + ", ".join(f"{n}={p}" for n, p in ports.items()) if ports else
-             f"emulated bricks ({'real time' if args.time_scale == 1 else f'{args.time_scale:g}x real time'}, "
-             f"{'Bluetooth latency' if args.latency else 'no latency'})")
+             f"emulated bricks ({clock}, {'Bluetooth latency' if args.latency else 'no latency'})")
     print(f"% executing {paths['trajectory']} on {where}", file=sys.stderr)
     for key in ("log", "execution", "report"):  # no product of an earlier run may pass for this one's
         if os.path.isfile(paths[key]):
@@ -154,8 +155,10 @@ def _main(args: argparse.Namespace) -> int:
     argv = [paths["trajectory"], "--scene", scene_path, "--log", paths["log"], "--plot", paths["execution"],
             "--report", paths["report"], "--kp", f"{args.kp[0]}/{args.kp[1]}",
             "--tolerance", str(args.tolerance), "--max-speed", repr(args.max_speed),
-            "--max-start-offset", str(args.max_start_offset), "--time-scale", repr(args.time_scale),
+            "--max-start-offset", str(args.max_start_offset), "--seed", str(args.seed),
             "--latency" if args.latency else "--no-latency"]
+    if args.time_scale is not None:
+        argv += ["--time-scale", repr(args.time_scale)]
     for b in args.brick:
         argv += ["--brick", b]
     code = execute.main(execute.build_parser().parse_args(argv))

@@ -73,8 +73,9 @@ def build_parser() -> OneLineArgumentParser:
                    help="longest plan when the goal's maxstep range is open (default 40)")
     p.add_argument("--no-latency", action="store_true",
                    help="with --robot: emulated bricks answer at once instead of with Bluetooth timing")
-    p.add_argument("--time-scale", type=positive, default=1.0, metavar="X",
-                   help="with --robot: emulated bricks and their worlds run X times faster (default 1)")
+    p.add_argument("--time-scale", type=positive, default=None, metavar="X",
+                   help="with --robot: emulated bricks and their worlds run on the wall clock, X times faster "
+                        "(1 = real time); default: on simulated time")
     p.add_argument("--solver", default=None, help="SAT solver (default glucose4)")
     p.add_argument("--quiet", "-q", action="store_true", help="no progress on stderr")
     return p

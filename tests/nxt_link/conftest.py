@@ -47,12 +47,15 @@ def rig() -> MemoryRig:
 
 @pytest.fixture
 def pty_server():
-    """Start emulated bricks on ptys (instant link, 10x time); all stopped at the end."""
+    """Start emulated bricks on ptys (instant link, 10x time, or on ``clock``, a SimClock that
+    the test's thread takes part in); all stopped at the end."""
     servers: list[PtyBrickServer] = []
 
-    def start(name: str = "r1", *, time_scale: float = 10.0, **kw) -> PtyBrickServer:
+    def start(name: str = "r1", *, time_scale: float = 10.0, clock=None, **kw) -> PtyBrickServer:
+        if clock is not None:
+            time_scale = 1.0
         kw.setdefault("stale_frame_ms", 250.0 * time_scale)
-        server = PtyBrickServer(make_emulator(name, **kw), time_scale=time_scale)
+        server = PtyBrickServer(make_emulator(name, **kw), time_scale=time_scale, clock=clock)
         server.start()
         servers.append(server)
         return server

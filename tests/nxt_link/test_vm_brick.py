@@ -17,6 +17,7 @@ import pytest
 from vmtools import FINCLUMP, NXC_DIR, tiny_rxe
 
 from nxt_link.brick import Brick
+from nxt_link.clock import SimClock
 from nxt_link.emulator import compiled_follower
 from nxt_link.execution import ExecutionOptions, SetpointStream, execute_streams
 from nxt_link.serial_transport import SerialTransport
@@ -66,17 +67,21 @@ def test_nxt_python_uploads_lists_reads_back_starts_and_deletes(pty_server, tmp_
 
 
 def test_an_execution_runs_on_the_compiled_program(pty_server, wave, follower):
+    """Over the pty, on simulated time (the interpreter's speed changes nothing but the wall time)."""
     files, symbols = follower
-    server = pty_server("r1", flash_files=files, symbols=symbols)
-    emu = server.emulator
-    assert emu.vm_program is not None
-    stream = SetpointStream("r1", ("A", "B"), 50, wave(40, (60, -45)))
-    timing = SessionTiming(ack_timeout_s=0.5, max_silent_s=5.0, homing_timeout_s=5.0)
-    brick = Brick(SerialTransport(server.path), name="r1")
-    try:
-        log = execute_streams([stream], {"r1": brick}, options=ExecutionOptions(timing=timing))
-    finally:
-        brick.close()
+    clock = SimClock()
+    with clock.participant("test"):
+        server = pty_server("r1", flash_files=files, symbols=symbols, clock=clock)
+        emu = server.emulator
+        assert emu.vm_program is not None
+        stream = SetpointStream("r1", ("A", "B"), 50, wave(40, (60, -45)))
+        timing = SessionTiming(ack_timeout_s=0.5, max_silent_s=5.0, homing_timeout_s=5.0)
+        brick = Brick(SerialTransport(server.path, clock=clock), name="r1")
+        try:
+            log = execute_streams([stream], {"r1": brick}, options=ExecutionOptions(timing=timing))
+        finally:
+            brick.close()
+            server.stop()
     assert emu.program.reference_rows() == list(stream.rows)
     assert log.brick("r1").measured_deg == tuple(emu.program.measured_rows())
     assert emu.firmware.program_errors == []

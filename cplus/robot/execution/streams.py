@@ -35,6 +35,7 @@ import numpy as np
 
 import nxt_link
 import trajectory
+from nxt_link.clock import MONOTONIC, clock_of_device
 from nxt_link.errors import SetpointError
 
 __all__ = ["EmulatorSettings", "check_ports", "execute_trajectory", "motor_limits", "streams_from_trajectory"]
@@ -179,10 +180,26 @@ def _device_key(port: str) -> str:
 
 @dataclass(frozen=True, slots=True)
 class EmulatorSettings:
-    """How to emulate the bricks when no port is given."""
+    """How to emulate the bricks when no port is given.
+
+    Attributes:
+        latency: the Bluetooth timing model (False: instant answers).
+        time_scale: None (default): the bricks and the link's timeouts run on simulated
+            time (:class:`nxt_link.SimClock`), so the run depends neither on the machine's
+            load nor on its speed, and the same seed gives the same log byte for byte; a
+            number: the wall clock, that many times faster than real time (1: real time).
+        seed: the random seed of the link model, the faults and the session ids (each
+            brick its own, from this one).
+        faults: faults every emulated brick injects (each with its own seed).
+        compiled: run the compiled brick program on the bytecode interpreter (when nbc is
+            installed) instead of its Python model.
+    """
 
     latency: bool = True
-    time_scale: float = 1.0
+    time_scale: float | None = None
+    seed: int = 0
+    faults: nxt_link.FaultParams | None = None
+    compiled: bool = True
 
 
 def execute_trajectory(traj: trajectory.Trajectory, ports: Mapping[str, str] | None = None, *,
@@ -195,13 +212,15 @@ def execute_trajectory(traj: trajectory.Trajectory, ports: Mapping[str, str] | N
                        ) -> nxt_link.ExecutionLog:
     """Execute ``traj`` on bricks at ``ports`` (robot name -> device), or on emulated bricks.
 
-    With emulated bricks the options' ``time_scale`` is the emulator's. ``on_connected``
-    receives the bricks once they are opened, before anything moves.
+    With emulated bricks the options' ``time_scale`` is the emulator's (1 on simulated
+    time, where the bricks' clock is the PC's). ``on_connected`` receives the bricks once
+    they are opened, before anything moves.
 
     Raises:
         SetpointError: the trajectory cannot be executed (nothing moved).
         ExecutionFailed: a brick failed; ``.log`` holds what was gathered.
         LinkError: a port cannot be opened.
+        SimulationStalled: the emulation's simulated clock could not move (a bug).
     """
     streams = streams_from_trajectory(traj, scene)
     robots = [r.name for r in traj.robots]
@@ -210,28 +229,35 @@ def execute_trajectory(traj: trajectory.Trajectory, ports: Mapping[str, str] | N
     emu = emulator or EmulatorSettings()
     opts = options or nxt_link.ExecutionOptions()
     with ExitStack() as stack:
-        if not ports:
-            opts = replace(opts, time_scale=emu.time_scale)
-            servers = {}
-            for name in robots:
-                config = nxt_link.EmulatorConfig(
-                    name=name,
-                    link=nxt_link.LinkParams() if emu.latency else nxt_link.LinkParams.instant(),
-                    stale_frame_ms=250.0 * emu.time_scale)
-                server = nxt_link.PtyBrickServer(nxt_link.BrickEmulator(config),
-                                                 time_scale=emu.time_scale)
-                server.start()
-                stack.callback(server.stop)
-                servers[name] = server.path
-            ports = servers
-        if on_bricks is not None:
-            on_bricks(ports)
         bricks = {}
-        for name in robots:
-            transport = nxt_link.SerialTransport(ports[name])  # type: ignore[operator]
-            stack.callback(transport.close)
-            bricks[name] = nxt_link.Brick(transport, name=name)
+        session_ids = None
+        if not ports:
+            from nxt_link.inprocess import EmulatedBricks
+            emulated = stack.enter_context(EmulatedBricks(emu.time_scale, seed=emu.seed, compiled=emu.compiled))
+            opts = replace(opts, time_scale=emu.time_scale or 1.0)
+            for name in robots:
+                transport = emulated.add(nxt_link.EmulatorConfig(
+                    name=name, link=nxt_link.LinkParams() if emu.latency else nxt_link.LinkParams.instant(),
+                    faults=emu.faults or nxt_link.FaultParams()))
+                bricks[name] = nxt_link.Brick(transport, name=name)
+            session_ids = emulated.session_ids(robots)
+            shown = {name: s.path for name, s in emulated.servers.items()}
+        else:
+            shown = dict(ports)
+        if on_bricks is not None:
+            on_bricks(shown)
+        if ports:
+            # a port served by a brick emulated in this process on simulated time (tests) is
+            # used on that brick's clock
+            clock = clock_of_device(next(iter(ports.values())))
+            if clock is not None:
+                stack.enter_context(clock.participant("pc"))
+                opts = replace(opts, time_scale=1.0)
+            for name in robots:
+                transport = nxt_link.SerialTransport(ports[name], clock=clock or MONOTONIC)  # type: ignore[operator]
+                stack.callback(transport.close)
+                bricks[name] = nxt_link.Brick(transport, name=name)
         if on_connected is not None:      # e.g. a shutdown watchdog that must reach the bricks
             on_connected(bricks)
-        return nxt_link.execute_streams(streams, bricks, options=opts, on_progress=on_progress)
-
+        return nxt_link.execute_streams(streams, bricks, options=opts, on_progress=on_progress,
+                                        session_ids=session_ids)

@@ -10,14 +10,16 @@ port). Actions of one step on one brick run one after another; bricks run in par
 Without ports, each brick is emulated in-process on a pseudo-terminal: a
 :class:`nxt_link.BrickEmulator` running the behaviour program in the world its binding names
 (``world = "world.toml"``), served by :class:`nxt_link.PtyBrickServer`, so the run goes
-through the same serial path as a real brick.
+through the same serial path as a real brick (:class:`nxt_link.inprocess.EmulatedBricks`).
+They run on simulated time unless a ``time_scale`` asks for the wall clock: the executor's
+``clock`` is then the bricks' :class:`nxt_link.SimClock`, the thread that opens the executor
+takes part in it until it closes it, and the loop should measure its cycles on that clock.
 
 A behaviour that reports failure (stuck, line lost) is the step's ``failure``. A brick that
 stops answering is :class:`~cplus.robot.online.loop.RobotLost`.
 """
 from __future__ import annotations
 
-import threading
 from collections.abc import Callable, Mapping
 from contextlib import ExitStack
 from dataclasses import dataclass, field
@@ -27,8 +29,9 @@ from cplus.robot.online.binding import BindingError, RobotBinding
 from cplus.robot.online.estimation import Act, OnlineModel
 from cplus.robot.online.loop import Executor, Outcome, RobotLost, Step
 from nxt_link.behaviours import BehaviourClient, BehaviourError, BehaviourFailed, BehaviourTiming
-from nxt_link.clock import MONOTONIC, Clock
+from nxt_link.clock import MONOTONIC, Clock, SimClock, clock_of_device, join_threads, start_thread
 from nxt_link.errors import LinkError
+from nxt_link.inprocess import EmulatedBricks
 from nxt_link.serial_transport import SerialTransport
 
 __all__ = ["NxtExecutor", "load_world"]
@@ -67,7 +70,12 @@ class NxtExecutor(Executor):
         ports: brick name -> device (``/dev/rfcomm0``, a ``cplus brick`` pty); None: emulate
             every brick in its world.
         latency: emulated bricks answer with Bluetooth timing (False: at once).
-        time_scale: emulated bricks and their worlds run this much faster than real time.
+        time_scale: None (default): emulated bricks and their worlds run on simulated time
+            (then ``clock`` is theirs); a number: on the wall clock, this much faster than
+            real time.
+        seed: emulated bricks: the seed of their link model, worlds and session ids.
+        compiled: emulated bricks run the compiled Legolog program (nbc) on the bytecode
+            interpreter instead of its Python model.
         worlds: brick name -> ``nxt_link.world.WorldSpec``, instead of the binding's world
             files (tests, benchmarks).
         transports: brick name -> an open transport (e.g. a ``MemoryTransport`` on a virtual
@@ -76,16 +84,19 @@ class NxtExecutor(Executor):
         policy: the link's timeouts and retries (how long a lost link is reopened).
         on_link_event: receives ``(brick, event, detail)`` from the behaviour clients
             (re-sends, more time, panic): a log line for the curious.
-        clock: what a step's duration is measured on (the transports' virtual clock in tests).
+        clock: what a step's duration is measured on (the transports' virtual clock in tests;
+            the emulated bricks' simulated clock when they run on one).
     """
 
     def __init__(self, model: OnlineModel, binding: RobotBinding, ports: Mapping[str, str] | None = None, *,
-                 latency: bool = True, time_scale: float = 1.0, worlds: Mapping[str, object] | None = None,
+                 latency: bool = True, time_scale: float | None = None, worlds: Mapping[str, object] | None = None,
                  transports: Mapping[str, object] | None = None, timing: BehaviourTiming | None = None,
                  policy: nxt_link.RetryPolicy | None = None,
-                 on_link_event: Callable[[str, str, str], None] | None = None, clock: Clock = MONOTONIC) -> None:
+                 on_link_event: Callable[[str, str, str], None] | None = None, clock: Clock = MONOTONIC,
+                 seed: int = 0, compiled: bool = True) -> None:
         self.model = model
         self.clock = clock
+        self.emulated: EmulatedBricks | None = None
         self.binding = binding
         self.ports = dict(ports or {})
         self.latency = latency
@@ -103,21 +114,32 @@ class NxtExecutor(Executor):
             self.description = "NXT bricks " + ", ".join(names)
         elif self.ports:
             self.description = "NXT bricks " + ", ".join(f"{n}={self.ports[n]}" for n in names)
+            # ports of bricks emulated in this process on simulated time are used on their clock
+            self.clock = clock_of_device(next(iter(self.ports.values()))) or clock
         else:
             for name in names:                      # refuse a missing world before anything starts
                 if name not in self.worlds:
                     self.worlds[name] = load_world(binding, name)
+            self.emulated = EmulatedBricks(time_scale, seed=seed, compiled=compiled)
+            self.clock = self.emulated.clock
             self.description = "emulated NXT bricks " + ", ".join(
                 f"{n} (world {getattr(self.worlds[n], 'name', '?')})" for n in names)
 
     # ------------------------------------------------------------------ connection
     def open(self) -> None:
+        sessions: dict[str, int] = {}
+        if self.emulated is not None:
+            self._stack.enter_context(self.emulated)   # the calling thread takes part in its clock
+            sessions = self.emulated.session_ids(self.binding.bricks) or {}
+        elif isinstance(self.clock, SimClock) and self.ports:
+            self._stack.enter_context(self.clock.participant("pc"))
         try:
             for name in self.binding.bricks:
                 transport = self._transport(name)
                 brick = nxt_link.Brick(transport, name=name, policy=self.policy)
                 self._stack.callback(brick.close)
-                client = BehaviourClient(brick, timing=self.timing, on_event=self._link_event(name))
+                client = BehaviourClient(brick, timing=self.timing, on_event=self._link_event(name),
+                                         session_id=sessions.get(name))
                 client.connect()
                 self.bricks[name] = _Brick(name, client, brick)
         except (LinkError, OSError) as exc:
@@ -133,19 +155,14 @@ class NxtExecutor(Executor):
         if name in self.transports:
             return self.transports[name]
         if self.ports:
-            t = SerialTransport(self.ports[name])
+            t = SerialTransport(self.ports[name], clock=self.clock if isinstance(self.clock, SimClock) else MONOTONIC)
             self._stack.callback(t.close)
             return t
-        config = nxt_link.EmulatorConfig(
+        assert self.emulated is not None
+        t = self.emulated.add(nxt_link.EmulatorConfig(
             name=name, world=self.worlds[name],  # type: ignore[arg-type]
-            link=nxt_link.LinkParams() if self.latency else nxt_link.LinkParams.instant(),
-            stale_frame_ms=250.0 * self.time_scale)
-        server = nxt_link.PtyBrickServer(nxt_link.BrickEmulator(config), time_scale=self.time_scale)
-        server.start()
-        self._stack.callback(server.stop)
-        self.servers[name] = server
-        t = SerialTransport(server.path)
-        self._stack.callback(t.close)
+            link=nxt_link.LinkParams() if self.latency else nxt_link.LinkParams.instant()))
+        self.servers[name] = self.emulated.servers[name]
         return t
 
     def abort(self) -> None:
@@ -180,24 +197,23 @@ class NxtExecutor(Executor):
             for name, acts in by_brick.items():
                 self._run(name, acts, out)
         else:
-            errors: list[BaseException] = []
-            lock = threading.Lock()
+            # one thread per brick (participants of a simulated clock); their outcomes are
+            # merged in the bricks' order, whatever order they finished in
+            errors: dict[str, BaseException] = {}
+            parts = {name: Outcome() for name in by_brick}
 
             def work(name: str, acts: list[Act]) -> None:
-                part = Outcome()
                 try:
-                    self._run(name, acts, part)
+                    self._run(name, acts, parts[name])
                 except BaseException as exc:  # noqa: BLE001 - re-raised in the caller's thread
-                    errors.append(exc)
-                with lock:
-                    _merge(out, part)
-            threads = [threading.Thread(target=work, args=item, daemon=True) for item in by_brick.items()]
-            for t in threads:
-                t.start()
-            for t in threads:
-                t.join()
+                    errors[name] = exc
+            threads = [start_thread(self.clock, f"act-{name}", work, item) for name, item in
+                       zip(by_brick, by_brick.items())]
+            join_threads(self.clock, threads)
+            for part in parts.values():
+                _merge(out, part)
             if errors:
-                raise errors[0]
+                raise errors[next(n for n in by_brick if n in errors)]
         self._poll_events(out)
         self._read_ports(out)
         out.seconds = self.clock.now() - t0

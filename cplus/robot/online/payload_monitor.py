@@ -49,8 +49,9 @@ from cplus.robot.offline import RefineStatus, RobotTask, TaskError, refine
 from cplus.robot.online.estimation import OnlineModel, Plan, Roles, State
 from cplus.robot.online.loop import CycleRecord, Observer, OnlineStatus, Replan, RunResult
 from cplus.signature import GroundConst
-from nxt_link.clock import MONOTONIC, Clock
+from nxt_link.clock import MONOTONIC, Clock, SimClock, clock_of_device
 from nxt_link.errors import LinkError, NoActiveProgramError, SetpointError, StreamError
+from nxt_link.inprocess import EmulatedBricks
 from nxt_link.stall import Stall
 
 __all__ = ["TRACKING_THRESHOLD_DEG", "TRACKING_WINDOW_TICKS", "TRACKING_AHEAD_TICKS", "ArmsExecutor", "TrackingFault", "TrackingMonitor",
@@ -170,20 +171,33 @@ def nearest_grid_state(task: RobotTask, model: OnlineModel, before: State, after
 @dataclass
 class ArmsExecutor:
     """The arms' bricks, opened once for the whole run (real ones, or emulated on ptys, with
-    stalls), so that every motor keeps its angle from one trajectory to the next."""
+    stalls), so that every motor keeps its angle from one trajectory to the next.
+
+    Emulated bricks run on simulated time (``time_scale`` None, the default; ``clock`` is
+    then theirs, and the thread that opens the executor takes part in it until it closes it)
+    or on the wall clock, ``time_scale`` times faster than real time."""
 
     robots: Sequence[str]
     ports: Mapping[str, str] | None = None
     stalls: Mapping[str, Sequence[Stall]] = field(default_factory=dict)
-    time_scale: float = 1.0
+    time_scale: float | None = None
     latency: bool = True
     transports: Mapping[str, object] | None = None
     policy: nxt_link.RetryPolicy | None = None
+    seed: int = 0
+    compiled: bool = True
     bricks: dict[str, nxt_link.Brick] = field(default_factory=dict)
     description: str = ""
+    clock: Clock = MONOTONIC
+    emulated: EmulatedBricks | None = None
     _stack: ExitStack = field(default_factory=ExitStack)
 
     def __post_init__(self) -> None:
+        if not self.transports and not self.ports:
+            self.emulated = EmulatedBricks(self.time_scale, seed=self.seed, compiled=self.compiled)
+            self.clock = self.emulated.clock
+        elif self.ports:   # ports of bricks emulated in this process on simulated time: their clock
+            self.clock = clock_of_device(next(iter(self.ports.values()))) or MONOTONIC
         if self.transports:
             self.description = "NXT bricks " + ", ".join(self.robots)
         elif self.ports:
@@ -194,22 +208,33 @@ class ArmsExecutor:
 
     def open(self) -> None:
         from nxt_link.serial_transport import SerialTransport
+        if self.emulated is not None:
+            self._stack.enter_context(self.emulated)   # the calling thread takes part in its clock
+        elif isinstance(self.clock, SimClock) and self.ports:
+            self._stack.enter_context(self.clock.participant("pc"))
         for name in self.robots:
             if self.transports:
                 transport = self.transports[name]
             elif self.ports:
-                transport = SerialTransport(self.ports[name])
+                transport = SerialTransport(self.ports[name], clock=self.clock)
                 self._stack.callback(transport.close)
             else:
-                config = nxt_link.EmulatorConfig(
+                assert self.emulated is not None
+                transport = self.emulated.add(nxt_link.EmulatorConfig(
                     name=name, link=nxt_link.LinkParams() if self.latency else nxt_link.LinkParams.instant(),
-                    stale_frame_ms=250.0 * self.time_scale, stalls=tuple(self.stalls.get(name, ())))
-                server = nxt_link.PtyBrickServer(nxt_link.BrickEmulator(config), time_scale=self.time_scale)
-                server.start()
-                self._stack.callback(server.stop)
-                transport = SerialTransport(server.path)
-                self._stack.callback(transport.close)
+                    stalls=tuple(self.stalls.get(name, ()))))
             self.bricks[name] = nxt_link.Brick(transport, name=name, policy=self.policy)  # type: ignore[arg-type]
+
+    def session_ids(self) -> dict[str, int] | None:
+        """Fresh session ids for one trajectory: from the seed on simulated time (None: random)."""
+        return self.emulated.session_ids(self.robots) if self.emulated is not None else None
+
+    def options(self, options: nxt_link.ExecutionOptions | None) -> nxt_link.ExecutionOptions | None:
+        """``options`` with the emulated bricks' time scale (1 on simulated time)."""
+        if self.emulated is None and not isinstance(self.clock, SimClock):
+            return options
+        from dataclasses import replace
+        return replace(options or nxt_link.ExecutionOptions(), time_scale=self.time_scale or 1.0)
 
     def abort(self) -> None:
         """Stop every brick for good: its program stops, every motor coasts (best effort:
@@ -240,9 +265,12 @@ class _Run:
 def run_arms(task: RobotTask, label: str, executor: ArmsExecutor, *, observers: Iterable[Observer] = (),
              threshold_deg: float = TRACKING_THRESHOLD_DEG, max_faults: int = 3, max_iterations: int = 100,
              max_horizon: int | None = None, points_per_step: int = 10, step_time: float = 1.0,
-             options: nxt_link.ExecutionOptions | None = None, clock: Clock = MONOTONIC) -> RunResult:
+             options: nxt_link.ExecutionOptions | None = None, clock: Clock | None = None) -> RunResult:
     """Plan, execute while monitoring the tracking error, and re-plan from the nearest grid
     state after a fault, until the goal holds (or no plan, too many faults, a lost brick).
+
+    Times are measured on ``clock`` (default: the executor's, simulated time for emulated
+    bricks).
 
     Returns a :class:`RunResult` whose records are the segments; its status is
     ``goal_reached``, ``no_plan`` (stopped safely: no collision-free plan from where the arms
@@ -251,6 +279,8 @@ def run_arms(task: RobotTask, label: str, executor: ArmsExecutor, *, observers: 
     """
     import trajectory
     observers = list(observers)
+    clock = clock or executor.clock
+    options = executor.options(options)
     model = OnlineModel(task.domain, label, Roles.of(task.domain), max_horizon=max_horizon)
     records: list[CycleRecord] = []
     t_start = clock.now()
@@ -328,7 +358,8 @@ def run_arms(task: RobotTask, label: str, executor: ArmsExecutor, *, observers: 
             fault: TrackingFault | None = None
             try:
                 nxt_link.execute_streams(streams, executor.bricks, options=_homing_allowed(options, task.scene)
-                                         if cycle else options, on_progress=monitor)
+                                         if cycle else options, on_progress=monitor,
+                                         session_ids=executor.session_ids())
             except TrackingFault as exc:
                 fault = exc
             except (StreamError, SetpointError) as exc:
