@@ -143,6 +143,9 @@ def parse_line(line: str) -> list[Command]:
         if i < len(toks) and toks[i][:2] == ("punct", "("):
             i += 1
             while True:
+                if i < len(toks) and toks[i][:2] == ("punct", "["):
+                    raise ShellError("a list of files is not taken here: loadf one file at a time "
+                                     "(each replaces the theory)", toks[i][2])
                 if i >= len(toks) or toks[i][0] != "atom":
                     at = toks[i][2] if i < len(toks) else len(line) + 1
                     raise ShellError("expected an argument", at)
@@ -262,6 +265,9 @@ class Session:
         except ShellError as exc:
             return Reply(err=self._located(lineno, exc), failed=True)
         except from_domain as exc:
+            if getattr(exc, "loc", None) is None:   # about the command (a missing file): locate it there
+                at = cmd.arg_cols[0] if cmd.arg_cols else cmd.col
+                return Reply(err=self._located(lineno, ShellError(str(exc), at)), failed=True)
             return Reply(err=exc.render() + "\n", failed=True)  # type: ignore[attr-defined]
 
     def _arity(self, cmd: Command, *allowed: int) -> None:

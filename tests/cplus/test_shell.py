@@ -143,6 +143,13 @@ def test_errors_are_located_and_the_session_goes_on(lamp, tmp_path):
     assert "ACTIONS:  flip" in proc.stdout     # the lamp is still the current theory
 
 
+def test_a_missing_file_is_located_at_its_name():
+    proc = cplus(["shell"], "loadf 'nope.cp'.\nloadf(['a', 'b']).\n")
+    err = proc.stderr.splitlines()
+    assert err[0].startswith("<stdin>:1:7: error: ") and "nope.cp" in err[0]
+    assert err[1].startswith("<stdin>:2:7: error: a list of files")
+
+
 def test_no_theory_loaded_is_an_error():
     proc = cplus(["shell"], "query 0.\n")
     assert proc.returncode == 2 and "<stdin>:1:1: error: query: no theory loaded" in proc.stderr
