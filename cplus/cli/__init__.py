@@ -24,6 +24,7 @@ COMMANDS = {
     "execute": "run a trajectory file on NXT bricks (emulated when none is given)",
     "brick": "emulate an NXT brick on a pseudo-terminal",
     "online": "run a domain online on a robot: act, sense, observe events, re-plan (Legolog's loop)",
+    "shell": "CCALC's interactive session: loadf, query, nmquery, sat, show, set, help (scriptable)",
     "serve": "serve goal requests on a domain (script, JSON-lines socket, ROS actionlib): plan, act, re-plan",
 }
 
