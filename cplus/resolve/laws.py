@@ -79,7 +79,7 @@ class _Laws(_Formulas):
             raise ResolveError("a time-stamped fact takes no 'after' or 'unless' part (its stamps name "
                                "its steps)", law.loc)
         scope = _Scope(query=True)
-        f = self._formula(law.head, scope)
+        f = self._formula(law.head, scope)  # type: ignore[arg-type]
         if law.if_ is not None:
             f = ir.Imp(self._formula(law.if_, scope), f)
         if law.where is not None:
