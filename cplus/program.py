@@ -170,7 +170,7 @@ class Program(Record):
     """A resolved domain description and its queries."""
 
     _fields = ("signature", "laws", "increments", "queries", "show", "hide", "hide_all", "show_given",
-               "noconcurrency", "diagnostics", "files", "nmqueries")
+               "noconcurrency", "diagnostics", "files", "nmqueries", "facts")
 
     signature: Signature
     laws: list[BasicLaw]
@@ -184,6 +184,9 @@ class Program(Record):
     diagnostics: Diagnostics
     files: list[str]
     nmqueries: list[QuerySpec]
+    facts: list[tuple[ir.Formula, Location]]
+    """Time-stamped facts outside any query (``0: p.``): formulas of the theory that every
+    query's histories satisfy, at each horizon where their stamps exist (CCALC's meaning)."""
 
     def __init__(
             self,
@@ -198,7 +201,8 @@ class Program(Record):
             noconcurrency: list[tuple[bool, Location]] | None = None,
             diagnostics: Diagnostics | None = None,
             files: list[str] | None = None,
-            nmqueries: list[QuerySpec] | None = None) -> None:
+            nmqueries: list[QuerySpec] | None = None,
+            facts: list[tuple[ir.Formula, Location]] | None = None) -> None:
         self.signature = signature
         self.laws = [] if laws is None else laws
         self.increments = [] if increments is None else increments
@@ -211,6 +215,7 @@ class Program(Record):
         self.diagnostics = Diagnostics() if diagnostics is None else diagnostics
         self.files = [] if files is None else files
         self.nmqueries = [] if nmqueries is None else nmqueries
+        self.facts = [] if facts is None else facts
 
     def query(self, label: str) -> QuerySpec | None:
         for q in self.queries:

@@ -22,9 +22,8 @@ class _Laws(_Formulas):
 
     def _st_Law(self, law: ast.Law) -> None:
         scope = _Scope(law=law.kind)
-        if law.kind == "fact" and _has_stamp(law.head):
-            self.diag.warn("a time-stamped formula outside a query is ignored (CCALC makes it a rule of the "
-                           "theory at those steps; write it as a query condition)", law.loc)
+        if law.kind == "fact" and (_has_stamp(law.head) or (law.if_ is not None and _has_stamp(law.if_))):
+            self._stamped_fact(law)
             return
         if law.kind in ("exogenous", "inertial", "rigid"):
             self._frame_law(law, scope)
@@ -70,6 +69,25 @@ class _Laws(_Formulas):
             self._add(law, None, ir.conj((head, if_)), after, where, "never")
         else:  # pragma: no cover - grammar covers the kinds
             raise ResolveError(f"unsupported law '{kind}'", law.loc)
+
+    def _stamped_fact(self, law: ast.Law) -> None:
+        """``0: p.`` or ``F if G.`` with time stamps: a formula of the theory, as in CCALC,
+        which every query's histories satisfy (``G ->> F``; free variables universal).  It
+        names its steps itself, so it is kept apart from the step-independent laws and
+        added at each horizon (:class:`cplus.sat.horizon.QuerySession`)."""
+        if law.after is not None or law.unless is not None:
+            raise ResolveError("a time-stamped fact takes no 'after' or 'unless' part (its stamps name "
+                               "its steps)", law.loc)
+        scope = _Scope(query=True)
+        f = self._formula(law.head, scope)  # type: ignore[arg-type]
+        if law.if_ is not None:
+            f = ir.Imp(self._formula(law.if_, scope), f)
+        if law.where is not None:
+            where = self._formula(law.where, scope)
+            if ir.constants_in(where):
+                raise ResolveError("a 'where' condition may not mention constants", law.loc)
+            f = ir.Imp(where, f)
+        self.program.facts.append((f, law.loc))
 
     def _mentions_actions(self, f) -> bool:
         return any(_is_action(c) for c in ir.constants_in(f))

@@ -242,6 +242,9 @@ class QuerySession:
         self.rules = [(None if head is None else compile_formula(head, self.ctx), compile_formula(body, self.ctx),
                        ir.free_vars(ir.conj((body,) if head is None else (head, body))), loc)
                       for head, body, loc in query.rules or ()]
+        # the theory's time-stamped facts, one conjunct at a time (see _add_facts)
+        self.facts = [(ir.free_vars(f), [compile_formula(c, self.ctx) for c in ir.conjuncts(f)], loc)
+                      for f, loc in getattr(theory.program, "facts", ())]
         self.horizon = Horizon(theory, solver, solver_factory, templates,
                                None if templates is not None else self._fixed_at_zero())
         self.stats: list[HorizonStats] = []
@@ -288,9 +291,33 @@ class QuerySession:
             raise
         return mk_and(parts), self._oor
 
+    def _ground_facts(self, m: int) -> PF:
+        """The theory's time-stamped facts at horizon m, as CCALC has them: each ground
+        instance's conjuncts are kept where their stamps exist (a fluent at 0..m, an action
+        at 0..m-1) and left out where they do not, as a rule that names a step beyond
+        maxstep has no atom to ground.  ``0: p & 1: q`` at maxstep 0 is ``0: p``."""
+        parts: list[PF] = []
+        self._m = m
+        for variables, fns, loc in self.facts:
+            def leaf(env: dict, fns=fns) -> None:
+                for fn in fns:
+                    self._oor = False
+                    pf = fn(env, None)
+                    if not self._oor:
+                        parts.append(pf)
+            try:
+                bind(self.sig, variables, [], leaf, {"$maxstep": m})
+            except GroundingError as exc:
+                if exc.loc is None:
+                    exc.loc = loc
+                raise
+        return mk_and(parts)
+
     def _add_items(self, m: int) -> None:
         h = self.horizon
         self.act = h.new_var()
+        if self.facts:      # a fact's instance at the last steps may be out of range: guarded
+            h.builder.add(self._ground_facts(m), guard=self.act)
         if self.query.nm:
             self._add_completion(m)
         for item in self.items:
@@ -351,7 +378,10 @@ class QuerySession:
                     h.builder.add(mk_and([mk_or([-v, f]), mk_or([v, neg(f)])]), guard=act)
 
     def assert_items(self, m: int) -> None:
-        """Add every query condition at horizon m unconditionally (for a fixed horizon)."""
+        """Add every query condition at horizon m unconditionally (for a fixed horizon), and
+        the theory's time-stamped facts."""
+        if self.facts:
+            self.horizon.builder.add(self._ground_facts(m))
         for item in self.items:
             pf, _ = self._ground_item(item, m)
             self.horizon.builder.add(pf)

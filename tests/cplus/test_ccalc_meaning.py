@@ -162,7 +162,75 @@ def test_a_domain_of_statically_determined_fluents_prints_them():
     assert d.format(d.solve()).strip() == "0:  q"
 
 
-def test_a_time_stamped_formula_outside_a_query_is_ignored_with_ccalcs_meaning_said():
-    d = Domain.from_text(LAMP + "0: lit.\n:- query maxstep :: 0; 0: -lit.")
-    assert any("CCALC makes it a rule of the theory" in w.message for w in d.diagnostics.items)
-    assert len(d.solve().histories) == 1
+# ----------------------------------------------------------------------------- stamped facts
+
+def test_a_time_stamped_fact_restricts_the_histories():
+    """CCALC: `0: -lit.` outside a query is a formula of the theory.  At maxstep 1 the lamp has
+    4 histories (lit at 0 or not, flip or not); with the fact, the 2 starting dark."""
+    q = ":- query maxstep :: 1; true."
+    assert len(histories(LAMP + q).histories) == 4
+    d = Domain.from_text(LAMP + "0: -lit.\n" + q)
+    r = d.solve(solutions=0)
+    assert len(r.histories) == 2 and all(not h.value("lit", 0) for h in r.histories)
+    assert not d.diagnostics.items                      # no warning: this is its meaning
+
+
+def test_a_time_stamped_fact_can_make_a_query_unsatisfiable():
+    """`0: -lit.` and a query asking `0: lit`: no history at maxstep 0 ("No solution")."""
+    r = histories(LAMP + "0: -lit.\n:- query maxstep :: 0; 0: lit.")
+    assert (r.histories, r.failed) == ([], [0])
+
+
+def test_a_time_stamped_fact_with_a_free_variable_holds_for_every_value():
+    """Free variables are universal, as in a query: `0: -on(X).` darkens every lamp."""
+    src = """:- sorts lamp. :- objects a, b :: lamp. :- variables X :: lamp.
+:- constants on(lamp) :: inertialFluent; flip(lamp) :: exogenousAction.
+flip(X) causes on(X).
+0: -on(X).
+(1: on(X)) ->> (0: flip(X)) where X \\= b.
+:- query maxstep :: 1; true."""
+    r = histories(src)
+    # both dark at 0 (8 histories without the fact), each flip free: 4; the second fact (its
+    # where keeps X = a) holds in each of them, and is grounded without complaint
+    assert all(not h.value("on(a)", 0) and not h.value("on(b)", 0) for h in r.histories)
+    assert len(r.histories) == 4
+
+
+def test_a_stamp_beyond_maxstep_leaves_that_conjunct_out():
+    """CCALC grounds a rule only where its step exists: at maxstep 0, `(0: lit) & (1: -lit).`
+    is `0: lit` (one history, lit), and from maxstep 1 on both hold (flip is then never done,
+    as it would make lit true at 1)."""
+    src = LAMP + "(0: lit) & (1: -lit).\n:- query maxstep :: 0..1; true.\n:- query label :: 1; maxstep :: 1; true."
+    r = histories(src)
+    assert r.maxstep == 0 and [h.value("lit", 0) for h in r.histories] == [True]
+    r1 = histories(src, "1")
+    assert r1.histories == []        # lit at 0 persists: -lit at 1 has no cause
+    # an action at the last step does not exist either: `2: flip.` at maxstep 1 is left out
+    assert len(histories(LAMP + "2: flip.\n:- query maxstep :: 1; true.").histories) == 4
+
+
+def test_stamped_facts_are_in_the_dimacs_cnf(tmp_path):
+    """`cplus ground --dimacs` writes D_m with the theory's stamped facts: its models are the
+    histories `cplus plan -n 0` counts (2 at maxstep 1, not 4)."""
+    from pysat.solvers import Solver
+    f, cnf = tmp_path / "d.cp", tmp_path / "d.cnf"
+    f.write_text(LAMP + "0: -lit.\n")
+    out = subprocess.run([sys.executable, "-m", "cplus", "ground", str(f), "--maxstep", "1", "--dimacs", str(cnf)],
+                         capture_output=True, text=True, timeout=120)
+    assert out.returncode == 0, out.stderr
+    lines = cnf.read_text().splitlines()
+    named = [int(x.split()[1]) for x in lines if x.startswith("c ") and len(x.split()) > 2 and x.split()[1].isdigit()]
+    clauses = [[int(x) for x in ln.split()[:-1]] for ln in lines if ln and ln[0] not in "cp"]
+    models = 0
+    with Solver(bootstrap_with=clauses) as s:
+        while s.solve():
+            m = set(s.get_model())
+            models += 1
+            s.add_clause([-v if v in m else v for v in named])
+    assert models == 2
+
+
+def test_a_stamped_fact_takes_no_after_part():
+    with pytest.raises(CPlusError, match="takes no 'after'") as exc:
+        Domain.from_text(LAMP + "0: lit after flip.")
+    assert exc.value.loc is not None and exc.value.loc.line == 3

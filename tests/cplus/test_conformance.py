@@ -32,6 +32,12 @@ CCALC_DIFFERS = {
     # The corpus's answer is Cplus2ASP's open-ended search; CCALC answers a query without
     # `maxstep` at maxstep 0 (ccalc.pl, process_query: `MaxStep2 = 0`), and the tower needs 7.
     "examples/cplus/etc/hanoi#test": {"result": "UNSAT", "plan_length": None, "failed": [0]},
+    # The file's line 66, `(0:loc(box)=L) & (1:loc(box)=L1) & L \= L1.`, stands outside any
+    # query: a fact of the theory in CCALC (Cplus2ASP ignores it).  Its free variables are
+    # universal, so it says loc(box) has every value at step 0: no history at any maxstep
+    # (#1, #4 and #6 have none either way).  The session recorded in the file predates the line.
+    **{f"examples/cplus/etc/multiple-monkey-test#{k}": {"result": "UNSAT", "plan_length": None, "failed": [m]}
+       for k, m in ((0, 0), (2, 1), (3, 1), (5, 1), (7, 1))},
 }
 """Cases whose expected answer (Cplus2ASP's) is not CCALC's: checked against CCALC's answer
 here, the corpus data left as it is."""
@@ -184,20 +190,33 @@ def _plans(domain: Domain, label: str) -> tuple[list[int], list[Solution]]:
     return parse_output(domain.format(result, numbered=True))
 
 
+RECORDED_WITHOUT = {
+    "examples/cplus/etc/multiple-monkey-test": "\n(0:loc(box)=L) & (1:loc(box)=L1) & L \\= L1.\n",
+}
+"""Statements a file gained after its CCALC session was recorded (see CCALC_DIFFERS): the
+session is compared with the file as it was, this text taken out (the corpus data is left
+as it is)."""
+
+
 @pytest.mark.parametrize("case, session", _recorded_cases())
 def test_plans_match_the_recorded_ccalc_session(case, session, corpus):
     path: Path = corpus / "domains" / case["path"]
     label = case["query_label"]
     failed, recorded = session
+    source = path.read_text()
+    later = RECORDED_WITHOUT.get(case["path"])
+    if later is not None:
+        assert later in source
+        source = source.replace(later, "\n")
     if case["solutions_requested"] == "all" or not recorded:
-        got_failed, got = _plans(Domain.load(str(path)), label)
+        got_failed, got = _plans(Domain.from_text(source, str(path)), label)
         assert got_failed == failed
         assert Counter(got) == Counter(recorded)
         return
     (solution,) = recorded
     # one of many: ask for the histories showing at least these atoms, then compare exactly
     items = [f"{step}: {atom}" for _, step, atoms in solution for atom in sorted(atoms)]
-    text = path.read_text() + "\n:- query label :: recorded; maxstep :: " + \
+    text = source + "\n:- query label :: recorded; maxstep :: " + \
         f"{solution[-1][1]};\n    " + ";\n    ".join(items) + ".\n"
     got_failed, got = _plans(Domain.from_text(text, str(path)), "recorded")
     assert solution in got
