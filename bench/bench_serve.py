@@ -105,7 +105,7 @@ class Stream:
 
 def run(name: str, total: int, seed: int, budget: int | None, solver: str | None = None) -> dict:
     from cplus.api import Domain
-    from cplus.robot.serving.reactive import Server
+    from cplus.robot.serving.reactive import Server, ServerSettings
     from cplus.robot.serving.standing import DEFAULT_BUDGET
     from cplus.robot.serving.vocabulary import load_requests
     from nxt_link.clock import VirtualClock
@@ -113,8 +113,8 @@ def run(name: str, total: int, seed: int, budget: int | None, solver: str | None
     t0 = time.perf_counter()
     domain = Domain.load(str(MAILBOT / file))
     vocabulary = load_requests(str(MAILBOT / "requests.toml"), domain)
-    server = Server(domain, vocabulary, clock=VirtualClock(), budget=DEFAULT_BUDGET if budget is None else budget,
-                    horizon=horizon, solver=solver)
+    server = Server(domain, vocabulary, ServerSettings(clock=VirtualClock(), horizon=horizon, solver=solver,
+                                                       budget=DEFAULT_BUDGET if budget is None else budget))
     setup = time.perf_counter() - t0
     stream = Stream(server, offices, in_flight, total, seed)
     server.loop.observers.append(stream)

@@ -15,7 +15,7 @@ from cplus.api import Domain
 from cplus.robot.online.loop import OnlineStatus
 from cplus.robot.serving.channels import ScriptError, parse_script
 from cplus.robot.serving.goals import GoalStatus, GoalWatcher
-from cplus.robot.serving.reactive import ServeLog, Server
+from cplus.robot.serving.reactive import ServeLog, Server, ServerSettings
 from cplus.robot.serving.vocabulary import Rejected, RequestsError, load_requests, parse_requests
 from nxt_link.clock import VirtualClock
 
@@ -34,7 +34,7 @@ def vocabulary(d):
 def serve(d, lines: list[dict], **kw):
     """Run a server on a script until it is done; return the result, the server and the log."""
     text = "".join(json.dumps(x) + "\n" for x in lines)
-    server = Server(d, vocabulary(d), clock=VirtualClock(), **kw)
+    server = Server(d, vocabulary(d), ServerSettings(clock=VirtualClock(), **kw))
     out = io.StringIO()
     server.loop.observers.append(ServeLog(out, server.board))
     server.add_script(parse_script(text, "script.jsonl"))
@@ -60,7 +60,7 @@ TABLE_I = {
 
 def test_the_papers_scenario_gives_the_plans_of_table_1(domain):
     script = (MAILBOT / "table1.jsonl").read_text()
-    server = Server(domain, vocabulary(domain), clock=VirtualClock())
+    server = Server(domain, vocabulary(domain), ServerSettings(clock=VirtualClock()))
     server.add_script(parse_script(script, "table1.jsonl"))
     result = server.run()
     assert result.status is OnlineStatus.GOAL_REACHED
@@ -184,7 +184,7 @@ class Statuses(GoalWatcher):
 
 
 def test_stopping_the_server_aborts_the_goals_in_flight(domain):
-    server = Server(domain, vocabulary(domain), action_time=0.01)
+    server = Server(domain, vocabulary(domain), ServerSettings(action_time=0.01))
     server.board.open_channel()                       # a live client: the run waits for requests
     watcher = Statuses()
     done = threading.Event()
@@ -205,7 +205,7 @@ def test_stopping_the_server_aborts_the_goals_in_flight(domain):
 
 def test_watchers_hear_each_change_in_order_with_feedback_per_cycle(domain):
     watcher = Statuses()
-    server = Server(domain, vocabulary(domain), clock=VirtualClock())
+    server = Server(domain, vocabulary(domain), ServerSettings(clock=VirtualClock()))
     server.board.watch(watcher)
     server.board.submit("deliver(office2,office1)")
     server.run()

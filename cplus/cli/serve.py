@@ -16,7 +16,8 @@ import argparse
 import os
 import signal
 import sys
-from typing import TextIO
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any, TextIO
 
 from cplus.cli.common import (
     EXIT_INPUT,
@@ -31,6 +32,13 @@ from cplus.cli.common import (
 )
 from cplus.cli.online import Progress
 from cplus.robot.serving.goals import GoalWatcher
+
+if TYPE_CHECKING:
+    from cplus.api import Domain
+    from cplus.robot.online.binding import RobotBinding
+    from cplus.robot.serving.channels import RequestScript
+    from cplus.robot.serving.reactive import ServerSettings
+    from cplus.robot.serving.vocabulary import RequestVocabulary
 
 __all__ = ["build_parser", "main", "DEFAULT_LISTEN"]
 
@@ -107,38 +115,86 @@ class GoalLines(GoalWatcher):
         print(f"cplus serve: goal {goal.id} {goal.request}: {status.value}{extra}{why}", file=self.out, flush=True)
 
 
+@dataclass(frozen=True)
+class ServeOptions:
+    """The checked options of one ``cplus serve``: everything :func:`_run` needs, read and
+    validated before anything moves (so a bad input is an exit 2 with nothing started), and
+    named, so that the run takes one value instead of a dozen positional ones.
+
+    Attributes:
+        domain: the loaded domain; ``label`` its standing goal's query.
+        vocabulary: the requests it accepts, read from ``requests_path``.
+        script: the ``--script`` requests, if any.
+        binding: the ``--robot`` binding, and ``ports`` its ``--brick`` ports (empty: emulated).
+        listen: the socket's address, if it listens.
+        ros: ROS, checked (master answering), when ``--ros``.
+        log_file: the open ``--log`` file, if any.
+        settings: how the server plans and runs (``--budget``, ``--horizon``, ...).
+        args: the parsed command line, for the plain values (``--quiet``, ``--ros-name``, ...).
+    """
+
+    domain: Domain
+    label: str
+    vocabulary: RequestVocabulary
+    requests_path: str
+    script: RequestScript | None
+    binding: RobotBinding | None
+    ports: dict[str, str]
+    listen: tuple[str, int] | None
+    ros: Any                      # ros_bridge.RosSetup: that module is imported only with --ros
+    log_file: TextIO | None
+    settings: ServerSettings
+    args: argparse.Namespace
+
 
 def main(args: argparse.Namespace) -> int:
     """``cplus serve``; returns the exit code."""
+    checked = _check(args)
+    if isinstance(checked, int):
+        return checked
+    try:
+        return _run(checked)
+    finally:
+        if checked.log_file is not None:
+            checked.log_file.close()
+            if not args.quiet:
+                print(f"cplus serve: wrote {args.log}", file=sys.stderr)
+
+
+def _fail(message: str) -> int:
+    print(f"cplus serve: error: {message}", file=sys.stderr)
+    return EXIT_INPUT
+
+
+def _check(args: argparse.Namespace) -> ServeOptions | int:
+    """Read and check every input; the options, or the exit code of the first bad one (its
+    message printed)."""
     from cplus.api import Domain
     from cplus.cli.common import query
     from cplus.robot.serving.channels import load_script, parse_listen
+    from cplus.robot.serving.reactive import ServerSettings
+    from cplus.robot.serving.standing import DEFAULT_BUDGET
     from cplus.robot.serving.vocabulary import load_requests, requests_beside
-    err = sys.stderr
-
-    def fail(message: str) -> int:
-        print(f"cplus serve: error: {message}", file=err)
-        return EXIT_INPUT
     listen = None
     if args.listen or not (args.script or args.ros):
         try:
             listen = parse_listen(args.listen or DEFAULT_LISTEN)
         except ValueError as exc:
-            return fail(f"--listen: {exc}")
+            return _fail(f"--listen: {exc}")
     try:
         ports = parse_bricks(args.brick, "cplus serve")
     except CliError as exc:
-        print(str(exc).replace("cplus online", "cplus serve"), file=err)
+        print(exc, file=sys.stderr)
         return EXIT_INPUT
     if ports and not args.robot:
-        return fail("--brick needs --robot (the binding file that names the bricks)")
+        return _fail("--brick needs --robot (the binding file that names the bricks)")
     requests_path = args.requests or requests_beside(args.domain)
     if requests_path is None:
-        return fail(f"no requests.toml beside {args.domain}: give the requests the domain accepts with --requests FILE")
+        return _fail(f"no requests.toml beside {args.domain}: give the requests the domain accepts with --requests FILE")
     domain = Domain.load(args.domain)
     Warnings()(domain.diagnostics)
     if not domain.labels:
-        return fail(f"{args.domain} has no query: add one whose step-0 conditions are the start and whose maxstep "
+        return _fail(f"{args.domain} has no query: add one whose step-0 conditions are the start and whose maxstep "
                     "conditions say that nothing is pending")
     label = args.goal or domain.labels[0]
     query(domain, label, args.domain)
@@ -150,64 +206,63 @@ def main(args: argparse.Namespace) -> int:
         binding = load_binding(args.robot, domain)
         unknown = sorted(set(ports) - set(binding.bricks))
         if unknown:
-            return fail(f"--brick {unknown[0]}: {args.robot} has no brick {unknown[0]!r} "
+            return _fail(f"--brick {unknown[0]}: {args.robot} has no brick {unknown[0]!r} "
                         f"(bricks: {', '.join(binding.bricks) or 'none'})")
         missing = [b for b in binding.bricks if ports and b not in ports]
         if missing:
-            return fail(f"no --brick for brick {missing[0]!r}: give one per brick, or none to emulate them")
+            return _fail(f"no --brick for brick {missing[0]!r}: give one per brick, or none to emulate them")
     ros = None
     if args.ros:
         from cplus.robot.serving import ros_bridge
         try:
             ros = ros_bridge.RosSetup.check()
         except ros_bridge.RosUnavailable as exc:
-            return fail(str(exc))
+            return _fail(str(exc))
     log_file = None
     if args.log:
         try:
             os.makedirs(os.path.dirname(os.path.abspath(args.log)), exist_ok=True)
             log_file = open(args.log, "w", encoding="utf-8")
         except OSError as exc:
-            return fail(f"cannot write {args.log}: {exc.strerror}")
-    try:
-        return _run(args, domain, label, vocabulary, requests_path, script, binding, ports, listen, ros, log_file)
-    finally:
-        if log_file is not None:
-            log_file.close()
-            if not args.quiet:
-                print(f"cplus serve: wrote {args.log}", file=err)
+            return _fail(f"cannot write {args.log}: {exc.strerror}")
+    settings = ServerSettings(goal=label, budget=DEFAULT_BUDGET if args.budget is None else args.budget,
+                              horizon=args.horizon, max_horizon=args.max_horizon, solver=args.solver,
+                              action_time=args.action_time)
+    return ServeOptions(domain, label, vocabulary, requests_path, script, binding, ports, listen, ros, log_file,
+                        settings, args)
 
 
-def _run(args, domain, label, vocabulary, requests_path, script, binding, ports, listen, ros, log_file) -> int:
+def _run(opts: ServeOptions) -> int:
     """Build the server from checked inputs, open its channels, serve until the end."""
     from cplus.cli.online import exit_code
     from cplus.robot.online.loop import OnlineStatus
     from cplus.robot.serving.reactive import ServeLog, Server
-    from cplus.robot.serving.standing import DEFAULT_BUDGET
+    args = opts.args
     err = sys.stderr
     executor = None
-    if binding is not None:
+    if opts.binding is not None:
         from cplus.robot.online.nxt_executor import NxtExecutor
+        binding, ports = opts.binding, opts.ports
 
         def executor(model):
             return NxtExecutor(model, binding, ports or None, latency=not args.no_latency,
                                time_scale=args.time_scale)
     observers: list = [] if args.quiet else [ServeProgress(err, "cplus serve")]
-    server = Server(domain, vocabulary, goal=label, binding=binding, executor=executor,
-                    action_time=args.action_time, budget=DEFAULT_BUDGET if args.budget is None else args.budget,
-                    max_horizon=args.max_horizon, horizon=args.horizon, solver=args.solver, observers=observers)
-    if log_file is not None:
-        extra = {"requests": requests_path, "accepts": vocabulary.usage(), "binding": args.robot}
-        server.loop.observers.append(ServeLog(log_file, server.board, extra))
+    server = Server(opts.domain, opts.vocabulary, opts.settings, binding=opts.binding, executor=executor,
+                    observers=observers)
+    if opts.log_file is not None:
+        extra = {"requests": opts.requests_path, "accepts": opts.vocabulary.usage(), "binding": args.robot}
+        server.loop.observers.append(ServeLog(opts.log_file, server.board, extra))
     if not args.quiet:
         server.board.watch(GoalLines(err))
-    if script is not None:
-        server.add_script(script)
+    if opts.script is not None:
+        server.add_script(opts.script)
+    listen, ros = opts.listen, opts.ros
     try:
         if listen is not None:
             host, port = server.listen(*listen)
-            print(f"cplus serve: listening on {host}:{port} (JSON lines; requests: {vocabulary.usage()})", file=err,
-                  flush=True)
+            print(f"cplus serve: listening on {host}:{port} (JSON lines; requests: {opts.vocabulary.usage()})",
+                  file=err, flush=True)
         if ros is not None:
             from cplus.robot.serving import ros_bridge
             channel = ros_bridge.ActionChannel(server.board, args.ros_name, ros)
@@ -234,4 +289,3 @@ def _run(args, domain, label, vocabulary, requests_path, script, binding, ports,
     if result.status in (OnlineStatus.STOPPED, OnlineStatus.GOAL_REACHED):
         return EXIT_OK
     return exit_code(result.status)
-

@@ -21,11 +21,11 @@ aborted.
 Python API::
 
     from cplus.api import Domain
-    from cplus.robot.serving.reactive import Server
+    from cplus.robot.serving.reactive import Server, ServerSettings
     from cplus.robot.serving.vocabulary import load_requests
 
     domain = Domain.load("domains/mailbot/mailbot.cp")
-    server = Server(domain, load_requests("domains/mailbot/requests.toml", domain))
+    server = Server(domain, load_requests("domains/mailbot/requests.toml", domain), ServerSettings(action_time=0.5))
     goal = server.board.submit("deliver(office3,office2)")     # from any thread
     host, port = server.listen("127.0.0.1", 0)                 # JSON lines
     result = server.run()                                      # until server.stop()
@@ -33,6 +33,7 @@ Python API::
 from __future__ import annotations
 
 from collections.abc import Callable, Iterable
+from dataclasses import dataclass
 from typing import TextIO
 
 from cplus.robot.online import (
@@ -52,7 +53,7 @@ from cplus.robot.serving.vocabulary import RequestsError, RequestVocabulary
 from cplus.sat.solver import DEFAULT_SOLVER
 from nxt_link.clock import MONOTONIC, Clock
 
-__all__ = ["Server", "ServeLog", "serve_roles"]
+__all__ = ["Server", "ServerSettings", "ServeLog", "serve_roles"]
 
 
 def serve_roles(domain, vocabulary: RequestVocabulary, binding=None) -> Roles:
@@ -86,42 +87,67 @@ class ServeLog(JsonLinesLog):
         self._write(line)
 
 
+@dataclass(frozen=True)
+class ServerSettings:
+    """How a server plans and runs, apart from what it serves and on which robot.
+
+    Attributes:
+        goal: the query label of the standing goal (None: the domain's first query).
+        budget: unit propagations for the shortest plan per re-plan (None: always the shortest).
+        horizon: steps the planner encodes when the server starts (more are added when a plan
+            needs them; None: 20).
+        max_horizon: the longest plan when the goal's maxstep range is open (None: the loop's default).
+        solver: the SAT solver (None: the default one).
+        action_time: seconds each action of the simulated robot takes (when no executor is given).
+        clock: the clock of the loop and the simulated robot (a ``VirtualClock`` in tests).
+        idle_poll_s: how long an idle step waits between two polls of the channels.
+    """
+
+    goal: str | None = None
+    budget: int | None = DEFAULT_BUDGET
+    horizon: int | None = None
+    max_horizon: int | None = None
+    solver: str | None = None
+    action_time: float = 0.0
+    clock: Clock = MONOTONIC
+    idle_poll_s: float = 0.05
+
+
 class Server:
     """A domain served to clients.
 
     Args:
         domain: the C+ domain (:class:`cplus.api.Domain`).
         vocabulary: its requests (:func:`~cplus.robot.serving.vocabulary.load_requests`).
-        goal: the query label of the standing goal (default: the domain's first query).
+        settings: the goal, the planner's budget and horizons, the simulated robot's timing
+            (:class:`ServerSettings`; one object, so that a new setting is one field, not one
+            more argument in every caller).
         binding: a ``robot.toml`` (:class:`~cplus.robot.online.binding.RobotBinding`), for the roles.
         executor: the robot, or a function that makes it from the server's model (default: a
-            simulated robot whose actions take ``action_time`` seconds).
-        budget: unit propagations for the shortest plan per re-plan (None: always the shortest).
-        horizon: steps the planner encodes when the server starts (more are added when a plan
-            needs them; default 20).
+            simulated robot whose actions take ``settings.action_time`` seconds).
         observers: more observers of the loop (progress lines, the log).
     """
 
-    def __init__(self, domain, vocabulary: RequestVocabulary, *, goal: str | None = None, binding=None,
-                 executor: Executor | Callable[[StandingModel], Executor] | None = None, action_time: float = 0.0, budget: int | None = DEFAULT_BUDGET,
-                 max_horizon: int | None = None, horizon: int | None = None, solver: str | None = None,
-                 clock: Clock = MONOTONIC,
-                 observers: Iterable[Observer] = (), idle_poll_s: float = 0.05) -> None:
+    def __init__(self, domain, vocabulary: RequestVocabulary, settings: ServerSettings | None = None, *,
+                 binding=None, executor: Executor | Callable[[StandingModel], Executor] | None = None,
+                 observers: Iterable[Observer] = ()) -> None:
+        settings = settings or ServerSettings()
+        self.settings = settings
         self.domain = domain
         self.vocabulary = vocabulary
         self.board = GoalBoard(vocabulary)
-        label = goal or domain.labels[0]
-        self.model = StandingModel(domain, label, serve_roles(domain, vocabulary, binding), max_horizon=max_horizon,
-                                   budget=budget, agenda=self.board.agenda, solver=solver or DEFAULT_SOLVER,
-                                   horizon=horizon)
+        label = settings.goal or domain.labels[0]
+        self.model = StandingModel(domain, label, serve_roles(domain, vocabulary, binding),
+                                   max_horizon=settings.max_horizon, budget=settings.budget, agenda=self.board.agenda,
+                                   solver=settings.solver or DEFAULT_SOLVER, horizon=settings.horizon)
         if executor is None:
-            executor = SimulatedExecutor(self.model, default_s=action_time, clock=clock)
+            executor = SimulatedExecutor(self.model, default_s=settings.action_time, clock=settings.clock)
         elif not isinstance(executor, Executor):
             executor = executor(self.model)
         self.executor: Executor = executor
         self.channels: list = []
         self.loop = OnlineLoop(self.model, executor, [self.board], [self.board, *observers], when_done="wait",
-                               clock=clock, idle_poll_s=idle_poll_s)
+                               clock=settings.clock, idle_poll_s=settings.idle_poll_s)
 
     def add_script(self, script: RequestScript) -> None:
         script.attach(self.board)
