@@ -306,29 +306,28 @@ def _run(opts: ServeOptions) -> int:
     if opts.script is not None:
         server.add_script(opts.script)
     listen, ros = opts.listen, opts.ros
-    try:
-        if listen is not None:
-            host, port = server.listen(*listen)
-            print(f"cplus serve: listening on {host}:{port} (JSON lines; requests: {opts.vocabulary.usage()})",
-                  file=err, flush=True)
-        if ros is not None:
-            from cplus.robot.serving import ros_bridge
-            channel = ros_bridge.ActionChannel(server.board, args.ros_name, ros)
-            server.add_channel(channel)
-            channel.start()
-            print(f"cplus serve: ROS action server {channel.namespace} ({channel.action_type}) at {ros.master_uri}",
-                  file=err, flush=True)
-    except (OSError, RuntimeError) as exc:
-        for c in server.channels:
-            c.close()
-        what = f"cannot listen on {listen[0]}:{listen[1]}: {exc.strerror}" if isinstance(exc, OSError) and listen \
-            else str(exc)
-        print(f"cplus serve: error: {what}", file=err)
-        return EXIT_INPUT
-
     watchdog = Watchdog(server, err, quiet=args.quiet)
-    watchdog.install()
+    watchdog.install()                  # before the address is printed: a signal from then on is honoured
     try:
+        try:
+            if listen is not None:
+                host, port = server.listen(*listen)
+                print(f"cplus serve: listening on {host}:{port} (JSON lines; requests: {opts.vocabulary.usage()})",
+                      file=err, flush=True)
+            if ros is not None:
+                from cplus.robot.serving import ros_bridge
+                channel = ros_bridge.ActionChannel(server.board, args.ros_name, ros)
+                server.add_channel(channel)
+                channel.start()
+                print(f"cplus serve: ROS action server {channel.namespace} ({channel.action_type}) at "
+                      f"{ros.master_uri}", file=err, flush=True)
+        except (OSError, RuntimeError) as exc:
+            for c in server.channels:
+                c.close()
+            what = f"cannot listen on {listen[0]}:{listen[1]}: {exc.strerror}" \
+                if isinstance(exc, OSError) and listen else str(exc)
+            print(f"cplus serve: error: {what}", file=err)
+            return EXIT_INPUT
         try:
             result = server.run()
         except KeyboardInterrupt:       # SIGINT inside a SAT call (the solver's own handler): a stop
@@ -339,6 +338,10 @@ def _run(opts: ServeOptions) -> int:
         return code
     finally:
         watchdog.uninstall()
+
+
+def _exit_now(signum, frame) -> None:
+    os._exit(EXIT_INTERRUPTED)
 
 
 class Watchdog:
@@ -365,6 +368,7 @@ class Watchdog:
         self._done = threading.Event()
         self._code = EXIT_OK
         self._installed = False
+        self._signalled = False
         self._old: dict = {}
         self._old_fd = -1
         self._r: socket.socket | None = None
@@ -385,6 +389,7 @@ class Watchdog:
 
     def _on_signal(self, signum, frame) -> None:
         """The Python-level handler (main thread): the watchdog hears the same signal."""
+        self._signalled = True
         self.server.stop()
 
     def finished(self, code: int) -> None:
@@ -394,9 +399,11 @@ class Watchdog:
         if not self._installed:
             return
         self._installed = False
-        signal.set_wakeup_fd(self._old_fd)
         for s, h in self._old.items():
-            signal.signal(s, h)
+            # after a signal, the process is on its way out: another one ends it at once (130),
+            # not with the default action's death by signal; otherwise the handlers are given back
+            signal.signal(s, _exit_now if self._signalled else h)
+        signal.set_wakeup_fd(self._old_fd)
         self._done.set()
         assert self._w is not None
         try:
