@@ -376,22 +376,6 @@ def test_a_watcher_may_call_back_into_the_board(domain):
     board.close()
 
 
-def test_answers_keep_their_order_with_the_news_of_goals(domain):
-    board = GoalBoard(vocabulary(domain))
-    heard: list[str] = []
-
-    class Lines(GoalWatcher):
-        def status(self, goal, status) -> None:
-            heard.append(f"{goal.id} {status.value}")
-    w = Lines()
-    board.submit("deliver(office1,office2)", w)
-    board.after(lambda: heard.append("answer"))
-    board.submit("deliver(office1,office9)", w)
-    assert board.drain(30)
-    assert heard == ["1 pending", "answer", "2 rejected"]
-    board.close()
-
-
 def test_open_goals_are_bounded_per_client_and_in_all(domain):
     board = GoalBoard(vocabulary(domain), limits=Limits(open_goals=5, client_goals=2, kept_final=3))
     a = [board.submit("deliver(office1,office2)", client="a") for _ in range(3)]

@@ -226,8 +226,6 @@ class SocketLimits:
             client is told and disconnected (so that half-sent lines cannot hold every
             connection).
         lines_per_round: lines handled for one client before the others' turn.
-        waiting: a client's answers waiting for the board's dispatcher, beyond which its next
-            lines wait as for ``pause_bytes``.
     """
 
     clients: int = 64
@@ -235,7 +233,6 @@ class SocketLimits:
     pause_bytes: int = 256 << 10
     line_timeout: float = 60.0
     lines_per_round: int = 64
-    waiting: int = 256
 
 
 _ACCEPT, _WAKE = object(), object()
@@ -244,9 +241,17 @@ _ACCEPT, _WAKE = object(), object()
 class _Client(GoalWatcher):
     """One connection: the bytes read and not yet handled, the answers not yet sent.
 
-    Only the channel's I/O thread reads, parses and changes the selector; the board's
-    dispatcher adds answers (:meth:`queue`). ``_lock`` guards ``out`` and the socket's writing
-    side, and nothing else is taken while it is held (sends are non-blocking)."""
+    Only the channel's I/O thread reads, parses, answers the client's lines and changes the
+    selector; the board's dispatcher adds the news of the client's goals. ``_lock`` guards
+    ``out``, the socket's writing side and the bookkeeping of acknowledgements; nothing else
+    is taken while it is held (sends are non-blocking), and it is never held while the board
+    is called.
+
+    The I/O thread answers every line itself, at once and in order (a request with its
+    acknowledgement, built from the goal as the board made it). The news of a goal that the
+    dispatcher has before that acknowledgement is sent (its first, the acknowledgement's twin,
+    is skipped; the later ones wait in ``_early`` until the acknowledgement is out), so the
+    client hears a goal's lines in order, after the answer to the line that asked for it."""
 
     def __init__(self, channel: SocketChannel, sock: socket.socket, peer: str) -> None:
         self.channel = channel
@@ -263,62 +268,82 @@ class _Client(GoalWatcher):
         self.eof = False                  # it hung up: closed once its last lines are answered
         self.dead = False                 # the connection failed: hang up
         self.mask = 0                     # what the selector watches for it
-        self._told: set[int] = set()      # goals told their first line (dispatcher)
-        self.waiting = 0                  # answers still in the board's outbox (under _lock)
+        self._acked: set[int] = set()     # goals in flight whose acknowledgement is out (under _lock)
+        self._twins: set[int] = set()     # goals whose first news the dispatcher had (under _lock)
+        self._early: dict[int, list[dict]] = {}   # news before the acknowledgement (under _lock)
 
     # ------------------------------------------------------------- from any thread
     def queue(self, obj: dict) -> None:
         """Send ``obj`` as a JSON line: at once when the socket takes it, else kept for the I/O
         thread; never blocks. Too much kept (:attr:`SocketLimits.out_bytes`) marks the client
         for disconnection."""
-        data = (json.dumps(obj, separators=(",", ":")) + "\n").encode()
-        wake = False
         with self._lock:
-            if self.closed or self.overflow:
-                return
-            if not self.out:
-                try:
-                    sent = self.sock.send(data)
-                except BlockingIOError:
-                    sent = 0
-                except OSError:           # the client went away: the I/O thread hangs up
-                    sent, wake, self.dead = len(data), True, True
-                data = data[sent:]
-            if data:
-                if len(self.out) + len(data) > self.channel.limits.out_bytes:
-                    self.overflow = True
-                else:
-                    self.out += data
-                wake = True
+            wake = self._send(obj)
         if wake:
             self.channel._wake()
 
-    def answer(self, obj: dict) -> None:
-        """Answer the client's line with ``obj``, in order with the news of its goals (through
-        the board's dispatcher)."""
-        with self._lock:
-            self.waiting += 1
+    def _send(self, obj: dict) -> bool:
+        """:meth:`queue` with the lock held; True when the I/O thread must look."""
+        if self.closed or self.overflow:
+            return False
+        data = (json.dumps(obj, separators=(",", ":")) + "\n").encode()
+        wake = False
+        if not self.out:
+            try:
+                sent = self.sock.send(data)
+            except BlockingIOError:
+                sent = 0
+            except OSError:               # the client went away: the I/O thread hangs up
+                sent, wake, self.dead = len(data), True, True
+            data = data[sent:]
+        if data:
+            if len(self.out) + len(data) > self.channel.limits.out_bytes:
+                self.overflow = True
+            else:
+                self.out += data
+            wake = True
+        return wake
 
-        def deliver() -> None:
-            with self._lock:
-                self.waiting -= 1
-            self.queue(obj)
-        self.channel.board.after(deliver)
+    answer = queue
+
+    def acknowledge(self, ack: dict, final: bool) -> None:
+        """The I/O thread's answer to a request, then the goal's news that came before it."""
+        gid = ack["id"]
+        with self._lock:
+            wake = self._send({"type": "goal", **ack})
+            if not final:
+                self._acked.add(gid)
+            for obj in self._early.pop(gid, []):
+                wake = self._send(obj) or wake
+                if obj["type"] == "result":
+                    self._acked.discard(gid)
+                    self._twins.discard(gid)
+        if wake:
+            self.channel._wake()
+
+    def _news(self, goal: Goal, obj: dict, final: bool) -> None:
+        wake = False
+        with self._lock:
+            if goal.id not in self._twins:
+                if not final:             # the acknowledgement's twin: the I/O thread sends that one
+                    self._twins.add(goal.id)
+                return
+            if goal.id in self._acked:
+                wake = self._send(obj)
+                if final:
+                    self._acked.discard(goal.id)
+                    self._twins.discard(goal.id)
+            else:
+                self._early.setdefault(goal.id, []).append(obj)
+        if wake:
+            self.channel._wake()
 
     def status(self, goal: Goal, status: GoalStatus) -> None:
-        first = goal.id not in self._told
-        if first:
-            with self._lock:
-                self.waiting -= 1
-        kind = "goal" if first else ("result" if status in FINAL else "status")
-        if status in FINAL:
-            self._told.discard(goal.id)
-        elif first:
-            self._told.add(goal.id)
-        self.queue({"type": kind, **goal.to_json(), "status": status.value})
+        final = status in FINAL
+        self._news(goal, {"type": "result" if final else "status", **goal.to_json(), "status": status.value}, final)
 
     def feedback(self, goal: Goal, feedback: Feedback) -> None:
-        self.queue({"type": "feedback", "id": goal.id, **feedback.to_json()})
+        self._news(goal, {"type": "feedback", "id": goal.id, **feedback.to_json()}, False)
 
     # ------------------------------------------------------------- the I/O thread
     def write(self) -> None:
@@ -379,7 +404,7 @@ class _Client(GoalWatcher):
     def busy(self) -> bool:
         """Too much of its answers not sent yet: its next lines wait (in the kernel, and then in
         its own writes), so that a client that does not read costs a bounded amount."""
-        return len(self.out) >= self.channel.limits.pause_bytes or self.waiting >= self.channel.limits.waiting
+        return len(self.out) >= self.channel.limits.pause_bytes
 
     def handle(self, raw: bytes, board: GoalBoard) -> None:
         """Answer one line (parsed here, in the I/O thread, outside every lock)."""
@@ -408,9 +433,8 @@ class _Client(GoalWatcher):
                 self.answer({"type": "error", "message": "\"request\" must be a string such as "
                                                         "\"deliver(office3,office2)\""})
                 return
-            with self._lock:
-                self.waiting += 1             # until its acknowledgement
-            board.submit(value, self, self.peer, client=self)     # answered by the dispatcher
+            _, ack = board.request(value, self, self.peer, client=self)
+            self.acknowledge(ack, ack["status"] != GoalStatus.PENDING.value)
             return
         if isinstance(value, bool) or not isinstance(value, int):
             self.answer({"type": "error", "message": f"\"{key}\" takes a goal id (an integer)"})
@@ -420,11 +444,11 @@ class _Client(GoalWatcher):
                 board.cancel(value, self.peer)
             except KeyError:
                 pass
-        goal = board.describe(value)
-        if goal is None:
+        now = board.describe(value)
+        if now is None:
             self.answer({"type": "error", "message": _unknown(board, value)})
         else:
-            self.answer({"type": key, **goal})
+            self.answer({"type": key, **now})
 
 
 def _unknown(board: GoalBoard, goal_id: int) -> str:
@@ -625,7 +649,7 @@ class SocketChannel:
                     client.eof, client.inbuf, client.pos = True, bytearray(), 0
             else:
                 client.partial_since = None
-            if client.overflow or client.dead or (client.eof and not client.out and not client.waiting):
+            if client.overflow or client.dead or (client.eof and not client.out):
                 self._drop(client)
                 continue
             want = 0

@@ -250,6 +250,12 @@ class GoalBoard(EventSource, Observer):
         ``client`` is whose share of open goals it takes (None: only the limit for every
         client together). Thread-safe; never blocks on anything but the board's own lock (the
         request is read before it is taken)."""
+        return self.request(request, watcher, origin, client)[0]
+
+    def request(self, request: str, watcher: GoalWatcher | None = None, origin: str = "",
+                client: Hashable | None = None) -> tuple[Goal, dict]:
+        """:meth:`submit`, and the goal as JSON as it was made (pending or rejected): a channel
+        acknowledges with that at once, while the loop may already be changing the goal."""
         text = request if isinstance(request, str) else repr(request)
         try:
             parsed: tuple | None = self.vocabulary.parse(text)
@@ -280,8 +286,9 @@ class GoalBoard(EventSource, Observer):
                 self._queue.append(goal)
                 self._set(goal, GoalStatus.PENDING)
                 self._arrived.notify_all()
+            made = goal.to_json()
         self._started()
-        return goal
+        return goal, made
 
     def cancel(self, goal_id: int, origin: str = "") -> Goal:
         """Cancel a goal: a pending one is recalled at once; an active one is preempting until
@@ -299,18 +306,6 @@ class GoalBoard(EventSource, Observer):
                 self._arrived.notify_all()
         self._started()
         return goal
-
-    def after(self, fn: Callable[[], None]) -> None:
-        """Call ``fn()`` from the dispatcher once everything queued before it has been told (a
-        channel's answers to a client then keep their order with the news of its goals: the
-        acknowledgement of a request comes before the answer to the client's next line).
-        Thread-safe; ``fn`` must not block."""
-        with self._lock:
-            if self._stopped:
-                return
-            self._outbox.append(("call", None, fn, ()))
-            self._news.notify()
-        self._started()
 
     def get(self, goal_id: int) -> Goal | None:
         with self._lock:
@@ -557,12 +552,6 @@ class GoalBoard(EventSource, Observer):
                 self._outbox.clear()
                 self._delivering = True
             for kind, goal, what, audience in batch:
-                if kind == "call":
-                    try:
-                        what()
-                    except Exception as exc:  # noqa: BLE001 - as for a watcher
-                        print("cplus serve: a channel's answer failed; the others go on:", file=sys.stderr)
-                        traceback.print_exception(exc, file=sys.stderr)
                 for w in audience:
                     try:
                         if kind == "status":
