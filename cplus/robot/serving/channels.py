@@ -34,8 +34,19 @@ client                                       server
 anything else                                ``{"type": "error", "message": ...}``
 ============================================ =================================================
 
-A client that disconnects leaves its goals running (a mail robot does not drop a package
-because the person who asked hung up); their results are in the log.
+Each line is answered at once and in order (a request with its acknowledgement, before any
+news of that goal). A client that disconnects leaves its goals running (a mail robot does not
+drop a package because the person who asked hung up); their results are in the log.
+
+One I/O thread serves every connection (:class:`SocketChannel`), and no client can make the
+server or another client wait (:class:`SocketLimits`): at most 64 connections (one more is
+told why and closed); a client's answers are queued for it alone, its further lines wait
+while 256 KiB of answers are unsent, and it is disconnected when 1 MiB is (it does not read);
+an unfinished line is given up after 60 s; a line over 64 KiB, text that is not UTF-8 or not
+JSON (numbers beyond Python's digit limit, nesting beyond json's recursion) is an error line.
+
+Locks: a client's ``_lock`` guards its unsent answers and is a leaf (sends are non-blocking,
+and the board is never called with it held); the I/O thread calls the board with no lock held.
 """
 from __future__ import annotations
 
@@ -248,10 +259,12 @@ class _Client(GoalWatcher):
     is called.
 
     The I/O thread answers every line itself, at once and in order (a request with its
-    acknowledgement, built from the goal as the board made it). The news of a goal that the
-    dispatcher has before that acknowledgement is sent (its first, the acknowledgement's twin,
-    is skipped; the later ones wait in ``_early`` until the acknowledgement is out), so the
-    client hears a goal's lines in order, after the answer to the line that asked for it."""
+    acknowledgement, built from the goal as the board made it: :meth:`GoalBoard.request`, so
+    that the dispatcher has nothing for this client before the answer is out, and the I/O
+    thread does not wait for the client's lock, which would hand Python's GIL to the loop's
+    re-plan first). News of the goal that the dispatcher has before that acknowledgement is
+    sent waits in ``_early``, so the client hears a goal's lines in order, after the answer to
+    the line that asked for it."""
 
     def __init__(self, channel: SocketChannel, sock: socket.socket, peer: str) -> None:
         self.channel = channel
@@ -269,7 +282,6 @@ class _Client(GoalWatcher):
         self.dead = False                 # the connection failed: hang up
         self.mask = 0                     # what the selector watches for it
         self._acked: set[int] = set()     # goals in flight whose acknowledgement is out (under _lock)
-        self._twins: set[int] = set()     # goals whose first news the dispatcher had (under _lock)
         self._early: dict[int, list[dict]] = {}   # news before the acknowledgement (under _lock)
 
     # ------------------------------------------------------------- from any thread
@@ -317,22 +329,16 @@ class _Client(GoalWatcher):
                 wake = self._send(obj) or wake
                 if obj["type"] == "result":
                     self._acked.discard(gid)
-                    self._twins.discard(gid)
         if wake:
             self.channel._wake()
 
     def _news(self, goal: Goal, obj: dict, final: bool) -> None:
         wake = False
         with self._lock:
-            if goal.id not in self._twins:
-                if not final:             # the acknowledgement's twin: the I/O thread sends that one
-                    self._twins.add(goal.id)
-                return
             if goal.id in self._acked:
                 wake = self._send(obj)
                 if final:
                     self._acked.discard(goal.id)
-                    self._twins.discard(goal.id)
             else:
                 self._early.setdefault(goal.id, []).append(obj)
         if wake:

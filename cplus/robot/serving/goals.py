@@ -250,12 +250,19 @@ class GoalBoard(EventSource, Observer):
         ``client`` is whose share of open goals it takes (None: only the limit for every
         client together). Thread-safe; never blocks on anything but the board's own lock (the
         request is read before it is taken)."""
-        return self.request(request, watcher, origin, client)[0]
+        return self._make(request, watcher, origin, client, True)[0]
 
     def request(self, request: str, watcher: GoalWatcher | None = None, origin: str = "",
                 client: Hashable | None = None) -> tuple[Goal, dict]:
-        """:meth:`submit`, and the goal as JSON as it was made (pending or rejected): a channel
-        acknowledges with that at once, while the loop may already be changing the goal."""
+        """:meth:`submit` for a channel that acknowledges the request itself: the goal, and the
+        goal as JSON as it was made (pending or rejected), which the channel answers with at
+        once (the loop may already be changing the goal). ``watcher`` hears the goal's later
+        news, not its first status (that is the acknowledgement): so that the dispatcher has
+        nothing to tell the client before the channel's answer is out."""
+        return self._make(request, watcher, origin, client, False)
+
+    def _make(self, request: str, watcher: GoalWatcher | None, origin: str, client: Hashable | None,
+              tell_first: bool) -> tuple[Goal, dict]:
         text = request if isinstance(request, str) else repr(request)
         try:
             parsed: tuple | None = self.vocabulary.parse(text)
@@ -278,13 +285,13 @@ class GoalBoard(EventSource, Observer):
                 reason = (f"this client has {mine} goals open (at most {self.limits.client_goals} per client): "
                           "send it again when one has ended")
             if reason:
-                self._set(goal, GoalStatus.REJECTED, reason)
+                self._set(goal, GoalStatus.REJECTED, reason, tell_first)
             else:
                 self._open += 1
                 if client is not None:
                     self._by_client[client] = mine + 1
                 self._queue.append(goal)
-                self._set(goal, GoalStatus.PENDING)
+                self._set(goal, GoalStatus.PENDING, tell_own=tell_first)
                 self._arrived.notify_all()
             made = goal.to_json()
         self._started()
@@ -490,8 +497,9 @@ class GoalBoard(EventSource, Observer):
             self._lock.release()
 
     # ------------------------------------------------------------------ notifications
-    def _set(self, goal: Goal, status: GoalStatus, reason: str = "") -> None:
-        """Change a goal's status (under the lock) and queue the news for its watchers."""
+    def _set(self, goal: Goal, status: GoalStatus, reason: str = "", tell_own: bool = True) -> None:
+        """Change a goal's status (under the lock) and queue the news for its watchers (not for
+        its own one when ``tell_own`` is False: the channel that made it acknowledges it)."""
         goal.status = status
         if reason:
             goal.reason = reason
@@ -508,12 +516,12 @@ class GoalBoard(EventSource, Observer):
             self._finals.append(goal.id)
             while len(self._finals) > self.limits.kept_final:
                 self.goals.pop(self._finals.popleft(), None)
-        self._post("status", goal, status)
+        self._post("status", goal, status, tell_own)
 
-    def _post(self, kind: str, goal: Goal, what: object) -> None:
+    def _post(self, kind: str, goal: Goal, what: object, tell_own: bool = True) -> None:
         """Queue a notification (under the lock), with a copy of the goal as it is now and its
         audience; nothing is queued for a goal nobody watches."""
-        audience = (goal.watcher, *self._watchers) if goal.watcher is not None else self._watchers
+        audience = (goal.watcher, *self._watchers) if goal.watcher is not None and tell_own else self._watchers
         if not audience or self._stopped:
             return
         if kind == "feedback" and len(self._outbox) >= self.limits.outbox:

@@ -11,6 +11,22 @@ the online loop of :mod:`cplus.robot.online.loop` with three parts added, and no
 * the channels: a script (:class:`~cplus.robot.serving.channels.RequestScript`), a JSON-lines socket
   (:class:`~cplus.robot.serving.channels.SocketChannel`), ROS actionlib (:mod:`cplus.robot.serving.ros_bridge`).
 
+**Threads and the lock order.** The loop runs in the thread that calls :meth:`Server.run`;
+the board's dispatcher tells watchers (:mod:`.goals`); the socket has one I/O thread
+(:mod:`.channels`); rospy has its own (:mod:`.ros_bridge`). Every lock of the server, and the
+one order in which they may be held::
+
+    actionlib's action_server.lock  ─┐
+    ServeLog._lock (the end record) ─┴─>  GoalBoard._lock      (nothing is taken under it)
+    a socket client's _Client._lock                             (a leaf: nothing under it)
+
+No lock is held while calling into another component: the board queues notifications and the
+dispatcher delivers them with no lock held; a watcher (a socket client, an actionlib goal
+handle, progress lines) only queues or sends without blocking; the socket's I/O thread calls
+the board with no lock of its own held. :meth:`Server.stop` and :meth:`Server.force_end` are
+for any thread; ``cplus serve`` calls them from its watchdog (:mod:`cplus.cli.serve`), so
+that SIGINT and SIGTERM end it within 2 s whatever the threads are doing.
+
 The goal is a query of the domain whose step-0 conditions are where the robot starts and whose
 ``maxstep`` conditions say that nothing is pending. The run waits when nothing is to be done,
 and ends when it is stopped (:meth:`Server.stop`), or when every channel has finished (a
@@ -25,7 +41,8 @@ Python API::
     from cplus.robot.serving.vocabulary import load_requests
 
     domain = Domain.load("domains/mailbot/mailbot.cp")
-    server = Server(domain, load_requests("domains/mailbot/requests.toml", domain), ServerSettings(action_time=0.5))
+    server = Server(domain, load_requests("domains/mailbot/requests.toml", domain),
+                    ServerSettings(action_time=0.5))
     goal = server.board.submit("deliver(office3,office2)")     # from any thread
     host, port = server.listen("127.0.0.1", 0)                 # JSON lines
     result = server.run()                                      # until server.stop()
