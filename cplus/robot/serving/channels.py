@@ -294,13 +294,15 @@ class _Client(GoalWatcher):
         if wake:
             self.channel._wake()
 
-    def _send(self, obj: dict) -> bool:
-        """:meth:`queue` with the lock held; True when the I/O thread must look."""
+    def _send(self, obj: dict, now: bool = True) -> bool:
+        """:meth:`queue` with the lock held; True when the I/O thread must look. ``now``
+        False: only keep it (the I/O thread sends a round's answers at once, with one system
+        call, during which Python's GIL may go to the loop's re-plan)."""
         if self.closed or self.overflow:
             return False
         data = (json.dumps(obj, separators=(",", ":")) + "\n").encode()
         wake = False
-        if not self.out:
+        if not self.out and now:
             try:
                 sent = self.sock.send(data)
             except BlockingIOError:
@@ -316,17 +318,20 @@ class _Client(GoalWatcher):
             wake = True
         return wake
 
-    answer = queue
+    def answer(self, obj: dict) -> None:
+        """The I/O thread's answer to a line: kept, and sent with the round's others."""
+        with self._lock:
+            self._send(obj, now=False)
 
     def acknowledge(self, ack: dict, final: bool) -> None:
         """The I/O thread's answer to a request, then the goal's news that came before it."""
         gid = ack["id"]
         with self._lock:
-            wake = self._send({"type": "goal", **ack})
+            wake = self._send({"type": "goal", **ack}, now=False)
             if not final:
                 self._acked.add(gid)
             for obj in self._early.pop(gid, []):
-                wake = self._send(obj) or wake
+                wake = self._send(obj, now=False) or wake
                 if obj["type"] == "result":
                     self._acked.discard(gid)
         if wake:
@@ -644,6 +649,8 @@ class SocketChannel:
                     break
                 client.handle(line, self.board)
                 handled += 1
+            if handled:
+                client.write()            # the round's answers, in one system call
             if handled == limits.lines_per_round and not client.busy():
                 more = True
             if client.unhandled() and not client.discarding and client.inbuf.find(b"\n", client.pos) < 0:
