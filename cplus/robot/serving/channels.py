@@ -315,7 +315,9 @@ class _Client(GoalWatcher):
                 self.overflow = True
             else:
                 self.out += data
-            wake = True
+            # the dispatcher wakes the I/O thread to send the rest; the I/O thread itself sends
+            # at the end of its round (a wake is a system call: the GIL would go to the loop)
+            wake = now or self.overflow
         return wake
 
     def answer(self, obj: dict) -> None:
