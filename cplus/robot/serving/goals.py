@@ -359,7 +359,12 @@ class GoalBoard(EventSource, Observer):
                 self._holder[slot] = goal
                 events.extend(goal.events)
                 self._set(goal, GoalStatus.ACTIVE)
+            told = bool(self._outbox)
         self._started()
+        if told:
+            # let the dispatcher tell the clients now: the re-plan that follows holds Python's
+            # GIL inside SAT calls, and the news would wait for it (a ROS goal's ACTIVE, 5 ms)
+            time.sleep(0)
         return events
 
     def _free_slot(self) -> object | None:
