@@ -403,6 +403,9 @@ def test_a_request_is_read_in_one_pass(domain):
     assert v.parse("  deliver (office1 , office2)  ")[1] == ("office1", "office2")
     with pytest.raises(Rejected, match="is not an office"):
         v.parse("deliver(office\u0663,office2)")    # an Arabic-Indic digit: not the office 3
+    goal = GoalBoard(v).submit("deliver(" + "x" * 10_000_000 + ")")    # a ROS string has no length limit
+    assert goal.status is GoalStatus.REJECTED and goal.request.endswith("... (10000009 characters)")
+    assert len(goal.request) < 200 and "10000009 characters" in goal.reason
 
 
 def test_hostile_requests_and_scripts_are_located_errors(domain):

@@ -64,7 +64,7 @@ from enum import StrEnum
 
 from cplus.robot.online import CycleRecord, EventSource, Observer, RunResult, State
 from cplus.robot.serving.standing import GoalLiteral
-from cplus.robot.serving.vocabulary import Rejected, RequestVocabulary
+from cplus.robot.serving.vocabulary import MAX_REQUEST, Rejected, RequestVocabulary
 from cplus.signature import render_value
 
 __all__ = ["FINAL", "Feedback", "Goal", "GoalBoard", "GoalStatus", "GoalWatcher", "Limits"]
@@ -263,12 +263,14 @@ class GoalBoard(EventSource, Observer):
 
     def _make(self, request: str, watcher: GoalWatcher | None, origin: str, client: Hashable | None,
               tell_first: bool) -> tuple[Goal, dict]:
-        text = request if isinstance(request, str) else repr(request)
+        text = request if isinstance(request, str) else repr(request)[:MAX_REQUEST + 1]
         try:
             parsed: tuple | None = self.vocabulary.parse(text)
             reason = ""
         except Rejected as exc:
             parsed, reason = None, exc.reason
+        if len(text) > MAX_REQUEST:               # kept (and logged) cut: a ROS string has no length limit
+            text = f"{text[:80]}... ({len(text)} characters)"
         now = self.clock()
         with self._lock:
             goal = Goal(self._next_id, text, GoalStatus.PENDING, origin, received=now, watcher=watcher,
