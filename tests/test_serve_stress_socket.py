@@ -362,7 +362,7 @@ def test_a_second_signal_ends_at_once(tmp_path):
     with Served(tmp_path) as server:
         server.proc.send_signal(signal.SIGTERM)
         code = server.stop(signal.SIGTERM)
-        assert code in (0, 130)
+        assert code in (0, 124)                # 0 when the first had ended the run already
         text = server.log.read_text()
     assert text.endswith("\n") and all(json.loads(x) for x in text.splitlines())
 
@@ -395,7 +395,7 @@ def test_a_loop_that_never_comes_back_is_ended_by_the_watchdog(tmp_path, signals
             server.proc.send_signal(signal.SIGINT)
         server.proc.wait(30)
         c.close()
-        assert server.proc.returncode == 130
+        assert server.proc.returncode == (143 if signals == 1 else 124)
         lines = server.log_lines()
     assert lines[-1]["status"] == "stopped" and "forced" in lines[-1]["message"]
     assert final_statuses(lines) == {1: "aborted"}

@@ -6,9 +6,10 @@ domain (``requests.toml`` beside it), and the online loop plans, acts and re-pla
 (:mod:`cplus.robot.serving.reactive`). Without a channel option it listens on 127.0.0.1:7070.
 
 Runs until interrupted (SIGINT or SIGTERM: the goals in flight are aborted, exit 0), or until
-a script has delivered everything and every goal is final (exit 0). Exit codes otherwise as
-``cplus online``: 1 no plan, 2 bad input, 5 the world contradicted the model, 6 ambiguous, 7
-robot lost.
+a script has delivered everything and every goal is final (exit 0). A run that does not stop
+within 1.2 s of the signal is ended by the watchdog (exit 130 or 143, ``128 + signal``), a
+second signal ends it at once (124). Exit codes otherwise as ``cplus online``: 1 no plan, 2 bad
+input, 6 the world contradicted the model, 7 ambiguous, 8 robot lost.
 """
 from __future__ import annotations
 
@@ -39,6 +40,7 @@ from cplus.cli.common import (
     seconds,
 )
 from cplus.cli.online import Progress
+from cplus.cli.signals import EXIT_FORCED
 from cplus.robot.serving.goals import GoalWatcher
 
 if TYPE_CHECKING:
@@ -53,7 +55,7 @@ __all__ = ["build_parser", "main", "DEFAULT_LISTEN"]
 DEFAULT_LISTEN = "127.0.0.1:7070"
 GRACE_S = 1.2
 """After SIGINT or SIGTERM, how long the loop has to stop by itself before the watchdog ends
-the run (:meth:`Server.force_end`, then exit 130)."""
+the run (:meth:`Server.force_end`, then exit ``128 + signal``)."""
 FORCE_S = 0.6
 """How long the watchdog's forced end may take (stopping the robot, the log's end record)."""
 _ROS_NAME = re.compile(r"/?[A-Za-z][A-Za-z0-9_]*(/[A-Za-z][A-Za-z0-9_]*)*\Z")
@@ -341,7 +343,7 @@ def _run(opts: ServeOptions) -> int:
 
 
 def _exit_now(signum, frame) -> None:
-    os._exit(EXIT_INTERRUPTED)
+    os._exit(EXIT_FORCED)
 
 
 class Watchdog:
@@ -354,7 +356,12 @@ class Watchdog:
     thread watches: at the first signal it asks the server to stop between two cycles
     (:meth:`Server.stop`), and when the run has not ended :data:`GRACE_S` seconds later it
     ends it (:meth:`Server.force_end`: the robot told to abort, the goals aborted, the log's
-    end record) and exits 130. A second signal does that at once. Once a signalled run has
+    end record) and exits ``128 + signal`` (130, 143), as ``cplus online`` does
+    (:mod:`cplus.cli.signals`). A second signal does that at once and exits 124
+    (``EXIT_FORCED``). An orderly stop exits 0: serving until a signal is how ``cplus serve``
+    is used. Unlike :class:`cplus.cli.signals.Shutdown`, nothing is raised in the main thread:
+    an exception there could cut the channels' last answers or a log line short, while the
+    loop's own stop ends the run between two cycles. Once a signalled run has
     ended, the process has :data:`GRACE_S` seconds to exit (a thread of a library that does
     not end cannot hold it), then exits with the run's code. Without a signal this thread only
     ends with the run (so ``cplus serve`` run in-process, as in tests, is never exited).
@@ -422,6 +429,7 @@ class Watchdog:
     def _watch(self) -> None:
         assert self._r is not None
         first: float | None = None
+        code = EXIT_INTERRUPTED
         while True:
             timeout = None if first is None else max(first + GRACE_S - time.monotonic(), 0.0)
             ready, _, _ = select.select([self._r], [], [], timeout)
@@ -433,6 +441,7 @@ class Watchdog:
                 signals = [b for b in data if b in (signal.SIGINT, signal.SIGTERM)]
                 if signals and first is None:
                     first = time.monotonic()
+                    code = 128 + signals[0]
                     self.server.stop()
                     if not self.quiet:
                         self._say(f"{signal.Signals(signals[0]).name}: stopping (the goals in flight are aborted; "
@@ -441,7 +450,7 @@ class Watchdog:
                 if signals:
                     self._say(f"{signal.Signals(signals[0]).name} again: ending now")
                     self.server.force_end("forced by a second signal", FORCE_S)
-                    os._exit(EXIT_INTERRUPTED)
+                    os._exit(EXIT_FORCED)
                 if self._done.is_set() and first is None:
                     return                      # ended without a signal: nothing to watch
                 continue
@@ -450,4 +459,4 @@ class Watchdog:
                 os._exit(self._code)            # the run ended, but the process did not exit
             self._say(f"the run did not stop within {GRACE_S:g} s of the signal: ending it")
             self.server.force_end(f"forced {GRACE_S:g} s after the signal", FORCE_S)
-            os._exit(EXIT_INTERRUPTED)
+            os._exit(code)
