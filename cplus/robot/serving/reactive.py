@@ -17,7 +17,7 @@ the board's dispatcher tells watchers (:mod:`.goals`); the socket has one I/O th
 one order in which they may be held::
 
     actionlib's action_server.lock  ─┐
-    ServeLog._lock (the end record) ─┴─>  GoalBoard._lock      (nothing is taken under it)
+    the log's lock (JsonLinesLog)   ─┴─>  GoalBoard._lock      (nothing is taken under it)
     a socket client's _Client._lock                             (a leaf: nothing under it)
 
 No lock is held while calling into another component: the board queues notifications and the
