@@ -399,3 +399,34 @@ def test_a_loop_that_never_comes_back_is_ended_by_the_watchdog(tmp_path, signals
         lines = server.log_lines()
     assert lines[-1]["status"] == "stopped" and "forced" in lines[-1]["message"]
     assert final_statuses(lines) == {1: "aborted"}
+
+
+INSIDE_LOCK = textwrap.dedent("""
+    import os, signal, sys
+    from cplus.robot.serving import goals
+    poll = goals.GoalBoard.poll
+    sent = []
+    def poll_with_a_signal(self, cycle):      # SIGTERM arrives while the main thread holds the board's lock
+        if cycle == 3 and not sent:
+            sent.append(1)
+            with self._lock:
+                os.kill(os.getpid(), signal.SIGTERM)
+                for _ in range(1000):         # the handler runs between these bytecodes, lock held
+                    pass
+        return poll(self, cycle)
+    goals.GoalBoard.poll = poll_with_a_signal
+    from cplus.cli import main
+    sys.exit(main(sys.argv[1:]))
+""")
+
+
+def test_a_signal_while_the_main_thread_holds_the_boards_lock(tmp_path):
+    """A handler that stopped the server took the board's lock in the thread that held it (an
+    idle server's poll): the main thread and the watchdog behind it waited for ever."""
+    with Served(tmp_path, argv=[sys.executable, "-c", INSIDE_LOCK, "serve", DOMAIN]) as server:
+        c = Client(server.address)
+        c.send({"request": "deliver(office1,office2)"})
+        assert server.proc.wait(30) == 0
+        c.close()
+        lines = server.log_lines()
+    assert lines[-1]["status"] == "stopped"

@@ -395,9 +395,12 @@ class Watchdog:
         self._thread.start()
 
     def _on_signal(self, signum, frame) -> None:
-        """The Python-level handler (main thread): the watchdog hears the same signal."""
+        """The Python-level handler: only a mark. It runs in the main thread between two
+        bytecodes, maybe inside ``with lock:`` of the very lock that stopping takes (a stop
+        from here deadlocked the main thread on the board's lock, and the watchdog behind it);
+        the watchdog hears the same signal through the wakeup fd and stops the server from its
+        own thread."""
         self._signalled = True
-        self.server.stop()
 
     def finished(self, code: int) -> None:
         self._code = code

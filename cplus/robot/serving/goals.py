@@ -389,10 +389,15 @@ class GoalBoard(EventSource, Observer):
             self._woken = False
 
     def wake(self) -> None:
-        """End the loop's idle wait now (the server is stopping). Thread-safe."""
-        with self._lock:
+        """End the loop's idle wait now (the server is stopping). Thread-safe, and bounded: when
+        the lock cannot be had at once, the idle wait ends by its own timeout anyway."""
+        if not self._lock.acquire(timeout=0.2):
+            return
+        try:
             self._woken = True
             self._arrived.notify_all()
+        finally:
+            self._lock.release()
 
     def finished(self) -> bool:
         with self._lock:

@@ -268,8 +268,9 @@ class Server:
             self.board.close(0.5)
 
     def stop(self) -> None:
-        """End the run between two cycles (thread-safe; from a signal handler too): the
-        simulated robot's action and an idle wait end at once."""
+        """End the run between two cycles (from any thread, but not from a signal handler: it
+        takes locks, which the interrupted main thread may hold; ``cplus serve`` calls it from
+        its watchdog thread): the simulated robot's action and an idle wait end at once."""
         self._stopping.set()
         self.loop.stop()
         self.board.wake()
