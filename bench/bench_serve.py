@@ -18,7 +18,21 @@ every request of several runs; how each re-plan was found (the shortest plan for
 within the budget, or the oldest goal first) and the plans' lengths are counted too.
 Targets: under 20 ms on the paper's domain, under 200 ms on the scaled one.
 
-    python bench/bench_serve.py [--runs 5] [--requests 40] [--only corridor20] [--budget N]
+The server's own figure does not see what happens between it and a client (Nagle's algorithm
+held every second answer of the socket 40 ms, unseen). So two more are measured by clients,
+against ``cplus serve`` as a process on the paper's domain (a simulated robot whose actions
+take ``--action-time``, default 0.05 s):
+
+* ``socket``: a TCP client sends a request, then another in the same write (the second of two
+  lines is where Nagle bit), then cancels one: from the write to the acknowledgement line, to
+  the first feedback line, and to the cancel's answer;
+* ``ros``: an ``actionlib.SimpleActionClient`` (Debian's Python, a roscore on loopback): from
+  ``send_goal`` to the goal's ACTIVE transition (``active_cb``) and to its first feedback.
+
+Medians and maxima over ``--client-goals`` goals (default 40); the robot finishes each goal
+before the next one is sent, so the figures are the answer to a request, not the queue.
+
+    python bench/bench_serve.py [--runs 5] [--requests 40] [--only corridor20|socket|ros] [--budget N]
 """
 from __future__ import annotations
 
@@ -105,7 +119,7 @@ class Stream:
 
 def run(name: str, total: int, seed: int, budget: int | None, solver: str | None = None) -> dict:
     from cplus.api import Domain
-    from cplus.robot.serving.reactive import Server
+    from cplus.robot.serving.reactive import Server, ServerSettings
     from cplus.robot.serving.standing import DEFAULT_BUDGET
     from cplus.robot.serving.vocabulary import load_requests
     from nxt_link.clock import VirtualClock
@@ -113,8 +127,8 @@ def run(name: str, total: int, seed: int, budget: int | None, solver: str | None
     t0 = time.perf_counter()
     domain = Domain.load(str(MAILBOT / file))
     vocabulary = load_requests(str(MAILBOT / "requests.toml"), domain)
-    server = Server(domain, vocabulary, clock=VirtualClock(), budget=DEFAULT_BUDGET if budget is None else budget,
-                    horizon=horizon, solver=solver)
+    server = Server(domain, vocabulary, ServerSettings(clock=VirtualClock(), horizon=horizon, solver=solver,
+                                                       budget=DEFAULT_BUDGET if budget is None else budget))
     setup = time.perf_counter() - t0
     stream = Stream(server, offices, in_flight, total, seed)
     server.loop.observers.append(stream)
@@ -144,17 +158,173 @@ def _after(fn, first_cycle: int):
     return wrapped
 
 
+# ---------------------------------------------------------------------------------------- clients
+def _serve(extra: list[str], env: dict | None = None):
+    """``cplus serve`` on the paper's domain as a process; returns it with the line that says
+    it is ready (stderr is read on by a thread, so that it never blocks the server)."""
+    import subprocess
+    import threading
+    proc = subprocess.Popen([sys.executable, "-m", "cplus", "serve", str(MAILBOT / "mailbot.cp"), "--quiet", *extra],
+                            stderr=subprocess.PIPE, text=True, env=dict(env or os.environ, PYTHONUNBUFFERED="1",
+                                                                        PYTHONPATH=str(ROOT)))
+    assert proc.stderr is not None
+    ready = ""
+    for line in proc.stderr:
+        if "listening on" in line or "ROS action server" in line:
+            ready = line
+            break
+    threading.Thread(target=lambda: [None for _ in proc.stderr], daemon=True).start()  # type: ignore[union-attr]
+    return proc, ready
+
+
+def _stop(proc) -> None:
+    import signal
+    import subprocess
+    proc.send_signal(signal.SIGTERM)
+    try:
+        proc.wait(30)
+    except subprocess.TimeoutExpired:
+        proc.kill()
+        proc.wait()
+
+
+def _figures(name: str, xs: list[float]) -> str:
+    return f"{name} median {statistics.median(xs):.2f} ms, max {max(xs):.2f} ms" if xs else f"{name}: none"
+
+
+def bench_socket(goals: int, action_time: float) -> None:
+    import json
+    import socket
+    proc, ready = _serve(["--listen", "127.0.0.1:0", "--action-time", str(action_time)])
+    try:
+        host, port = ready.split("listening on ")[1].split()[0].rsplit(":", 1)
+        sock = socket.create_connection((host, int(port)), timeout=60)
+        rfile = sock.makefile("rb")
+        rng = random.Random(1)
+        ack, second, feedback, cancel = [], [], [], []
+        for _ in range(goals):
+            a, b = rng.sample(range(1, 5), 2)
+            c, d = rng.sample(range(1, 5), 2)
+            lines = (json.dumps({"request": f"deliver(office{a},office{b})"}) + "\n" +
+                     json.dumps({"request": f"deliver(office{c},office{d})"}) + "\n").encode()
+            t0 = time.perf_counter()
+            sock.sendall(lines)                  # two lines in one write
+            acks: list[int] = []
+            first_feedback = None
+            while len(acks) < 2 or first_feedback is None:
+                x = json.loads(rfile.readline())
+                now = time.perf_counter()
+                if x["type"] == "goal":
+                    (ack if not acks else second).append((now - t0) * 1000)
+                    acks.append(x["id"])
+                elif x["type"] == "feedback" and first_feedback is None:
+                    first_feedback = now
+                    feedback.append((now - t0) * 1000)
+            t1 = time.perf_counter()
+            sock.sendall((json.dumps({"cancel": acks[1]}) + "\n").encode())
+            while True:
+                x = json.loads(rfile.readline())
+                if x["type"] == "cancel":
+                    cancel.append((time.perf_counter() - t1) * 1000)
+                    break
+            done = set()
+            while len(done) < 2:                 # both ended before the next pair
+                x = json.loads(rfile.readline())
+                if x["type"] == "result":
+                    done.add(x["id"])
+        sock.close()
+    finally:
+        _stop(proc)
+    print(f"socket, client side ({goals} pairs of requests, actions of {action_time:g} s): "
+          f"{_figures('acknowledgement', ack)}; {_figures('second line of a write', second)}; "
+          f"{_figures('first feedback', feedback)}; {_figures('cancel answered', cancel)}")
+
+
+ROS_CLIENT = """
+import json, sys, threading, time
+import rospy, actionlib
+from cplus_msgs.msg import ServeAction, ServeGoal
+rospy.init_node("cplus_bench_client", anonymous=True, disable_signals=True)
+client = actionlib.SimpleActionClient(sys.argv[1], ServeAction)
+assert client.wait_for_server(rospy.Duration(60))
+active, feedback = [], []
+for i in range(int(sys.argv[2])):
+    a, f = threading.Event(), threading.Event()
+    t0 = time.perf_counter()
+    def on_active(t0=t0, a=a):
+        active.append((time.perf_counter() - t0) * 1000); a.set()
+    def on_feedback(fb, t0=t0, f=f):
+        if not f.is_set():
+            feedback.append((time.perf_counter() - t0) * 1000); f.set()
+    client.send_goal(ServeGoal(request="deliver(office%d,office%d)" % (1 + i % 4, 1 + (i + 2) % 4)),
+                     active_cb=on_active, feedback_cb=on_feedback)
+    assert client.wait_for_result(rospy.Duration(60))
+print(json.dumps({"active": active, "feedback": feedback}))
+"""
+
+
+def bench_ros(goals: int, action_time: float) -> None:
+    import json
+    import shutil
+    import socket
+    import subprocess
+    import tempfile
+    dist = "/usr/lib/python3/dist-packages"
+    if shutil.which("roscore") is None or not Path(dist, "rospy").is_dir():
+        print("ros: ROS 1 is not installed (see docs/serve.md), skipped")
+        return
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    home = tempfile.mkdtemp(prefix="bench-ros-")
+    env = dict(os.environ, ROS_MASTER_URI=f"http://127.0.0.1:{port}", ROS_HOSTNAME="127.0.0.1", ROS_HOME=home,
+               ROS_LOG_DIR=f"{home}/log")
+    core = subprocess.Popen(["roscore", "-p", str(port)], env=env, stdout=subprocess.DEVNULL,
+                            stderr=subprocess.DEVNULL, start_new_session=True)
+    try:
+        for _ in range(300):
+            try:
+                with socket.create_connection(("127.0.0.1", port), timeout=1):
+                    break
+            except OSError:
+                time.sleep(0.2)
+        proc, _ = _serve(["--ros", "--ros-name", "bench", "--action-time", str(action_time)], env)
+        try:
+            cenv = dict(env, PYTHONPATH=os.pathsep.join([str(ROOT / "cplus" / "robot" / "serving" / "ros"), dist]))
+            python = "/usr/bin/python3" if Path("/usr/bin/python3").exists() else sys.executable
+            r = subprocess.run([python, "-c", ROS_CLIENT, "/bench", str(goals)], env=cenv, capture_output=True,
+                               text=True, timeout=120 + 30 * goals)
+            if r.returncode != 0:
+                print(f"ros: the client failed: {r.stderr[-500:]}")
+                return
+            out = json.loads(r.stdout.strip().splitlines()[-1])
+        finally:
+            _stop(proc)
+    finally:
+        import signal
+        os.killpg(core.pid, signal.SIGINT)
+        core.wait(30)
+    print(f"ros, client side ({goals} goals, actions of {action_time:g} s): {_figures('ACTIVE', out['active'])}; "
+          f"{_figures('first feedback', out['feedback'])}")
+
+
 def main() -> None:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("--runs", type=int, default=5)
     p.add_argument("--requests", type=int, default=40, help="requests per run (default 40)")
-    p.add_argument("--only", choices=sorted(SCENARIOS))
+    p.add_argument("--only", choices=sorted(SCENARIOS) + ["socket", "ros"])
+    p.add_argument("--client-goals", type=int, default=40, help="goals each client sends (default 40)")
+    p.add_argument("--action-time", type=float, default=0.05, help="the clients' server: seconds per action")
     p.add_argument("--budget", type=int, default=None, help="the planner's budget in propagations (default: the server's)")
     p.add_argument("--solver", default=None, help="SAT solver (default: the server's)")
     args = p.parse_args()
     gc.disable()
     print(f"# {os.cpu_count()} cores, load average {os.getloadavg()[0]:.2f} at the start; "
           f"{args.runs} runs of {args.requests} requests each")
+    if args.only in (None, "socket"):
+        bench_socket(args.client_goals, args.action_time)
+    if args.only in (None, "ros"):
+        bench_ros(args.client_goals, args.action_time)
     for name in SCENARIOS:
         if args.only and name != args.only:
             continue

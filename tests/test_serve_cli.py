@@ -133,3 +133,30 @@ def test_nothing_imports_ros_but_the_bridge():
                         "print(sorted(m for m in sys.modules if m.split('.')[0] in ('rospy', 'actionlib', 'genpy')))"],
                        capture_output=True, text=True, timeout=60)
     assert r.stdout.strip() == "[]"
+
+
+def test_numbers_too_large_or_not_ascii_are_one_line_errors(tmp_path, capsys):
+    script = str(MAILBOT / "table1.jsonl")
+    assert run_bad([DOMAIN, "--listen", "127.0.0.1:\uff17\uff10\uff17\uff10"], capsys).startswith(
+        "cplus serve: error: --listen: expected HOST:PORT")
+    assert run_bad([DOMAIN, "--listen", "127.0.0.1:" + "7" * 30], capsys).startswith(
+        "cplus serve: error: --listen: expected HOST:PORT")
+    for option, value, message in (("--action-time", "1e300", "at most 3600 seconds"),
+                                   ("--budget", "9" * 30, "at most 1e+12 propagations"),
+                                   ("--horizon", "1000000000", "at most 1000 steps"),
+                                   ("--max-horizon", "1000000000", "at most 1000 steps"),
+                                   ("--max-clients", "0", "expected a positive integer"),
+                                   ("--max-client-goals", "9" * 30, "at most 100000 goals")):
+        err = run_bad([DOMAIN, "--script", script, option, value], capsys)
+        assert err.startswith("cplus serve: error: argument") and message in err and err.count("\n") == 1, err
+    err = run_bad([DOMAIN, "--ros", "--ros-name", "two words"], capsys)
+    assert err == ("cplus serve: error: --ros-name: 'two words' is not a ROS name (letters, digits and _, parts "
+                   "separated by /, each starting with a letter)\n")
+    big = tmp_path / "far.jsonl"
+    big.write_text('{"cycle": 1000000000000000000, "request": "deliver(office1,office2)"}\n')
+    assert run_bad([DOMAIN, "--script", str(big)], capsys).startswith(f"{big}:1:1: error: \"cycle\" must be an "
+                                                                      "integer from 1")
+    requests = tmp_path / "requests.toml"
+    requests.write_text((MAILBOT / "requests.toml").read_text().replace("$2", "$" + "9" * 20))
+    assert run_bad([DOMAIN, "--requests", str(requests), "--script", script], capsys).startswith(
+        f"{requests}:11:")

@@ -14,8 +14,8 @@ import pytest
 from cplus.api import Domain
 from cplus.robot.online.loop import OnlineStatus
 from cplus.robot.serving.channels import ScriptError, parse_script
-from cplus.robot.serving.goals import GoalStatus, GoalWatcher
-from cplus.robot.serving.reactive import ServeLog, Server
+from cplus.robot.serving.goals import GoalBoard, GoalStatus, GoalWatcher, Limits
+from cplus.robot.serving.reactive import ServeLog, Server, ServerSettings
 from cplus.robot.serving.vocabulary import Rejected, RequestsError, load_requests, parse_requests
 from nxt_link.clock import VirtualClock
 
@@ -34,7 +34,7 @@ def vocabulary(d):
 def serve(d, lines: list[dict], **kw):
     """Run a server on a script until it is done; return the result, the server and the log."""
     text = "".join(json.dumps(x) + "\n" for x in lines)
-    server = Server(d, vocabulary(d), clock=VirtualClock(), **kw)
+    server = Server(d, vocabulary(d), ServerSettings(clock=VirtualClock(), **kw))
     out = io.StringIO()
     server.loop.observers.append(ServeLog(out, server.board))
     server.add_script(parse_script(text, "script.jsonl"))
@@ -60,7 +60,7 @@ TABLE_I = {
 
 def test_the_papers_scenario_gives_the_plans_of_table_1(domain):
     script = (MAILBOT / "table1.jsonl").read_text()
-    server = Server(domain, vocabulary(domain), clock=VirtualClock())
+    server = Server(domain, vocabulary(domain), ServerSettings(clock=VirtualClock()))
     server.add_script(parse_script(script, "table1.jsonl"))
     result = server.run()
     assert result.status is OnlineStatus.GOAL_REACHED
@@ -184,7 +184,7 @@ class Statuses(GoalWatcher):
 
 
 def test_stopping_the_server_aborts_the_goals_in_flight(domain):
-    server = Server(domain, vocabulary(domain), action_time=0.01)
+    server = Server(domain, vocabulary(domain), ServerSettings(action_time=0.01))
     server.board.open_channel()                       # a live client: the run waits for requests
     watcher = Statuses()
     done = threading.Event()
@@ -205,7 +205,7 @@ def test_stopping_the_server_aborts_the_goals_in_flight(domain):
 
 def test_watchers_hear_each_change_in_order_with_feedback_per_cycle(domain):
     watcher = Statuses()
-    server = Server(domain, vocabulary(domain), clock=VirtualClock())
+    server = Server(domain, vocabulary(domain), ServerSettings(clock=VirtualClock()))
     server.board.watch(watcher)
     server.board.submit("deliver(office2,office1)")
     server.run()
@@ -222,13 +222,14 @@ def test_the_log_is_the_online_log_with_goals(domain):
         assert {"cycle", "state", "executed", "events", "sensed", "plan", "replanned", "goals"} <= set(line)
     assert log[2]["goals"] == [{"id": 1, "request": "deliver(office3,office2)", "status": "active", "slot": 1,
                                 "cycle": 1, "reaction_ms": log[2]["goals"][0]["reaction_ms"]}]
-    assert log[3]["goals"][0]["status"] == "active"
+    assert log[3]["goals"] == []                  # active still: nothing changed
     assert log[4]["cycle"] == 3 and log[4]["goals"][0]["status"] == "preempted" and log[4]["goals"][0]["done_cycle"] == 3
     assert log[-1]["status"] == "goal_reached" and [g["status"] for g in log[-1]["goals"]] == ["preempted"]
-    # a cycle line lists the goals still open and those that changed since the line before
+    assert log[-1]["goal_counts"] == {"preempted": 1} and log[0]["serve_format"] == "cplus.serve/2"
+    # a cycle line names the goals that changed since the line before, not those open
     result, server, log = serve(domain, [{"cycle": 1, "request": "deliver(office1,office2)"},
                                          {"cycle": 6, "request": "deliver(office1,office2)"}])
-    assert [[g["id"] for g in x["goals"]] for x in log[1:-1]] == [[], [1], [1], [1], [1], [], [2], [2], [2], [2], [2]]
+    assert [[g["id"] for g in x["goals"]] for x in log[1:-1]] == [[], [1], [], [], [1], [], [2], [], [], [], [2]]
     assert log[5]["goals"][0]["status"] == "succeeded" and log[-2]["goals"][0]["status"] == "succeeded"
 
 
@@ -236,7 +237,7 @@ def test_the_log_is_the_online_log_with_goals(domain):
 def test_script_errors_are_located():
     cases = {
         '{"cycle": 1, "request": "deliver(a,b)"}\n{"cycle": 0, "request": "x"}\n':
-            'script.jsonl:2:1: error: "cycle" must be an integer >= 1',
+            'script.jsonl:2:1: error: "cycle" must be an integer from 1',
         '{"cycle": 1, "request": "x"\n': "script.jsonl:1:28: error: not JSON: Expecting ',' delimiter",
         '{"cycle": 1, "request": "x", "cancel": 1}\n': "script.jsonl:1:1: error: a line has exactly one of",
         '{"cycle": 1, "cancel": 2}\n{"cycle": 2, "request": "x"}\n':
@@ -314,3 +315,112 @@ def test_a_binding_must_take_the_request_events_from_input(domain, tmp_path):
     fixed = parse_binding(text.replace('source = "inferred"', 'source = "input"'), "robot.toml", domain)
     roles = serve_roles(domain, vocabulary(domain), fixed)
     assert {gc.text for gc in roles.agent} >= {"move(office1)", "pickup(2)"} and not roles.inferred
+
+
+# ---------------------------------------------------------------------------------- threads and bounds
+class Blocking(GoalWatcher):
+    """A watcher that holds the dispatcher until told to let go (as a client whose socket is full
+    would have held the old board's lock)."""
+
+    def __init__(self) -> None:
+        self.entered = threading.Event()
+        self.release = threading.Event()
+        self.seen: list[tuple[int, str]] = []
+
+    def status(self, goal, status) -> None:
+        self.seen.append((goal.id, status.value))
+        self.entered.set()
+        assert self.release.wait(30)
+
+
+def test_a_watcher_that_blocks_holds_no_client_and_no_lock(domain):
+    board = GoalBoard(vocabulary(domain))
+    stuck = Blocking()
+    board.watch(stuck)
+    board.submit("deliver(office1,office2)")
+    assert stuck.entered.wait(30)                 # the dispatcher is inside the watcher
+    done = threading.Event()
+
+    def client() -> None:                         # another thread: submit, cancel, look, poll
+        g = board.submit("deliver(office2,office3)")
+        board.cancel(g.id)
+        board.describe(g.id)
+        board.poll(1)
+        done.set()
+    t = threading.Thread(target=client, daemon=True)
+    t.start()
+    assert done.wait(30), "the board waited for a watcher"
+    stuck.release.set()
+    assert board.drain(30)
+    # and each watcher heard every change in order, with the goal as it was then
+    assert stuck.seen == [(1, "pending"), (2, "pending"), (2, "recalled"), (1, "active")]
+    board.close()
+
+
+def test_a_watcher_may_call_back_into_the_board(domain):
+    board = GoalBoard(vocabulary(domain))
+
+    class Again(GoalWatcher):
+        def __init__(self) -> None:
+            self.seen: list[tuple[int, str]] = []
+
+        def status(self, goal, status) -> None:
+            self.seen.append((goal.id, status.value))
+            if goal.id == 1 and status.value == "pending":
+                board.cancel(board.submit("deliver(office3,office4)").id)
+    w = Again()
+    board.watch(w)
+    board.submit("deliver(office1,office2)")
+    assert board.drain(30)
+    assert w.seen == [(1, "pending"), (2, "pending"), (2, "recalled")]
+    board.close()
+
+
+def test_open_goals_are_bounded_per_client_and_in_all(domain):
+    board = GoalBoard(vocabulary(domain), limits=Limits(open_goals=5, client_goals=2, kept_final=3))
+    a = [board.submit("deliver(office1,office2)", client="a") for _ in range(3)]
+    assert [g.status.value for g in a] == ["pending", "pending", "rejected"]
+    assert a[2].reason == ("this client has 2 goals open (at most 2 per client): send it again when one has ended")
+    b = [board.submit("deliver(office1,office2)", client=c) for c in ("b", "b", "c", "d")]
+    assert [g.status.value for g in b] == ["pending", "pending", "pending", "rejected"]
+    assert b[3].reason == "the server has 5 goals open, its limit: send it again when one has ended"
+    board.cancel(a[0].id)                         # one ends: room again, for that client too
+    assert board.submit("deliver(office1,office2)", client="a").status.value == "pending"
+    assert board.submit("deliver(office1,office2)").status.value == "rejected"
+    # final goals are remembered up to kept_final; an older one is forgotten, not unknown
+    final = [g.id for g in board.goals.values() if g.final]
+    assert len(final) == 3 and a[2].id not in board.goals and board.forgotten(a[2].id)
+    assert not board.forgotten(99) and board.describe(99) is None
+    assert board.summary()["forgotten"] == 1
+
+
+def test_a_request_is_read_in_one_pass(domain):
+    v = vocabulary(domain)
+    with pytest.raises(Rejected, match="cannot read"):
+        v.parse("deliver" + " " * 900 + "x")         # the old regex: quadratic in the blanks
+    with pytest.raises(Rejected, match="a request of 60008 characters; a request has at most 1000"):
+        v.parse("deliver" + " " * 60_000 + "x")
+    assert v.parse("  deliver (office1 , office2)  ")[1] == ("office1", "office2")
+    with pytest.raises(Rejected, match="is not an office"):
+        v.parse("deliver(office\u0663,office2)")    # an Arabic-Indic digit: not the office 3
+    goal = GoalBoard(v).submit("deliver(" + "x" * 10_000_000 + ")")    # a ROS string has no length limit
+    assert goal.status is GoalStatus.REJECTED and goal.request.endswith("... (10000009 characters)")
+    assert len(goal.request) < 200 and "10000009 characters" in goal.reason
+
+
+def test_hostile_requests_and_scripts_are_located_errors(domain):
+    for arg, message in (("$" + "9" * 20, "requests.toml:6:33: error: $99999999999999999999: only $slot, $1"),
+                         ("$\u00b2", "requests.toml:6:33: error: $\u00b2: only $slot, $1"),
+                         ("$33", "requests.toml:6:33: error: $33: only $slot, $1, $2, ... (up to $32)")):
+        with pytest.raises(RequestsError) as e:
+            parse_requests(REQUESTS.replace('"address($slot,$2)"', f'"address($slot,{arg})"'), "requests.toml", domain)
+        assert e.value.render().startswith(message), e.value.render()
+    for text, message in (
+            ('{"cycle": 1000000, "request": "x"}\n', 'script.jsonl:1:1: error: "cycle" must be an integer from 1'),
+            ('{"cycle": 1000000000000000000, "cancel": 1}\n', 'script.jsonl:1:1: error: "cycle" must be an integer'),
+            ('{"cycle": 1' + "0" * 5000 + ', "request": "x"}\n', "script.jsonl:1:1: error: not JSON: a number with "
+                                                               "too many digits"),
+            ("[" * 100_000 + "\n", "script.jsonl:1:1: error: not JSON: nested too deeply")):
+        with pytest.raises(ScriptError) as e:
+            parse_script(text, "script.jsonl")
+        assert e.value.render().startswith(message), e.value.render()[:200]

@@ -119,7 +119,7 @@ def test_a_run_grounds_once_and_encodes_each_step_once(mailbot, monkeypatch):
     import cplus.api
     import cplus.sat.horizon
     import cplus.sat.templates
-    from cplus.robot.serving.reactive import Server
+    from cplus.robot.serving.reactive import Server, ServerSettings
     calls = {"ground": 0, "templates": 0, "horizons": 0}
 
     def counting(name, fn):
@@ -132,7 +132,7 @@ def test_a_run_grounds_once_and_encodes_each_step_once(mailbot, monkeypatch):
     monkeypatch.setattr(cplus.sat.horizon, "build_templates", counting("templates", cplus.sat.horizon.build_templates))
     monkeypatch.setattr(cplus.sat.horizon.Horizon, "__init__", counting("horizons", cplus.sat.horizon.Horizon.__init__))
     d = Domain.load(str(MAILBOT / "mailbot.cp"))
-    server = Server(d, load_requests(str(MAILBOT / "requests.toml"), d), clock=VirtualClock())
+    server = Server(d, load_requests(str(MAILBOT / "requests.toml"), d), ServerSettings(clock=VirtualClock()))
     rng = random.Random(7)
     for _ in range(6):
         a, b = rng.sample(OFFICES, 2)

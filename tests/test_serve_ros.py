@@ -4,6 +4,7 @@ the result; a request the domain cannot express is rejected; a goal succeeds; RO
 ``rostopic`` sends one from the command line. Needs ROS 1 from Debian (.ci/run installs it)."""
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 import shutil
@@ -40,10 +41,9 @@ def free_port() -> int:
         return s.getsockname()[1]
 
 
-@pytest.fixture(scope="module")
-def roscore(tmp_path_factory):
-    """A roscore on a free loopback port, its logs in a temporary ROS_HOME."""
-    home = tmp_path_factory.mktemp("ros")
+@contextlib.contextmanager
+def ros_master(home: Path):
+    """A roscore on a free loopback port, its logs in ``home``; yields the environment that names it."""
     port = free_port()
     env = dict(os.environ, ROS_MASTER_URI=f"http://127.0.0.1:{port}", ROS_HOSTNAME="127.0.0.1",
                ROS_HOME=str(home), ROS_LOG_DIR=str(home / "log"))
@@ -67,6 +67,12 @@ def roscore(tmp_path_factory):
         except subprocess.TimeoutExpired:
             os.killpg(proc.pid, signal.SIGKILL)
             proc.wait()
+
+
+@pytest.fixture(scope="module")
+def roscore(tmp_path_factory):
+    with ros_master(tmp_path_factory.mktemp("ros")) as env:
+        yield env
 
 
 CLIENT = textwrap.dedent("""

@@ -17,7 +17,7 @@ import pytest
 from cplus.api import Domain
 from cplus.robot.online.loop import OnlineStatus
 from cplus.robot.serving.channels import parse_listen
-from cplus.robot.serving.reactive import Server
+from cplus.robot.serving.reactive import Server, ServerSettings
 from cplus.robot.serving.vocabulary import load_requests
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -57,7 +57,7 @@ class Client:
 @pytest.fixture
 def server():
     d = Domain.load(str(MAILBOT / "mailbot.cp"))
-    srv = Server(d, load_requests(str(MAILBOT / "requests.toml"), d), action_time=0.005, idle_poll_s=0.01)
+    srv = Server(d, load_requests(str(MAILBOT / "requests.toml"), d), ServerSettings(action_time=0.005, idle_poll_s=0.01))
     address = srv.listen("127.0.0.1", 0)
     box: list = []
     thread = threading.Thread(target=lambda: box.append(srv.run()), daemon=True)

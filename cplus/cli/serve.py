@@ -6,20 +6,29 @@ domain (``requests.toml`` beside it), and the online loop plans, acts and re-pla
 (:mod:`cplus.robot.serving.reactive`). Without a channel option it listens on 127.0.0.1:7070.
 
 Runs until interrupted (SIGINT or SIGTERM: the goals in flight are aborted, exit 0), or until
-a script has delivered everything and every goal is final (exit 0). Exit codes otherwise as
-``cplus online``: 1 no plan, 2 bad input, 5 the world contradicted the model, 6 ambiguous, 7
-robot lost.
+a script has delivered everything and every goal is final (exit 0). A run that does not stop
+within 1.2 s of the signal is ended by the watchdog (exit 130 or 143, ``128 + signal``), a
+second signal ends it at once (124). Exit codes otherwise as ``cplus online``: 1 no plan, 2 bad
+input, 6 the world contradicted the model, 7 ambiguous, 8 robot lost.
 """
 from __future__ import annotations
 
 import argparse
+import gc
 import os
+import re
+import select
 import signal
+import socket
 import sys
-from typing import TextIO
+import threading
+import time
+from dataclasses import dataclass, replace
+from typing import TYPE_CHECKING, Any, TextIO
 
 from cplus.cli.common import (
     EXIT_INPUT,
+    EXIT_INTERRUPTED,
     EXIT_OK,
     CliError,
     OneLineArgumentParser,
@@ -27,14 +36,41 @@ from cplus.cli.common import (
     nonneg,
     parse_bricks,
     positive,
+    positive_int,
     seconds,
 )
 from cplus.cli.online import Progress
+from cplus.cli.signals import EXIT_FORCED
 from cplus.robot.serving.goals import GoalWatcher
+
+if TYPE_CHECKING:
+    from cplus.api import Domain
+    from cplus.robot.online.binding import RobotBinding
+    from cplus.robot.serving.channels import RequestScript
+    from cplus.robot.serving.reactive import ServerSettings
+    from cplus.robot.serving.vocabulary import RequestVocabulary
 
 __all__ = ["build_parser", "main", "DEFAULT_LISTEN"]
 
 DEFAULT_LISTEN = "127.0.0.1:7070"
+GRACE_S = 1.2
+"""After SIGINT or SIGTERM, how long the loop has to stop by itself before the watchdog ends
+the run (:meth:`Server.force_end`, then exit ``128 + signal``)."""
+FORCE_S = 0.6
+"""How long the watchdog's forced end may take (stopping the robot, the log's end record)."""
+_ROS_NAME = re.compile(r"/?[A-Za-z][A-Za-z0-9_]*(/[A-Za-z][A-Za-z0-9_]*)*\Z")
+
+
+def _at_most(kind, hi: float, unit: str):
+    """An argparse type: ``kind`` and at most ``hi`` (a number beyond any sensible one would
+    overflow a C type deep inside, or make the server encode or wait without end)."""
+    def check(text: str):
+        value = kind(text)
+        if value > hi:
+            raise argparse.ArgumentTypeError(f"at most {hi:g} {unit}, got '{text}'")
+        return value
+    check.__name__ = kind.__name__
+    return check
 
 
 def build_parser() -> OneLineArgumentParser:
@@ -60,22 +96,30 @@ def build_parser() -> OneLineArgumentParser:
     p.add_argument("--requests", metavar="FILE", help="the requests the domain accepts (cplus.requests/1; default: "
                    "requests.toml beside the domain)")
     p.add_argument("--log", metavar="FILE", help="write the run as JSON lines (cplus.online/1, with goals)")
-    p.add_argument("--action-time", type=seconds, default=0.5, metavar="SECONDS",
+    p.add_argument("--action-time", type=_at_most(seconds, 3600, "seconds"), default=0.5, metavar="SECONDS",
                    help="simulated robot: how long each action takes (default 0.5)")
-    p.add_argument("--budget", type=nonneg, metavar="PROPAGATIONS",
+    p.add_argument("--budget", type=_at_most(nonneg, 1e12, "propagations"), metavar="PROPAGATIONS",
                    help="the solver's unit propagations for the shortest plan of every goal at once, per re-plan; "
                         "beyond it the oldest goal is served first (default 250000, some 20 ms; 0: always the oldest "
                         "goal first)")
-    p.add_argument("--horizon", type=nonneg, metavar="STEPS",
+    p.add_argument("--horizon", type=_at_most(nonneg, 1000, "steps"), metavar="STEPS",
                    help="steps the planner encodes when the server starts, so that the first long plans need no "
                         "encoding (default 20; more are added when a plan needs them)")
-    p.add_argument("--max-horizon", type=nonneg, metavar="N",
+    p.add_argument("--max-horizon", type=_at_most(nonneg, 1000, "steps"), metavar="N",
                    help="longest plan when the goal's maxstep range is open (default 40)")
     p.add_argument("--no-latency", action="store_true",
                    help="with --robot: emulated bricks answer at once instead of with Bluetooth timing")
-    p.add_argument("--time-scale", type=positive, default=None, metavar="X",
+    p.add_argument("--time-scale", type=_at_most(positive, 1000, "times"), default=None, metavar="X",
                    help="with --robot: emulated bricks and their worlds run on the wall clock, X times faster "
                         "(1 = real time); default: on simulated time")
+    p.add_argument("--max-clients", type=_at_most(positive_int, 10000, "connections"), default=None, metavar="N",
+                   help="socket connections at once; one more is told so and closed (default 64)")
+    p.add_argument("--max-goals", type=_at_most(positive_int, 100000, "goals"), default=None, metavar="N",
+                   help="goals open at once (pending or in flight), every client together; a request beyond is "
+                        "rejected with the reason (default 256)")
+    p.add_argument("--max-client-goals", type=_at_most(positive_int, 100000, "goals"), default=None, metavar="N",
+                   help="goals open at once for one client (a socket connection, a ROS node); a request beyond is "
+                        "rejected with the reason, so that one client cannot make the others wait (default 32)")
     p.add_argument("--solver", default=None, help="SAT solver (default glucose4)")
     p.add_argument("--quiet", "-q", action="store_true", help="no progress on stderr")
     return p
@@ -94,6 +138,11 @@ class ServeProgress(Progress):
         if record.cycle != self.shown or record.failure:
             super().on_cycle(record)
 
+    def on_end(self, result) -> None:
+        # every cycle counted, also those whose records the loop no longer keeps
+        self._line(f"{result.status.value}: {result.message} ({result.cycles} cycles, {result.replans} "
+                   f"replan{'s' if result.replans != 1 else ''}, {result.seconds:.2f} s)")
+
 
 class GoalLines(GoalWatcher):
     """A progress line per goal change on stderr."""
@@ -107,38 +156,88 @@ class GoalLines(GoalWatcher):
         print(f"cplus serve: goal {goal.id} {goal.request}: {status.value}{extra}{why}", file=self.out, flush=True)
 
 
+@dataclass(frozen=True)
+class ServeOptions:
+    """The checked options of one ``cplus serve``: everything :func:`_run` needs, read and
+    validated before anything moves (so a bad input is an exit 2 with nothing started), and
+    named, so that the run takes one value instead of a dozen positional ones.
+
+    Attributes:
+        domain: the loaded domain; ``label`` its standing goal's query.
+        vocabulary: the requests it accepts, read from ``requests_path``.
+        script: the ``--script`` requests, if any.
+        binding: the ``--robot`` binding, and ``ports`` its ``--brick`` ports (empty: emulated).
+        listen: the socket's address, if it listens.
+        ros: ROS, checked (master answering), when ``--ros``.
+        log_file: the open ``--log`` file, if any.
+        settings: how the server plans and runs (``--budget``, ``--horizon``, ...).
+        args: the parsed command line, for the plain values (``--quiet``, ``--ros-name``, ...).
+    """
+
+    domain: Domain
+    label: str
+    vocabulary: RequestVocabulary
+    requests_path: str
+    script: RequestScript | None
+    binding: RobotBinding | None
+    ports: dict[str, str]
+    listen: tuple[str, int] | None
+    ros: Any                      # ros_bridge.RosSetup: that module is imported only with --ros
+    log_file: TextIO | None
+    settings: ServerSettings
+    args: argparse.Namespace
+
 
 def main(args: argparse.Namespace) -> int:
     """``cplus serve``; returns the exit code."""
+    gc.enable()                         # a server runs for days: reference cycles must be collected
+    checked = _check(args)
+    if isinstance(checked, int):
+        return checked
+    try:
+        return _run(checked)
+    finally:
+        if checked.log_file is not None:
+            checked.log_file.close()
+            if not args.quiet:
+                print(f"cplus serve: wrote {args.log}", file=sys.stderr)
+
+
+def _fail(message: str) -> int:
+    print(f"cplus serve: error: {message}", file=sys.stderr)
+    return EXIT_INPUT
+
+
+def _check(args: argparse.Namespace) -> ServeOptions | int:
+    """Read and check every input; the options, or the exit code of the first bad one (its
+    message printed)."""
     from cplus.api import Domain
     from cplus.cli.common import query
-    from cplus.robot.serving.channels import load_script, parse_listen
+    from cplus.robot.serving.channels import SocketLimits, load_script, parse_listen
+    from cplus.robot.serving.goals import Limits
+    from cplus.robot.serving.reactive import ServerSettings
+    from cplus.robot.serving.standing import DEFAULT_BUDGET
     from cplus.robot.serving.vocabulary import load_requests, requests_beside
-    err = sys.stderr
-
-    def fail(message: str) -> int:
-        print(f"cplus serve: error: {message}", file=err)
-        return EXIT_INPUT
     listen = None
     if args.listen or not (args.script or args.ros):
         try:
             listen = parse_listen(args.listen or DEFAULT_LISTEN)
         except ValueError as exc:
-            return fail(f"--listen: {exc}")
+            return _fail(f"--listen: {exc}")
     try:
         ports = parse_bricks(args.brick, "cplus serve")
     except CliError as exc:
-        print(str(exc).replace("cplus online", "cplus serve"), file=err)
+        print(exc, file=sys.stderr)
         return EXIT_INPUT
     if ports and not args.robot:
-        return fail("--brick needs --robot (the binding file that names the bricks)")
+        return _fail("--brick needs --robot (the binding file that names the bricks)")
     requests_path = args.requests or requests_beside(args.domain)
     if requests_path is None:
-        return fail(f"no requests.toml beside {args.domain}: give the requests the domain accepts with --requests FILE")
+        return _fail(f"no requests.toml beside {args.domain}: give the requests the domain accepts with --requests FILE")
     domain = Domain.load(args.domain)
     Warnings()(domain.diagnostics)
     if not domain.labels:
-        return fail(f"{args.domain} has no query: add one whose step-0 conditions are the start and whose maxstep "
+        return _fail(f"{args.domain} has no query: add one whose step-0 conditions are the start and whose maxstep "
                     "conditions say that nothing is pending")
     label = args.goal or domain.labels[0]
     query(domain, label, args.domain)
@@ -150,88 +249,217 @@ def main(args: argparse.Namespace) -> int:
         binding = load_binding(args.robot, domain)
         unknown = sorted(set(ports) - set(binding.bricks))
         if unknown:
-            return fail(f"--brick {unknown[0]}: {args.robot} has no brick {unknown[0]!r} "
+            return _fail(f"--brick {unknown[0]}: {args.robot} has no brick {unknown[0]!r} "
                         f"(bricks: {', '.join(binding.bricks) or 'none'})")
         missing = [b for b in binding.bricks if ports and b not in ports]
         if missing:
-            return fail(f"no --brick for brick {missing[0]!r}: give one per brick, or none to emulate them")
+            return _fail(f"no --brick for brick {missing[0]!r}: give one per brick, or none to emulate them")
     ros = None
+    if args.ros and not _ROS_NAME.match(args.ros_name):
+        return _fail(f"--ros-name: {args.ros_name!r} is not a ROS name (letters, digits and _, parts separated "
+                     "by /, each starting with a letter)")
     if args.ros:
         from cplus.robot.serving import ros_bridge
         try:
             ros = ros_bridge.RosSetup.check()
         except ros_bridge.RosUnavailable as exc:
-            return fail(str(exc))
+            return _fail(str(exc))
     log_file = None
     if args.log:
         try:
             os.makedirs(os.path.dirname(os.path.abspath(args.log)), exist_ok=True)
             log_file = open(args.log, "w", encoding="utf-8")
         except OSError as exc:
-            return fail(f"cannot write {args.log}: {exc.strerror}")
-    try:
-        return _run(args, domain, label, vocabulary, requests_path, script, binding, ports, listen, ros, log_file)
-    finally:
-        if log_file is not None:
-            log_file.close()
-            if not args.quiet:
-                print(f"cplus serve: wrote {args.log}", file=err)
+            return _fail(f"cannot write {args.log}: {exc.strerror}")
+    limits, sockets = Limits(), SocketLimits()
+    limits = replace(limits, open_goals=args.max_goals or limits.open_goals,
+                     client_goals=args.max_client_goals or limits.client_goals)
+    sockets = replace(sockets, clients=args.max_clients or sockets.clients)
+    settings = ServerSettings(goal=label, budget=DEFAULT_BUDGET if args.budget is None else args.budget,
+                              horizon=args.horizon, max_horizon=args.max_horizon, solver=args.solver,
+                              action_time=args.action_time, limits=limits, socket=sockets)
+    return ServeOptions(domain, label, vocabulary, requests_path, script, binding, ports, listen, ros, log_file,
+                        settings, args)
 
 
-def _run(args, domain, label, vocabulary, requests_path, script, binding, ports, listen, ros, log_file) -> int:
+def _run(opts: ServeOptions) -> int:
     """Build the server from checked inputs, open its channels, serve until the end."""
     from cplus.cli.online import exit_code
     from cplus.robot.online.loop import OnlineStatus
     from cplus.robot.serving.reactive import ServeLog, Server
-    from cplus.robot.serving.standing import DEFAULT_BUDGET
+    args = opts.args
     err = sys.stderr
     executor = None
-    if binding is not None:
+    if opts.binding is not None:
         from cplus.robot.online.nxt_executor import NxtExecutor
+        binding, ports = opts.binding, opts.ports
 
         def executor(model):
             return NxtExecutor(model, binding, ports or None, latency=not args.no_latency,
                                time_scale=args.time_scale)
     observers: list = [] if args.quiet else [ServeProgress(err, "cplus serve")]
-    server = Server(domain, vocabulary, goal=label, binding=binding, executor=executor,
-                    action_time=args.action_time, budget=DEFAULT_BUDGET if args.budget is None else args.budget,
-                    max_horizon=args.max_horizon, horizon=args.horizon, solver=args.solver, observers=observers)
-    if log_file is not None:
-        extra = {"requests": requests_path, "accepts": vocabulary.usage(), "binding": args.robot}
-        server.loop.observers.append(ServeLog(log_file, server.board, extra))
+    server = Server(opts.domain, opts.vocabulary, opts.settings, binding=opts.binding, executor=executor,
+                    observers=observers)
+    if opts.log_file is not None:
+        extra = {"requests": opts.requests_path, "accepts": opts.vocabulary.usage(), "binding": args.robot}
+        server.loop.observers.append(ServeLog(opts.log_file, server.board, extra))
     if not args.quiet:
         server.board.watch(GoalLines(err))
-    if script is not None:
-        server.add_script(script)
+    if opts.script is not None:
+        server.add_script(opts.script)
+    listen, ros = opts.listen, opts.ros
+    watchdog = Watchdog(server, err, quiet=args.quiet)
+    watchdog.install()                  # before the address is printed: a signal from then on is honoured
     try:
-        if listen is not None:
-            host, port = server.listen(*listen)
-            print(f"cplus serve: listening on {host}:{port} (JSON lines; requests: {vocabulary.usage()})", file=err,
-                  flush=True)
-        if ros is not None:
-            from cplus.robot.serving import ros_bridge
-            channel = ros_bridge.ActionChannel(server.board, args.ros_name, ros)
-            server.add_channel(channel)
-            channel.start()
-            print(f"cplus serve: ROS action server {channel.namespace} ({channel.action_type}) at {ros.master_uri}",
-                  file=err, flush=True)
-    except (OSError, RuntimeError) as exc:
-        for c in server.channels:
-            c.close()
-        what = f"cannot listen on {listen[0]}:{listen[1]}: {exc.strerror}" if isinstance(exc, OSError) and listen \
-            else str(exc)
-        print(f"cplus serve: error: {what}", file=err)
-        return EXIT_INPUT
-
-    def on_signal(signum, frame) -> None:
-        server.stop()
-    old = {s: signal.signal(s, on_signal) for s in (signal.SIGINT, signal.SIGTERM)}
-    try:
-        result = server.run()
+        try:
+            if listen is not None:
+                host, port = server.listen(*listen)
+                print(f"cplus serve: listening on {host}:{port} (JSON lines; requests: {opts.vocabulary.usage()})",
+                      file=err, flush=True)
+            if ros is not None:
+                from cplus.robot.serving import ros_bridge
+                channel = ros_bridge.ActionChannel(server.board, args.ros_name, ros)
+                server.add_channel(channel)
+                channel.start()
+                print(f"cplus serve: ROS action server {channel.namespace} ({channel.action_type}) at "
+                      f"{ros.master_uri}", file=err, flush=True)
+        except (OSError, RuntimeError) as exc:
+            for c in server.channels:
+                c.close()
+            what = f"cannot listen on {listen[0]}:{listen[1]}: {exc.strerror}" \
+                if isinstance(exc, OSError) and listen else str(exc)
+            print(f"cplus serve: error: {what}", file=err)
+            return EXIT_INPUT
+        try:
+            result = server.run()
+        except KeyboardInterrupt:       # SIGINT inside a SAT call (the solver's own handler): a stop
+            return EXIT_OK
+        code = EXIT_OK if result.status in (OnlineStatus.STOPPED, OnlineStatus.GOAL_REACHED) \
+            else exit_code(result.status)
+        watchdog.finished(code)
+        return code
     finally:
-        for s, h in old.items():
-            signal.signal(s, h)
-    if result.status in (OnlineStatus.STOPPED, OnlineStatus.GOAL_REACHED):
-        return EXIT_OK
-    return exit_code(result.status)
+        watchdog.uninstall()
 
+
+def _exit_now(signum, frame) -> None:
+    os._exit(EXIT_FORCED)
+
+
+class Watchdog:
+    """SIGINT and SIGTERM end ``cplus serve`` within :data:`GRACE_S` + :data:`FORCE_S` seconds,
+    whatever its threads are doing.
+
+    A Python signal handler runs only when the main thread comes back to the interpreter, and
+    the main thread may be waiting for a robot or inside a SAT call. So the signal is also
+    written, by the C-level handler, to a socket (:func:`signal.set_wakeup_fd`) that this
+    thread watches: at the first signal it asks the server to stop between two cycles
+    (:meth:`Server.stop`), and when the run has not ended :data:`GRACE_S` seconds later it
+    ends it (:meth:`Server.force_end`: the robot told to abort, the goals aborted, the log's
+    end record) and exits ``128 + signal`` (130, 143), as ``cplus online`` does
+    (:mod:`cplus.cli.signals`). A second signal does that at once and exits 124
+    (``EXIT_FORCED``). An orderly stop exits 0: serving until a signal is how ``cplus serve``
+    is used. Unlike :class:`cplus.cli.signals.Shutdown`, nothing is raised in the main thread:
+    an exception there could cut the channels' last answers or a log line short, while the
+    loop's own stop ends the run between two cycles. Once a signalled run has
+    ended, the process has :data:`GRACE_S` seconds to exit (a thread of a library that does
+    not end cannot hold it), then exits with the run's code. Without a signal this thread only
+    ends with the run (so ``cplus serve`` run in-process, as in tests, is never exited).
+
+    Messages go through a thread of their own: a full stderr pipe must not hold the watchdog."""
+
+    def __init__(self, server, err: TextIO, quiet: bool = False) -> None:
+        self.server = server
+        self.err = err
+        self.quiet = quiet
+        self._done = threading.Event()
+        self._code = EXIT_OK
+        self._installed = False
+        self._signalled = False
+        self._old: dict = {}
+        self._old_fd = -1
+        self._r: socket.socket | None = None
+        self._w: socket.socket | None = None
+        self._thread: threading.Thread | None = None
+
+    def install(self) -> None:
+        if threading.current_thread() is not threading.main_thread():
+            return                      # signals are the main thread's: whoever runs us handles them
+        self._r, self._w = socket.socketpair()
+        self._r.setblocking(False)
+        self._w.setblocking(False)
+        self._old = {s: signal.signal(s, self._on_signal) for s in (signal.SIGINT, signal.SIGTERM)}
+        self._old_fd = signal.set_wakeup_fd(self._w.fileno(), warn_on_full_buffer=False)
+        self._installed = True
+        self._thread = threading.Thread(target=self._watch, name="cplus-serve-watchdog", daemon=True)
+        self._thread.start()
+
+    def _on_signal(self, signum, frame) -> None:
+        """The Python-level handler: only a mark. It runs in the main thread between two
+        bytecodes, maybe inside ``with lock:`` of the very lock that stopping takes (a stop
+        from here deadlocked the main thread on the board's lock, and the watchdog behind it);
+        the watchdog hears the same signal through the wakeup fd and stops the server from its
+        own thread."""
+        self._signalled = True
+
+    def finished(self, code: int) -> None:
+        self._code = code
+
+    def uninstall(self) -> None:
+        if not self._installed:
+            return
+        self._installed = False
+        for s, h in self._old.items():
+            # after a signal, the process is on its way out: another one ends it at once (130),
+            # not with the default action's death by signal; otherwise the handlers are given back
+            signal.signal(s, _exit_now if self._signalled else h)
+        signal.set_wakeup_fd(self._old_fd)
+        self._done.set()
+        assert self._w is not None
+        try:
+            self._w.send(b"\0")           # wake the watchdog to see the run ended
+        except OSError:
+            pass
+
+    def _say(self, text: str) -> None:
+        def write() -> None:
+            try:
+                print(f"cplus serve: {text}", file=self.err, flush=True)
+            except (OSError, ValueError):
+                pass
+        threading.Thread(target=write, name="cplus-serve-say", daemon=True).start()
+
+    def _watch(self) -> None:
+        assert self._r is not None
+        first: float | None = None
+        code = EXIT_INTERRUPTED
+        while True:
+            timeout = None if first is None else max(first + GRACE_S - time.monotonic(), 0.0)
+            ready, _, _ = select.select([self._r], [], [], timeout)
+            if ready:
+                try:
+                    data = self._r.recv(64)
+                except BlockingIOError:
+                    data = b""
+                signals = [b for b in data if b in (signal.SIGINT, signal.SIGTERM)]
+                if signals and first is None:
+                    first = time.monotonic()
+                    code = 128 + signals[0]
+                    self.server.stop()
+                    if not self.quiet:
+                        self._say(f"{signal.Signals(signals[0]).name}: stopping (the goals in flight are aborted; "
+                                  "a second signal ends at once)")
+                    signals = signals[1:]
+                if signals:
+                    self._say(f"{signal.Signals(signals[0]).name} again: ending now")
+                    self.server.force_end("forced by a second signal", FORCE_S)
+                    os._exit(EXIT_FORCED)
+                if self._done.is_set() and first is None:
+                    return                      # ended without a signal: nothing to watch
+                continue
+            assert first is not None           # the grace period is over
+            if self._done.is_set():
+                os._exit(self._code)            # the run ended, but the process did not exit
+            self._say(f"the run did not stop within {GRACE_S:g} s of the signal: ending it")
+            self.server.force_end(f"forced {GRACE_S:g} s after the signal", FORCE_S)
+            os._exit(code)

@@ -261,15 +261,22 @@ class RunResult:
     unexplained: list[str] = field(default_factory=list)
     open: dict[GroundConst, list[object]] = field(default_factory=dict)
     seconds: float = 0.0
+    dropped: int = 0              # the first cycles' records, not kept (``keep_records``)
+    dropped_replans: int = 0      # the re-plans among them
+
+    @property
+    def cycles(self) -> int:
+        return len(self.records) + self.dropped
 
     @property
     def replans(self) -> int:
-        return sum(1 for r in self.records if r.replanned is not None and r.replanned.reason != "start")
+        return self.dropped_replans + sum(1 for r in self.records
+                                          if r.replanned is not None and r.replanned.reason != "start")
 
     def to_json(self) -> dict:
         """The log's end record."""
         return {"record": "end", "status": self.status.value, "message": self.message,
-                "cycles": len(self.records), "replans": self.replans,
+                "cycles": self.cycles, "replans": self.replans,
                 "state": None if self.state is None else self.state.text(),
                 "unexplained": list(self.unexplained),
                 "open": {gc.text: [json_value(gc, v) for v in vs] for gc, vs in self.open.items()},
@@ -366,12 +373,14 @@ class OnlineLoop:
     ``when_done``: ``"stop"`` ends the run when the goal holds; ``"wait"`` keeps waiting for
     events (idle steps) until :meth:`stop`, or until every event source has finished.
     ``max_cycles`` bounds the number of cycles that execute a step. ``idle_poll_s`` is how long
-    an idle step waits between two polls of the live event sources.
+    an idle step waits between two polls of the live event sources. ``keep_records`` bounds
+    the records kept in memory (the last ones; None: all), for a run without end (a server):
+    the observers see every record as it comes, the result counts the ones dropped.
     """
 
     def __init__(self, model: OnlineModel, executor: Executor, sources: Iterable[EventSource] = (),
                  observers: Iterable[Observer] = (), *, when_done: str = "stop", max_cycles: int | None = None,
-                 clock: Clock = MONOTONIC, idle_poll_s: float = 0.05) -> None:
+                 clock: Clock = MONOTONIC, idle_poll_s: float = 0.05, keep_records: int | None = None) -> None:
         if when_done not in ("stop", "wait"):
             raise ValueError(f"when_done must be 'stop' or 'wait', not {when_done!r}")
         self.model = model
@@ -386,6 +395,8 @@ class OnlineLoop:
         self._early: dict[EventSource, list[str]] = {}
         self._t0 = 0.0
         self.records: list[CycleRecord] = []
+        self.keep_records = keep_records
+        self._dropped = self._dropped_replans = 0
         self.state: State | None = None
 
     def stop(self) -> None:
@@ -565,12 +576,17 @@ class OnlineLoop:
 
     def _record(self, record: CycleRecord) -> None:
         self.records.append(record)
+        if self.keep_records is not None and len(self.records) > 2 * self.keep_records:
+            gone, self.records = self.records[:-self.keep_records], self.records[-self.keep_records:]
+            self._dropped += len(gone)
+            self._dropped_replans += sum(1 for r in gone if r.replanned is not None and r.replanned.reason != "start")
         for obs in self.observers:
             obs.on_cycle(record)
 
     def _end(self, status: OnlineStatus, message: str, unexplained: list[str] | None = None,
              open: Mapping[GroundConst, list[object]] | None = None) -> RunResult:
-        return RunResult(status, message, list(self.records), self.state, list(unexplained or []), dict(open or {}))
+        return RunResult(status, message, list(self.records), self.state, list(unexplained or []), dict(open or {}),
+                         dropped=self._dropped, dropped_replans=self._dropped_replans)
 
 
 def _value_text(v: object) -> str:

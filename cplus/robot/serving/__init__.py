@@ -24,7 +24,7 @@ from cplus.robot.serving.channels import (
     parse_script,
 )
 from cplus.robot.serving.goals import Goal, GoalBoard, GoalStatus, GoalWatcher
-from cplus.robot.serving.reactive import ServeLog, Server, serve_roles
+from cplus.robot.serving.reactive import ServeLog, Server, ServerSettings, serve_roles
 from cplus.robot.serving.standing import DEFAULT_BUDGET, GoalLiteral, StandingModel
 from cplus.robot.serving.vocabulary import (
     Rejected,
@@ -36,6 +36,6 @@ from cplus.robot.serving.vocabulary import (
 )
 
 __all__ = ["DEFAULT_BUDGET", "Goal", "GoalBoard", "GoalLiteral", "GoalStatus", "GoalWatcher", "Rejected",
-           "RequestScript", "RequestVocabulary", "RequestsError", "ScriptEntry", "ScriptError", "ServeLog", "Server",
+           "RequestScript", "RequestVocabulary", "RequestsError", "ScriptEntry", "ScriptError", "ServeLog", "Server", "ServerSettings",
            "SocketChannel", "StandingModel", "load_requests", "load_script", "parse_listen", "parse_requests",
            "parse_script", "requests_beside", "serve_roles"]

@@ -34,15 +34,28 @@ client                                       server
 anything else                                ``{"type": "error", "message": ...}``
 ============================================ =================================================
 
-A client that disconnects leaves its goals running (a mail robot does not drop a package
-because the person who asked hung up); their results are in the log.
+Each line is answered at once and in order (a request with its acknowledgement, before any
+news of that goal). A client that disconnects leaves its goals running (a mail robot does not
+drop a package because the person who asked hung up); their results are in the log.
+
+One I/O thread serves every connection (:class:`SocketChannel`), and no client can make the
+server or another client wait (:class:`SocketLimits`): at most 64 connections (one more is
+told why and closed); a client's answers are queued for it alone, its further lines wait
+while 256 KiB of answers are unsent, and it is disconnected when 1 MiB is (it does not read);
+an unfinished line is given up after 60 s; a line over 64 KiB, text that is not UTF-8 or not
+JSON (numbers beyond Python's digit limit, nesting beyond json's recursion) is an error line.
+
+Locks: a client's ``_lock`` guards its unsent answers and is a leaf (sends are non-blocking,
+and the board is never called with it held); the I/O thread calls the board with no lock held.
 """
 from __future__ import annotations
 
 import ipaddress
 import json
+import selectors
 import socket
 import threading
+import time
 from collections.abc import Iterable
 from dataclasses import dataclass
 from pathlib import Path
@@ -50,11 +63,17 @@ from pathlib import Path
 from cplus.errors import CPlusError, Location, Source
 from cplus.robot.serving.goals import FINAL, Feedback, Goal, GoalBoard, GoalStatus, GoalWatcher
 
-__all__ = ["MAX_LINE", "RequestScript", "ScriptEntry", "ScriptError", "SocketChannel", "load_script",
-           "parse_listen", "parse_script"]
+__all__ = ["MAX_LINE", "MAX_SCRIPT", "MAX_SCRIPT_CYCLE", "RequestScript", "ScriptEntry", "ScriptError",
+           "SocketChannel", "SocketLimits", "json_line", "load_script", "parse_listen", "parse_script"]
 
 MAX_LINE = 65536
 """The longest line a socket client may send (bytes); a longer one is an error and is dropped."""
+MAX_SCRIPT = 16 << 20
+"""The largest script read (bytes)."""
+MAX_SCRIPT_CYCLE = 10_000
+"""The latest cycle of a script entry: while nothing is to be done, the loop runs the idle
+cycles up to the next entry at once (a scripted run is deterministic), so a cycle of 10**18
+would mean idle cycles, and log lines, without end."""
 
 
 class ScriptError(CPlusError):
@@ -103,12 +122,32 @@ class RequestScript:
 
 def load_script(path: str) -> RequestScript:
     try:
-        text = Path(path).read_text(encoding="utf-8")
+        with open(path, "rb") as f:
+            data = f.read(MAX_SCRIPT + 1)
     except OSError as exc:
         raise ScriptError(f"cannot read script {path}: {exc.strerror or exc}") from None
+    if len(data) > MAX_SCRIPT:
+        raise ScriptError(f"script {path} is larger than {MAX_SCRIPT >> 20} MiB")
+    try:
+        text = data.decode("utf-8")
     except UnicodeDecodeError as exc:
         raise ScriptError(f"script {path} is not UTF-8 text: {exc.reason}") from None
     return parse_script(text, path)
+
+
+def json_line(text: str | bytes) -> object:
+    """One JSON value of a line; ValueError with a one-line reason (``not JSON: ...``, where
+    :class:`json.JSONDecodeError` adds ``pos``) for anything json cannot read, including
+    what it gives up on with another exception: an integer beyond Python's digit limit for
+    conversions, nesting deeper than its recursion allows."""
+    try:
+        return json.loads(text)
+    except json.JSONDecodeError:
+        raise
+    except RecursionError:
+        raise ValueError("not JSON: nested too deeply") from None
+    except ValueError:
+        raise ValueError("not JSON: a number with too many digits") from None
 
 
 def parse_script(text: str, path: str) -> RequestScript:
@@ -126,17 +165,21 @@ def parse_script(text: str, path: str) -> RequestScript:
         def fail(message: str, col: int = 0, here: int = here, line: str = line) -> ScriptError:
             return ScriptError(message, Location(source, here + col, here + max(col + 1, len(line))))
         try:
-            obj = json.loads(line)
+            obj = json_line(line)
         except json.JSONDecodeError as exc:
             raise fail(f"not JSON: {exc.msg}", exc.pos) from None
+        except ValueError as exc:
+            raise fail(str(exc)) from None
         if not isinstance(obj, dict):
             raise fail("each line is a JSON object such as {\"cycle\": 1, \"request\": \"deliver(office3,office2)\"}")
         unknown = sorted(set(obj) - {"cycle", "request", "cancel"})
         if unknown:
             raise fail(f"unknown field '{unknown[0]}'; a line has \"cycle\" and one of \"request\" or \"cancel\"")
         cycle = obj.get("cycle")
-        if isinstance(cycle, bool) or not isinstance(cycle, int) or cycle < 1:
-            raise fail("\"cycle\" must be an integer >= 1 (the first transition ends at cycle 1)")
+        if isinstance(cycle, bool) or not isinstance(cycle, int) or not 1 <= cycle <= MAX_SCRIPT_CYCLE:
+            raise fail(f"\"cycle\" must be an integer from 1 (the first transition ends at cycle 1) to "
+                       f"{MAX_SCRIPT_CYCLE} (a robot with nothing to do runs idle cycles at once until the next "
+                       "entry is due)")
         if ("request" in obj) == ("cancel" in obj):
             raise fail("a line has exactly one of \"request\" (text) or \"cancel\" (a goal id)")
         if "request" in obj:
@@ -165,7 +208,7 @@ def parse_script(text: str, path: str) -> RequestScript:
 def parse_listen(text: str) -> tuple[str, int]:
     """``HOST:PORT`` (``[::1]:PORT`` for IPv6) on the loopback interface; ValueError otherwise."""
     host, sep, port = text.rpartition(":")
-    if not sep or not port.isdigit() or not 0 <= int(port) <= 65535:
+    if not sep or not (port.isascii() and port.isdigit()) or len(port) > 5 or not 0 <= int(port) <= 65535:
         raise ValueError(f"expected HOST:PORT (such as 127.0.0.1:7070), got {text!r}")
     host = host[1:-1] if host.startswith("[") and host.endswith("]") else host
     if host == "localhost":
@@ -180,111 +223,280 @@ def parse_listen(text: str) -> tuple[str, int]:
     return host, int(port)
 
 
+@dataclass(frozen=True)
+class SocketLimits:
+    """What the socket takes from its clients at most.
+
+    Attributes:
+        clients: connections at once; one more is answered with an error line and closed.
+        out_bytes: a client's answers not yet sent; a client that lets more pile up (it does
+            not read) is disconnected, and its goals go on.
+        pause_bytes: while this much is unsent to a client (or unread from it), its further
+            lines wait in the kernel (the client's writes block, nobody else's).
+        line_timeout: seconds an unfinished line (no newline) may stay unfinished; then the
+            client is told and disconnected (so that half-sent lines cannot hold every
+            connection).
+        lines_per_round: lines handled for one client before the others' turn.
+    """
+
+    clients: int = 64
+    out_bytes: int = 1 << 20
+    pause_bytes: int = 256 << 10
+    line_timeout: float = 60.0
+    lines_per_round: int = 64
+
+
+_ACCEPT, _WAKE = object(), object()
+
+
 class _Client(GoalWatcher):
-    """One connection: reads request lines, writes the answers of its goals."""
+    """One connection: the bytes read and not yet handled, the answers not yet sent.
 
-    def __init__(self, channel: SocketChannel, conn: socket.socket, peer: str) -> None:
+    Only the channel's I/O thread reads, parses, answers the client's lines and changes the
+    selector; the board's dispatcher adds the news of the client's goals. ``_lock`` guards
+    ``out``, the socket's writing side and the bookkeeping of acknowledgements; nothing else
+    is taken while it is held (sends are non-blocking), and it is never held while the board
+    is called.
+
+    The I/O thread answers every line itself, at once and in order (a request with its
+    acknowledgement, built from the goal as the board made it: :meth:`GoalBoard.request`, so
+    that the dispatcher has nothing for this client before the answer is out, and the I/O
+    thread does not wait for the client's lock, which would hand Python's GIL to the loop's
+    re-plan first). News of the goal that the dispatcher has before that acknowledgement is
+    sent waits in ``_early``, so the client hears a goal's lines in order, after the answer to
+    the line that asked for it."""
+
+    def __init__(self, channel: SocketChannel, sock: socket.socket, peer: str) -> None:
         self.channel = channel
-        self.conn = conn
+        self.sock = sock
         self.peer = peer
-        self._write_lock = threading.Lock()
-        self.closed = False
-        self._told: set[int] = set()
+        self._lock = threading.Lock()
+        self.out = bytearray()            # answers not yet sent (under _lock)
+        self.closed = False               # under _lock
+        self.overflow = False             # it stopped reading: to be disconnected
+        self.inbuf = bytearray()          # read, not yet handled (I/O thread)
+        self.pos = 0                      # where the unhandled part of inbuf starts
+        self.discarding = False           # inside a line too long, until its newline
+        self.partial_since: float | None = None
+        self.eof = False                  # it hung up: closed once its last lines are answered
+        self.dead = False                 # the connection failed: hang up
+        self.mask = 0                     # what the selector watches for it
+        self._acked: set[int] = set()     # goals in flight whose acknowledgement is out (under _lock)
+        self._early: dict[int, list[dict]] = {}   # news before the acknowledgement (under _lock)
 
-    def send(self, obj: dict) -> None:
+    # ------------------------------------------------------------- from any thread
+    def queue(self, obj: dict) -> None:
+        """Send ``obj`` as a JSON line: at once when the socket takes it, else kept for the I/O
+        thread; never blocks. Too much kept (:attr:`SocketLimits.out_bytes`) marks the client
+        for disconnection."""
+        with self._lock:
+            wake = self._send(obj)
+        if wake:
+            self.channel._wake()
+
+    def _send(self, obj: dict, now: bool = True) -> bool:
+        """:meth:`queue` with the lock held; True when the I/O thread must look. ``now``
+        False: only keep it (the I/O thread sends a round's answers at once, with one system
+        call, during which Python's GIL may go to the loop's re-plan)."""
+        if self.closed or self.overflow:
+            return False
         data = (json.dumps(obj, separators=(",", ":")) + "\n").encode()
-        with self._write_lock:
-            if self.closed:
-                return
+        wake = False
+        if not self.out and now:
             try:
-                self.conn.sendall(data)
-            except OSError:
-                self.closed = True            # the client went away; its goals go on
+                sent = self.sock.send(data)
+            except BlockingIOError:
+                sent = 0
+            except OSError:               # the client went away: the I/O thread hangs up
+                sent, wake, self.dead = len(data), True, True
+            data = data[sent:]
+        if data:
+            if len(self.out) + len(data) > self.channel.limits.out_bytes:
+                self.overflow = True
+            else:
+                self.out += data
+            # the dispatcher wakes the I/O thread to send the rest; the I/O thread itself sends
+            # at the end of its round (a wake is a system call: the GIL would go to the loop)
+            wake = now or self.overflow
+        return wake
+
+    def answer(self, obj: dict) -> None:
+        """The I/O thread's answer to a line: kept, and sent with the round's others."""
+        with self._lock:
+            self._send(obj, now=False)
+
+    def acknowledge(self, ack: dict, final: bool) -> None:
+        """The I/O thread's answer to a request, then the goal's news that came before it."""
+        gid = ack["id"]
+        with self._lock:
+            wake = self._send({"type": "goal", **ack}, now=False)
+            if not final:
+                self._acked.add(gid)
+            for obj in self._early.pop(gid, []):
+                wake = self._send(obj, now=False) or wake
+                if obj["type"] == "result":
+                    self._acked.discard(gid)
+        if wake:
+            self.channel._wake()
+
+    def _news(self, goal: Goal, obj: dict, final: bool) -> None:
+        wake = False
+        with self._lock:
+            if goal.id in self._acked:
+                wake = self._send(obj)
+                if final:
+                    self._acked.discard(goal.id)
+            else:
+                self._early.setdefault(goal.id, []).append(obj)
+        if wake:
+            self.channel._wake()
 
     def status(self, goal: Goal, status: GoalStatus) -> None:
-        kind = "goal" if goal.id not in self._told else ("result" if status in FINAL else "status")
-        self._told.add(goal.id)
-        self.send({"type": kind, **goal.to_json(), "status": status.value})
+        final = status in FINAL
+        self._news(goal, {"type": "result" if final else "status", **goal.to_json(), "status": status.value}, final)
 
     def feedback(self, goal: Goal, feedback: Feedback) -> None:
-        self.send({"type": "feedback", "id": goal.id, **feedback.to_json()})
+        self._news(goal, {"type": "feedback", "id": goal.id, **feedback.to_json()}, False)
 
-    def serve(self) -> None:
-        board = self.channel.board
-        rfile = self.conn.makefile("rb")
-        try:
-            while True:
-                raw = rfile.readline(MAX_LINE + 1)
-                if not raw:
-                    break
-                if len(raw) > MAX_LINE and not raw.endswith(b"\n"):
-                    self.send({"type": "error", "message": f"line longer than {MAX_LINE} bytes, dropped"})
-                    while raw and not raw.endswith(b"\n"):
-                        raw = rfile.readline(MAX_LINE + 1)
-                    continue
-                self.handle(raw, board)
-        except OSError:
-            pass
-        finally:
-            with self._write_lock:
-                self.closed = True
+    # ------------------------------------------------------------- the I/O thread
+    def write(self) -> None:
+        """Send what the socket takes of the answers kept."""
+        with self._lock:
+            if self.closed or not self.out:
+                return
             try:
-                rfile.close()
-                self.conn.close()
+                sent = self.sock.send(self.out)
+            except BlockingIOError:
+                return
+            except OSError:
+                self.out.clear()
+                self.dead = True          # gone; closed by the I/O thread
+                return
+            del self.out[:sent]
+
+    def close(self) -> None:
+        with self._lock:
+            self.closed = True
+            self.out.clear()
+            try:
+                self.sock.close()
             except OSError:
                 pass
-            self.channel._gone(self)
+
+    def next_line(self) -> bytes | None:
+        """The next complete line read (without its newline), or None. A line longer than
+        :data:`MAX_LINE` is answered with an error and skipped up to its newline."""
+        buf = self.inbuf
+        while True:
+            nl = buf.find(b"\n", self.pos)
+            if self.discarding:
+                if nl < 0:
+                    del buf[:]
+                    self.pos = 0
+                    return None
+                self.pos, self.discarding = nl + 1, False
+                continue
+            if nl < 0:
+                if len(buf) - self.pos > MAX_LINE:
+                    del buf[:]
+                    self.pos, self.discarding = 0, True
+                    self.answer({"type": "error", "message": f"line longer than {MAX_LINE} bytes, dropped"})
+                elif self.pos:
+                    del buf[:self.pos]
+                    self.pos = 0
+                return None
+            start, self.pos = self.pos, nl + 1
+            if nl - start > MAX_LINE:
+                self.answer({"type": "error", "message": f"line longer than {MAX_LINE} bytes, dropped"})
+                continue
+            return bytes(buf[start:nl])
+
+    def unhandled(self) -> int:
+        return len(self.inbuf) - self.pos
+
+    def busy(self) -> bool:
+        """Too much of its answers not sent yet: its next lines wait (in the kernel, and then in
+        its own writes), so that a client that does not read costs a bounded amount."""
+        return len(self.out) >= self.channel.limits.pause_bytes
 
     def handle(self, raw: bytes, board: GoalBoard) -> None:
+        """Answer one line (parsed here, in the I/O thread, outside every lock)."""
         try:
             text = raw.decode("utf-8").strip()
         except UnicodeDecodeError:
-            self.send({"type": "error", "message": "not UTF-8 text"})
+            self.answer({"type": "error", "message": "not UTF-8 text"})
             return
         if not text:
             return
         try:
-            msg = json.loads(text)
+            msg = json_line(text)
         except json.JSONDecodeError as exc:
-            self.send({"type": "error", "message": f"not JSON: {exc.msg} at column {exc.pos + 1}"})
+            self.answer({"type": "error", "message": f"not JSON: {exc.msg} at column {exc.pos + 1}"})
+            return
+        except ValueError as exc:
+            self.answer({"type": "error", "message": str(exc)})
             return
         if not isinstance(msg, dict) or len(msg) != 1 or next(iter(msg)) not in ("request", "cancel", "status"):
-            self.send({"type": "error", "message": "send one of {\"request\": TEXT}, {\"cancel\": ID}, "
-                                                   "{\"status\": ID}"})
+            self.answer({"type": "error", "message": "send one of {\"request\": TEXT}, {\"cancel\": ID}, "
+                                                    "{\"status\": ID}"})
             return
         (key, value), = msg.items()
         if key == "request":
             if not isinstance(value, str):
-                self.send({"type": "error", "message": "\"request\" must be a string such as "
-                                                       "\"deliver(office3,office2)\""})
+                self.answer({"type": "error", "message": "\"request\" must be a string such as "
+                                                        "\"deliver(office3,office2)\""})
                 return
-            board.submit(value, self, self.peer)
+            _, ack = board.request(value, self, self.peer, client=self)
+            self.acknowledge(ack, ack["status"] != GoalStatus.PENDING.value)
             return
         if isinstance(value, bool) or not isinstance(value, int):
-            self.send({"type": "error", "message": f"\"{key}\" takes a goal id (an integer)"})
-            return
-        goal = board.get(value)
-        if goal is None:
-            self.send({"type": "error", "message": f"no goal {value}"})
+            self.answer({"type": "error", "message": f"\"{key}\" takes a goal id (an integer)"})
             return
         if key == "cancel":
-            goal = board.cancel(value, self.peer)
-            self.send({"type": "cancel", **goal.to_json()})
+            try:
+                board.cancel(value, self.peer)
+            except KeyError:
+                pass
+        now = board.describe(value)
+        if now is None:
+            self.answer({"type": "error", "message": _unknown(board, value)})
         else:
-            self.send({"type": "status", **goal.to_json()})
+            self.answer({"type": key, **now})
+
+
+def _unknown(board: GoalBoard, goal_id: int) -> str:
+    if board.forgotten(goal_id):
+        return (f"goal {goal_id} ended long ago and is forgotten (the server remembers the last "
+                f"{board.limits.kept_final} final goals; the log has its result)")
+    return f"no goal {goal_id}"
 
 
 class SocketChannel:
-    """Requests as JSON lines over TCP on the loopback interface (one thread per client)."""
+    """Requests as JSON lines over TCP on the loopback interface.
 
-    def __init__(self, board: GoalBoard, host: str = "127.0.0.1", port: int = 0) -> None:
+    One I/O thread serves every connection (a selector, non-blocking sockets), so a client
+    costs no thread and none can make another wait: a client's lines are handled a few at a
+    time in turn with the others', its answers are queued for it alone
+    (:class:`SocketLimits`), and the board is only ever called with no lock of the channel's
+    held. ``TCP_NODELAY`` is set on every connection: answers are small lines that must not
+    wait for Nagle's algorithm (it held every second one 40 ms)."""
+
+    def __init__(self, board: GoalBoard, host: str = "127.0.0.1", port: int = 0,
+                 limits: SocketLimits | None = None) -> None:
         self.board = board
         self.host = host
         self.port = port
+        self.limits = limits or SocketLimits()
         self._server: socket.socket | None = None
         self._clients: set[_Client] = set()
-        self._lock = threading.Lock()
+        self._refusing: dict[socket.socket, float] = {}     # refused, told why, draining until EOF
         self._thread: threading.Thread | None = None
+        self._closing = threading.Event()
+        self._sel: selectors.BaseSelector | None = None
+        self._waker: socket.socket | None = None
+        self._wakee: socket.socket | None = None
+        self._accept_again = 0.0          # out of file descriptors: when to try accept() again
+        self.refused = 0
 
     @property
     def address(self) -> tuple[str, int]:
@@ -296,46 +508,232 @@ class SocketChannel:
     def start(self) -> tuple[str, int]:
         """Bind and listen; raises OSError when the address is taken."""
         family = socket.AF_INET6 if ":" in self.host else socket.AF_INET
-        self._server = socket.create_server((self.host, self.port), family=family)
-        self._server.settimeout(0.2)          # accept() wakes up to see the channel closed
+        self._server = socket.create_server((self.host, self.port), family=family, backlog=128)
+        self._server.setblocking(False)
+        self._wakee, self._waker = socket.socketpair()
+        self._wakee.setblocking(False)
+        self._waker.setblocking(False)
+        self._sel = selectors.DefaultSelector()
+        self._sel.register(self._server, selectors.EVENT_READ, _ACCEPT)
+        self._sel.register(self._wakee, selectors.EVENT_READ, _WAKE)
         self.board.open_channel()
-        self._thread = threading.Thread(target=self._accept, name="cplus-serve-socket", daemon=True)
+        self._thread = threading.Thread(target=self._serve, name="cplus-serve-socket", daemon=True)
         self._thread.start()
         return self.address
 
+    def _wake(self) -> None:
+        """Make the I/O thread look again (from any thread; never blocks)."""
+        waker = self._waker
+        if waker is not None:
+            try:
+                waker.send(b"x")
+            except OSError:               # full (a wake is pending anyway) or closed
+                pass
+
+    # ------------------------------------------------------------------ the I/O thread
+    def _serve(self) -> None:
+        sel = self._sel
+        assert sel is not None
+        more = False
+        try:
+            while not self._closing.is_set():
+                for key, mask in sel.select(0 if more else 0.5):
+                    what = key.data
+                    if what is _ACCEPT:
+                        self._accept()
+                    elif what is _WAKE:
+                        self._drain_wakes()
+                    elif isinstance(what, _Client):
+                        if mask & selectors.EVENT_WRITE:
+                            what.write()
+                        if mask & selectors.EVENT_READ:
+                            self._read(what)
+                    else:
+                        self._refuse_read(key.fileobj)  # type: ignore[arg-type]
+                more = self._work()
+        finally:
+            self._shutdown()
+
+    def _drain_wakes(self) -> None:
+        assert self._wakee is not None
+        try:
+            while self._wakee.recv(4096):
+                pass
+        except OSError:
+            pass
+
     def _accept(self) -> None:
         server = self._server
-        assert server is not None
-        while self._server is not None:
+        assert server is not None and self._sel is not None
+        while True:
             try:
                 conn, addr = server.accept()
-            except TimeoutError:
+            except BlockingIOError:
+                return
+            except OSError:               # out of file descriptors, or a connection reset meanwhile
+                self._sel.unregister(server)
+                self._accept_again = time.monotonic() + 0.5
+                return
+            conn.setblocking(False)
+            if len(self._clients) >= self.limits.clients:
+                self._refuse(conn)
                 continue
-            except OSError:
-                return                        # closed
-            conn.settimeout(None)
+            conn.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
             client = _Client(self, conn, f"{addr[0]}:{addr[1]}")
-            with self._lock:
-                self._clients.add(client)
-            threading.Thread(target=client.serve, name=f"cplus-serve-{addr[1]}", daemon=True).start()
+            self._clients.add(client)
+            client.mask = selectors.EVENT_READ
+            self._sel.register(conn, client.mask, client)
 
-    def _gone(self, client: _Client) -> None:
-        with self._lock:
-            self._clients.discard(client)
-
-    def close(self) -> None:
-        """Stop listening and hang up on every client."""
-        if self._server is None:
-            return
+    def _refuse(self, conn: socket.socket) -> None:
+        """Tell a connection beyond the limit why, then hang up once it has sent what it had
+        (closing at once with its request unread would reset the connection, and the reason
+        would be lost)."""
+        self.refused += 1
+        message = {"type": "error", "message": f"too many connections ({self.limits.clients} at most): try again "
+                                               "when another client has hung up"}
         try:
-            self._server.close()
-        finally:
-            self._server = None
-            self.board.close_channel()
-        with self._lock:
-            clients = list(self._clients)
-        for c in clients:
-            try:
-                c.conn.shutdown(socket.SHUT_RDWR)
+            conn.send((json.dumps(message) + "\n").encode())
+            conn.shutdown(socket.SHUT_WR)
+        except OSError:
+            conn.close()
+            return
+        if len(self._refusing) >= 4 * self.limits.clients:
+            conn.close()
+            return
+        assert self._sel is not None
+        self._refusing[conn] = time.monotonic() + 5.0
+        self._sel.register(conn, selectors.EVENT_READ, "refused")
+
+    def _refuse_read(self, conn: socket.socket) -> None:
+        try:
+            if conn.recv(65536):
+                return
+        except BlockingIOError:
+            return
+        except OSError:
+            pass
+        self._forget_refused(conn)
+
+    def _forget_refused(self, conn: socket.socket) -> None:
+        assert self._sel is not None
+        self._refusing.pop(conn, None)
+        self._sel.unregister(conn)
+        conn.close()
+
+    def _read(self, client: _Client) -> None:
+        try:
+            data = client.sock.recv(65536)
+        except BlockingIOError:
+            return
+        except OSError:
+            client.dead = True
+            return
+        if data:
+            client.inbuf += data
+        else:
+            client.eof = True             # a last line without its newline still counts
+            if client.unhandled() and not client.discarding:
+                client.inbuf += b"\n"
+
+    def _work(self) -> bool:
+        """Handle the lines read, a few per client in turn, and bring each client's watch in
+        the selector up to date; True when lines are left for the next round."""
+        sel = self._sel
+        assert sel is not None
+        limits = self.limits
+        now = time.monotonic()
+        more = False
+        for client in list(self._clients):
+            handled = 0
+            while handled < limits.lines_per_round and not client.busy() and not client.overflow:
+                line = client.next_line()
+                if line is None:
+                    break
+                client.handle(line, self.board)
+                handled += 1
+            if handled:
+                client.write()            # the round's answers, in one system call
+            if handled == limits.lines_per_round and not client.busy():
+                more = True
+            if client.unhandled() and not client.discarding and client.inbuf.find(b"\n", client.pos) < 0:
+                if client.partial_since is None:
+                    client.partial_since = now
+                elif now - client.partial_since > limits.line_timeout:
+                    client.answer({"type": "error", "message": f"a line left without its newline for "
+                                                              f"{limits.line_timeout:g} s: disconnected"})
+                    client.eof, client.inbuf, client.pos = True, bytearray(), 0
+            else:
+                client.partial_since = None
+            if client.overflow or client.dead or (client.eof and not client.out):
+                self._drop(client)
+                continue
+            want = 0
+            if not client.eof and not client.busy() and client.unhandled() < limits.pause_bytes:
+                want |= selectors.EVENT_READ
+            if client.out:
+                want |= selectors.EVENT_WRITE
+            if want != client.mask:
+                if not want:
+                    sel.unregister(client.sock)
+                elif not client.mask:
+                    sel.register(client.sock, want, client)
+                else:
+                    sel.modify(client.sock, want, client)
+                client.mask = want
+        for conn, until in list(self._refusing.items()):
+            if now > until:
+                self._forget_refused(conn)
+        if self._accept_again and now >= self._accept_again and self._server is not None:
+            self._accept_again = 0.0
+            sel.register(self._server, selectors.EVENT_READ, _ACCEPT)
+        return more
+
+    def _drop(self, client: _Client) -> None:
+        """Hang up on a client (it went away, or stopped reading); its goals go on."""
+        assert self._sel is not None
+        if client.overflow:
+            try:                          # the reason, if the socket still takes it
+                client.sock.send(b'{"type":"error","message":"answers not read (more than '
+                                 + str(self.limits.out_bytes).encode() + b' bytes waiting): disconnected; your '
+                                 b'goals go on"}\n')
             except OSError:
                 pass
+        if client.mask:
+            self._sel.unregister(client.sock)
+            client.mask = 0
+        self._clients.discard(client)
+        client.close()
+
+    def _shutdown(self) -> None:
+        """Stop listening, send what is queued for the clients (half a second at most), hang up."""
+        sel = self._sel
+        assert sel is not None
+        if self._server is not None:
+            self._server.close()
+        deadline = time.monotonic() + 0.5
+        while time.monotonic() < deadline and any(c.out and not c.closed for c in self._clients):
+            pending = [c for c in self._clients if c.out and not c.closed]
+            for c in pending:
+                c.write()
+            if any(c.out for c in pending):
+                time.sleep(0.01)
+        for c in list(self._clients):
+            c.close()
+        self._clients.clear()
+        for conn in list(self._refusing):
+            conn.close()
+        self._refusing.clear()
+        sel.close()
+        for s in (self._waker, self._wakee):
+            if s is not None:
+                s.close()
+        self._waker = None
+
+    def close(self, timeout: float = 2.0) -> None:
+        """Stop listening and hang up on every client (after sending them what is queued)."""
+        if self._closing.is_set() or self._thread is None:
+            return
+        self._closing.set()
+        self._wake()
+        self._thread.join(timeout)
+        self.board.close_channel()

@@ -27,21 +27,47 @@ ends at that cycle, so the plan chosen at that cycle already serves it. Ids are 
 the order requests arrive; slots are given round-robin among the free ones, so that a slot
 freed by one goal is not at once reused by the next (``pickup(2)`` for the second request,
 as in ROSoClingo's Table I).
+
+**Threads and locks.** Clients submit from their channels' threads (the socket's I/O thread,
+actionlib's callbacks, the loop's thread for a script), the loop polls and observes from its
+own, and watchers are told from the board's *dispatcher* thread. There is one lock,
+``GoalBoard._lock``, and it is a leaf: it is held only while the board's own bookkeeping
+changes, never while calling a watcher, a channel, actionlib, a socket or the log. A change
+queues a notification (with a copy of the goal as it is then) in the board's outbox; the
+dispatcher delivers them in order with no lock held, so a watcher may call back into the board,
+and a component whose own lock is held while it calls the board (actionlib holds its
+``action_server.lock`` in its goal and cancel callbacks) never waits for the board's watchers.
+The lock order of the server is therefore: a channel's own lock (actionlib's) → ``_lock``;
+nothing is taken under ``_lock``. A watcher must not block: a slow one delays every other's
+news (the socket queues its lines per client, and never waits for a client).
+
+**Bounds.** Nothing grows with time or with what clients send: at most
+:attr:`Limits.open_goals` goals are open (pending or in flight) at once, at most
+:attr:`Limits.client_goals` of them for one client (a socket connection, a ROS caller); a
+request beyond either is rejected at once with the reason, so a client that floods the server
+is answered, and another client's request is taken (acknowledged) at once and waits behind
+a bounded number of goals. Final goals are remembered for status queries up to
+:attr:`Limits.kept_final` (the log has every result), and the outbox keeps at most
+:attr:`Limits.outbox` notifications, beyond which feedback (not a status) is dropped.
 """
 from __future__ import annotations
 
+import copy
+import sys
 import threading
 import time
-from collections.abc import Callable, Iterable
+import traceback
+from collections import deque
+from collections.abc import Callable, Hashable
 from dataclasses import dataclass, field
 from enum import StrEnum
 
 from cplus.robot.online import CycleRecord, EventSource, Observer, RunResult, State
 from cplus.robot.serving.standing import GoalLiteral
-from cplus.robot.serving.vocabulary import Rejected, RequestVocabulary
+from cplus.robot.serving.vocabulary import MAX_REQUEST, Rejected, RequestVocabulary
 from cplus.signature import render_value
 
-__all__ = ["FINAL", "Feedback", "Goal", "GoalBoard", "GoalStatus", "GoalWatcher"]
+__all__ = ["FINAL", "Feedback", "Goal", "GoalBoard", "GoalStatus", "GoalWatcher", "Limits"]
 
 
 class GoalStatus(StrEnum):
@@ -54,11 +80,31 @@ class GoalStatus(StrEnum):
     PREEMPTED = "preempted"
     RECALLED = "recalled"        # cancelled while pending
     ABORTED = "aborted"          # the run ended before the goal did
-    REJECTED = "rejected"        # the domain cannot express the request
+    REJECTED = "rejected"        # the domain cannot express the request, or a limit was reached
 
 
 FINAL = frozenset({GoalStatus.SUCCEEDED, GoalStatus.PREEMPTED, GoalStatus.RECALLED, GoalStatus.ABORTED,
                    GoalStatus.REJECTED})
+
+
+@dataclass(frozen=True)
+class Limits:
+    """What one server takes at most, so that no client can make it grow without bound.
+
+    Attributes:
+        open_goals: goals open at once (pending, active or preempting), every client together.
+        client_goals: goals open at once for one client (a socket connection, a ROS caller);
+            scripts and the Python API are bounded by ``open_goals`` only.
+        kept_final: final goals remembered for status queries (older ones are forgotten; the
+            log has their results).
+        outbox: notifications waiting for the dispatcher; beyond it feedback is dropped
+            (statuses never are).
+    """
+
+    open_goals: int = 256
+    client_goals: int = 32
+    kept_final: int = 1000
+    outbox: int = 100_000
 
 
 @dataclass(frozen=True)
@@ -75,8 +121,9 @@ class Feedback:
 
 
 class GoalWatcher:
-    """Told about one goal (or every goal, :meth:`GoalBoard.watch`). Called from the loop's
-    thread or a client's; must not block. No-ops unless overridden."""
+    """Told about one goal (or every goal, :meth:`GoalBoard.watch`), from the board's dispatcher
+    thread, in the order things happened, with a copy of the goal as it was then. Must not
+    block: a slow watcher delays every other's news. No-ops unless overridden."""
 
     def status(self, goal: Goal, status: GoalStatus) -> None:
         """The goal was created or changed to ``status`` (in order; a final status is its
@@ -91,7 +138,7 @@ class Goal:
     """One request and what became of it. ``slot`` is the domain object it occupies while in
     flight; ``cycle`` the cycle its events took effect; ``reason`` why it was rejected or
     aborted; ``reaction_s`` the time from its arrival to the first action sent after the loop
-    took it (the server's reaction latency)."""
+    took it (the server's reaction latency); ``client`` whose share of open goals it counts in."""
 
     id: int
     request: str
@@ -107,6 +154,8 @@ class Goal:
     reaction_s: float | None = None
     watcher: GoalWatcher | None = field(default=None, repr=False)
     cancel_requested: bool = False
+    client: Hashable | None = field(default=None, repr=False)
+    parsed: tuple | None = field(default=None, repr=False)
 
     @property
     def final(self) -> bool:
@@ -135,19 +184,27 @@ class GoalBoard(EventSource, Observer):
     Args:
         vocabulary: the domain's requests (``requests.toml``).
         clock: a function returning seconds (arrival times, reaction latencies).
+        limits: how many goals may be open, per client and in all, and what is remembered.
     """
 
-    def __init__(self, vocabulary: RequestVocabulary, clock: Callable[[], float] = time.perf_counter) -> None:
+    def __init__(self, vocabulary: RequestVocabulary, clock: Callable[[], float] = time.perf_counter,
+                 limits: Limits | None = None) -> None:
         self.vocabulary = vocabulary
         self.clock = clock
-        self._lock = threading.RLock()
-        self._arrived = threading.Condition(self._lock)
-        self.goals: dict[int, Goal] = {}
-        self._queue: list[Goal] = []               # pending, oldest first
+        self.limits = limits or Limits()
+        self._lock = threading.Lock()
+        self._arrived = threading.Condition(self._lock)    # the loop waits here while idle
+        self._news = threading.Condition(self._lock)       # the dispatcher waits here
+        self.goals: dict[int, Goal] = {}           # every goal open, and the last final ones
+        self._next_id = 1
+        self._queue: deque[Goal] = deque()         # pending, oldest first
         self._cancels: list[Goal] = []             # active goals whose cancellation is not delivered
         self._holder: dict[object, Goal] = {}      # slot -> goal in flight
         self._next_slot = 0
-        self._watchers: list[GoalWatcher] = []
+        self._open = 0                             # goals not final
+        self._by_client: dict[Hashable, int] = {}  # client -> its goals not final
+        self._finals: deque[int] = deque()         # final goals still remembered, oldest first
+        self._watchers: tuple[GoalWatcher, ...] = ()
         self._changed: dict[int, Goal] = {}        # since the last log line
         self._scripts: list[Callable[[int], None]] = []
         self._script_left: list[Callable[[], bool]] = []
@@ -155,14 +212,18 @@ class GoalBoard(EventSource, Observer):
         self._seen = -1                            # the last cycle whose state was looked at
         self._predicted: State | None = None       # the state the current plan predicts next
         self._closing = ""
-        self._news: list[tuple[Goal, GoalStatus]] = []
-        self._dispatch = threading.RLock()        # watchers hear every goal's changes in order
+        self._woken = False
+        self._outbox: deque[tuple] = deque()       # (kind, goal copy, status or feedback, audience)
+        self._delivering = False
+        self._dispatcher: threading.Thread | None = None
+        self._stopped = False                      # the dispatcher was told to end
+        self.dropped_feedback = 0                  # feedback left out because the outbox was full
 
     # ------------------------------------------------------------------ clients
     def watch(self, watcher: GoalWatcher) -> None:
         """Tell ``watcher`` about every goal (the log, progress lines)."""
         with self._lock:
-            self._watchers.append(watcher)
+            self._watchers = (*self._watchers, watcher)
 
     def open_channel(self) -> None:
         """A live channel (a socket, ROS) is open: the board never finishes while it is."""
@@ -176,36 +237,72 @@ class GoalBoard(EventSource, Observer):
 
     def add_script(self, due: Callable[[int], None], left: Callable[[], bool]) -> None:
         """A script: ``due(cycle)`` submits what it has for that cycle (from the loop's thread,
-        so a scripted run is deterministic); ``left()`` says whether anything is still to come."""
+        so a scripted run is deterministic); ``left()`` says whether anything is still to come
+        (called under the board's lock: it must only look at the script's own entries)."""
         with self._lock:
             self._scripts.append(due)
             self._script_left.append(left)
 
-    def submit(self, request: str, watcher: GoalWatcher | None = None, origin: str = "") -> Goal:
+    def submit(self, request: str, watcher: GoalWatcher | None = None, origin: str = "",
+               client: Hashable | None = None) -> Goal:
         """A new goal: pending, or rejected with the reason when the domain cannot express
-        the request (or the server is stopping). Thread-safe."""
+        the request, a limit is reached (:class:`Limits`) or the server is stopping.
+        ``client`` is whose share of open goals it takes (None: only the limit for every
+        client together). Thread-safe; never blocks on anything but the board's own lock (the
+        request is read before it is taken)."""
+        return self._make(request, watcher, origin, client, True)[0]
+
+    def request(self, request: str, watcher: GoalWatcher | None = None, origin: str = "",
+                client: Hashable | None = None) -> tuple[Goal, dict]:
+        """:meth:`submit` for a channel that acknowledges the request itself: the goal, and the
+        goal as JSON as it was made (pending or rejected), which the channel answers with at
+        once (the loop may already be changing the goal). ``watcher`` hears the goal's later
+        news, not its first status (that is the acknowledgement): so that the dispatcher has
+        nothing to tell the client before the channel's answer is out."""
+        return self._make(request, watcher, origin, client, False)
+
+    def _make(self, request: str, watcher: GoalWatcher | None, origin: str, client: Hashable | None,
+              tell_first: bool) -> tuple[Goal, dict]:
+        text = request if isinstance(request, str) else repr(request)[:MAX_REQUEST + 1]
+        try:
+            parsed: tuple | None = self.vocabulary.parse(text)
+            reason = ""
+        except Rejected as exc:
+            parsed, reason = None, exc.reason
+        if len(text) > MAX_REQUEST:               # kept (and logged) cut: a ROS string has no length limit
+            text = f"{text[:80]}... ({len(text)} characters)"
+        now = self.clock()
         with self._lock:
-            goal = Goal(len(self.goals) + 1, request if isinstance(request, str) else repr(request),
-                        GoalStatus.PENDING, origin, received=self.clock(), watcher=watcher)
+            goal = Goal(self._next_id, text, GoalStatus.PENDING, origin, received=now, watcher=watcher,
+                        client=client, parsed=parsed)
+            self._next_id += 1
             self.goals[goal.id] = goal
+            mine = self._by_client.get(client, 0) if client is not None else 0
             if self._closing:
-                self._set(goal, GoalStatus.REJECTED, self._closing)
+                reason = self._closing
+            elif not reason and self._open >= self.limits.open_goals:
+                reason = (f"the server has {self._open} goals open, its limit: send it again when one has "
+                          "ended")
+            elif not reason and client is not None and mine >= self.limits.client_goals:
+                reason = (f"this client has {mine} goals open (at most {self.limits.client_goals} per client): "
+                          "send it again when one has ended")
+            if reason:
+                self._set(goal, GoalStatus.REJECTED, reason, tell_first)
             else:
-                try:
-                    self.vocabulary.parse(request)
-                except Rejected as exc:
-                    self._set(goal, GoalStatus.REJECTED, exc.reason)
-                else:
-                    self._queue.append(goal)
-                    self._set(goal, GoalStatus.PENDING)
-                    self._arrived.notify_all()
-        self._flush()
-        return goal
+                self._open += 1
+                if client is not None:
+                    self._by_client[client] = mine + 1
+                self._queue.append(goal)
+                self._set(goal, GoalStatus.PENDING, tell_own=tell_first)
+                self._arrived.notify_all()
+            made = goal.to_json()
+        self._started()
+        return goal, made
 
     def cancel(self, goal_id: int, origin: str = "") -> Goal:
         """Cancel a goal: a pending one is recalled at once; an active one is preempting until
         the cancellation's events have done their work. A final goal stays as it is.
-        Raises KeyError for an unknown id. Thread-safe."""
+        Raises KeyError for an unknown (or forgotten) id. Thread-safe."""
         with self._lock:
             goal = self.goals[goal_id]
             if goal.status is GoalStatus.PENDING:
@@ -216,12 +313,23 @@ class GoalBoard(EventSource, Observer):
                 self._cancels.append(goal)
                 self._set(goal, GoalStatus.PREEMPTING)
                 self._arrived.notify_all()
-        self._flush()
+        self._started()
         return goal
 
     def get(self, goal_id: int) -> Goal | None:
         with self._lock:
             return self.goals.get(goal_id)
+
+    def describe(self, goal_id: int) -> dict | None:
+        """The goal as JSON (as it is now, read under the lock), None when unknown or forgotten."""
+        with self._lock:
+            goal = self.goals.get(goal_id)
+            return None if goal is None else goal.to_json()
+
+    def forgotten(self, goal_id: int) -> bool:
+        """True for a goal that existed and ended so long ago that it is no longer remembered."""
+        with self._lock:
+            return 0 < goal_id < self._next_id and goal_id not in self.goals
 
     # ------------------------------------------------------------------ the planner's agenda
     def agenda(self) -> list[GoalLiteral]:
@@ -245,14 +353,20 @@ class GoalBoard(EventSource, Observer):
                 slot = self._free_slot()
                 if slot is None:
                     break
-                goal = self._queue.pop(0)
+                goal = self._queue.popleft()
                 goal.slot = slot
-                goal.events = self.vocabulary.events(goal.request, slot)
+                assert goal.parsed is not None
+                goal.events = self.vocabulary.ground(goal.parsed, slot)
                 goal.cycle = cycle
                 self._holder[slot] = goal
                 events.extend(goal.events)
                 self._set(goal, GoalStatus.ACTIVE)
-        self._flush()
+            told = bool(self._outbox)
+        self._started()
+        if told:
+            # let the dispatcher tell the clients now: the re-plan that follows holds Python's
+            # GIL inside SAT calls, and the news would wait for it (a ROS goal's ACTIVE, 5 ms)
+            time.sleep(0)
         return events
 
     def _free_slot(self) -> object | None:
@@ -270,8 +384,20 @@ class GoalBoard(EventSource, Observer):
 
     def wait(self, timeout: float) -> None:
         with self._lock:
-            if not self._queue and not self._cancels:
+            if not self._queue and not self._cancels and not self._woken:
                 self._arrived.wait(timeout)
+            self._woken = False
+
+    def wake(self) -> None:
+        """End the loop's idle wait now (the server is stopping). Thread-safe, and bounded: when
+        the lock cannot be had at once, the idle wait ends by its own timeout anyway."""
+        if not self._lock.acquire(timeout=0.2):
+            return
+        try:
+            self._woken = True
+            self._arrived.notify_all()
+        finally:
+            self._lock.release()
 
     def finished(self) -> bool:
         with self._lock:
@@ -295,20 +421,32 @@ class GoalBoard(EventSource, Observer):
         plan = record.plan.texts()[1:] if record.plan is not None else []
         fb = Feedback(record.cycle, [a.text for a in record.executed], plan)
         with self._lock:
-            busy = [g for g in self._holder.values() if not g.final]
-        for goal in sorted(busy, key=lambda g: g.id):
-            for w in self._audience(goal):
-                w.feedback(goal, fb)
+            for goal in sorted(self._holder.values(), key=lambda g: g.id):
+                if not goal.final:
+                    self._post("feedback", goal, fb)
+        self._started()
 
     def on_end(self, result: RunResult) -> None:
-        with self._lock:
-            self._closing = f"the server stopped ({result.status.value}: {result.message})"
+        self.abort_all(f"the server stopped ({result.status.value}: {result.message})")
+
+    def abort_all(self, reason: str, timeout: float = -1) -> bool:
+        """Abort every goal not final with ``reason``, and reject every later request with it
+        (the run ended). ``timeout``: how long to wait for the lock (the watchdog's emergency
+        end; -1: as long as it takes). False when the lock could not be had."""
+        if not self._lock.acquire(timeout=timeout):
+            return False
+        try:
+            self._closing = reason
             for goal in list(self.goals.values()):
                 if not goal.final:
-                    self._set(goal, GoalStatus.ABORTED, self._closing)
-            self._queue, self._cancels = [], []
+                    self._set(goal, GoalStatus.ABORTED, reason)
+            self._queue.clear()
+            self._cancels = []
             self._holder.clear()
-        self._flush()
+        finally:
+            self._lock.release()
+        self._started()
+        return True
 
     def _look(self, record: CycleRecord) -> None:
         """Close the goals whose fluent is false in the state of ``record`` (once per cycle)."""
@@ -330,45 +468,142 @@ class GoalBoard(EventSource, Observer):
                     self._set(goal, GoalStatus.PREEMPTED, "cancelled")
                 else:
                     self._set(goal, GoalStatus.SUCCEEDED)
-        self._flush()
+        self._started()
 
     # ------------------------------------------------------------------ the log
-    def log_goals(self) -> list[dict]:
-        """For the log's cycle line: every goal not final, and every goal that changed since
-        the last line."""
-        with self._lock:
-            out = {g.id: g for g in self.goals.values() if not g.final}
-            out.update(self._changed)
-            self._changed = {}
-            return [out[i].to_json() for i in sorted(out)]
+    def log_goals(self, timeout: float = -1) -> list[dict]:
+        """For the log's cycle line: every goal whose status changed since the last line (as it
+        is now: its last status), so that a line is as long as what happened, not as the
+        number of goals open."""
+        if not self._lock.acquire(timeout=timeout):
+            return []
+        try:
+            changed, self._changed = self._changed, {}
+            return [changed[i].to_json() for i in sorted(changed)]
+        finally:
+            self._lock.release()
 
-    def summary(self) -> dict[str, int]:
-        """How many goals ended in each status (and are still open)."""
-        with self._lock:
+    def remembered(self, timeout: float = -1) -> list[dict]:
+        """Every goal still remembered (those open, and the last final ones), for the end record."""
+        if not self._lock.acquire(timeout=timeout):
+            return []
+        try:
+            return [g.to_json() for g in self.goals.values()]
+        finally:
+            self._lock.release()
+
+    def summary(self, timeout: float = -1) -> dict[str, int]:
+        """How many goals ended in each status (and are still open), of those remembered, and
+        how many were forgotten (``"forgotten"``)."""
+        if not self._lock.acquire(timeout=timeout):
+            return {}
+        try:
             counts: dict[str, int] = {}
             for g in self.goals.values():
                 counts[g.status.value] = counts.get(g.status.value, 0) + 1
+            forgotten = self._next_id - 1 - len(self.goals)
+            if forgotten:
+                counts["forgotten"] = forgotten
             return counts
+        finally:
+            self._lock.release()
 
     # ------------------------------------------------------------------ notifications
-    def _set(self, goal: Goal, status: GoalStatus, reason: str = "") -> None:
-        """Change a goal's status (under the lock); watchers hear it at :meth:`_flush`."""
+    def _set(self, goal: Goal, status: GoalStatus, reason: str = "", tell_own: bool = True) -> None:
+        """Change a goal's status (under the lock) and queue the news for its watchers (not for
+        its own one when ``tell_own`` is False: the channel that made it acknowledges it)."""
         goal.status = status
         if reason:
             goal.reason = reason
         self._changed[goal.id] = goal
-        self._news.append((goal, status))
+        if status in FINAL:
+            if status is not GoalStatus.REJECTED:  # a rejected goal never counted
+                self._open -= 1
+                if goal.client is not None:
+                    left = self._by_client.get(goal.client, 1) - 1
+                    if left:
+                        self._by_client[goal.client] = left
+                    else:
+                        self._by_client.pop(goal.client, None)
+            self._finals.append(goal.id)
+            while len(self._finals) > self.limits.kept_final:
+                self.goals.pop(self._finals.popleft(), None)
+        self._post("status", goal, status, tell_own)
 
-    def _audience(self, goal: Goal) -> Iterable[GoalWatcher]:
-        return ([goal.watcher] if goal.watcher is not None else []) + list(self._watchers)
+    def _post(self, kind: str, goal: Goal, what: object, tell_own: bool = True) -> None:
+        """Queue a notification (under the lock), with a copy of the goal as it is now and its
+        audience; nothing is queued for a goal nobody watches."""
+        audience = (goal.watcher, *self._watchers) if goal.watcher is not None and tell_own else self._watchers
+        if not audience or self._stopped:
+            return
+        if kind == "feedback" and len(self._outbox) >= self.limits.outbox:
+            self.dropped_feedback += 1
+            return
+        self._outbox.append((kind, copy.copy(goal), what, audience))
+        self._news.notify()
 
-    def _flush(self) -> None:
-        """Tell the watchers what changed, outside the board's lock (a watcher may call back),
-        one flush at a time so that each hears a goal's changes in order."""
-        with self._dispatch:
+    def _started(self) -> None:
+        """Start the dispatcher when there is news and it is not running (called with no lock
+        held: starting a thread is not done under the board's lock)."""
+        if self._dispatcher is not None or not self._outbox or self._stopped:
+            return
+        with self._lock:
+            if self._dispatcher is not None or self._stopped:
+                return
+            thread = self._dispatcher = threading.Thread(target=self._dispatch, name="cplus-serve-goals",
+                                                         daemon=True)
+        try:
+            thread.start()
+        except RuntimeError:                      # no thread to be had now: the next change tries again
             with self._lock:
-                news, self._news = self._news, []
-            for goal, status in news:
-                for w in self._audience(goal):
-                    w.status(goal, status)
+                self._dispatcher = None
 
+    def _dispatch(self) -> None:
+        """The dispatcher: deliver the outbox in order, outside the lock, until told to end."""
+        while True:
+            with self._lock:
+                self._delivering = False
+                self._news.notify_all()          # drain() waits for an empty outbox
+                while not self._outbox and not self._stopped:
+                    self._news.wait()
+                if not self._outbox:
+                    return
+                batch = list(self._outbox)
+                self._outbox.clear()
+                self._delivering = True
+            for kind, goal, what, audience in batch:
+                for w in audience:
+                    try:
+                        if kind == "status":
+                            w.status(goal, what)
+                        else:
+                            w.feedback(goal, what)
+                    except Exception as exc:  # noqa: BLE001 - one watcher's bug must not silence the others
+                        print(f"cplus serve: a goal watcher ({type(w).__name__}) failed; the others go on:",
+                              file=sys.stderr)
+                        traceback.print_exception(exc, file=sys.stderr)
+
+    def drain(self, timeout: float) -> bool:
+        """Wait until every notification queued so far has been delivered (at most ``timeout``
+        seconds); False when some are still waiting."""
+        self._started()
+        deadline = time.monotonic() + timeout
+        with self._lock:
+            while self._outbox or self._delivering:
+                left = deadline - time.monotonic()
+                if left <= 0 or self._dispatcher is None:
+                    return False
+                self._news.wait(left)
+        return True
+
+    def close(self, timeout: float = 1.0) -> None:
+        """Deliver what is queued (at most ``timeout`` seconds), then end the dispatcher; later
+        changes are not told to anyone."""
+        self.drain(timeout)
+        with self._lock:
+            self._stopped = True
+            self._outbox.clear()
+            self._news.notify_all()
+            thread = self._dispatcher
+        if thread is not None and thread is not threading.current_thread():
+            thread.join(timeout)

@@ -11,6 +11,22 @@ the online loop of :mod:`cplus.robot.online.loop` with three parts added, and no
 * the channels: a script (:class:`~cplus.robot.serving.channels.RequestScript`), a JSON-lines socket
   (:class:`~cplus.robot.serving.channels.SocketChannel`), ROS actionlib (:mod:`cplus.robot.serving.ros_bridge`).
 
+**Threads and the lock order.** The loop runs in the thread that calls :meth:`Server.run`;
+the board's dispatcher tells watchers (:mod:`.goals`); the socket has one I/O thread
+(:mod:`.channels`); rospy has its own (:mod:`.ros_bridge`). Every lock of the server, and the
+one order in which they may be held::
+
+    actionlib's action_server.lock  ─┐
+    the log's lock (JsonLinesLog)   ─┴─>  GoalBoard._lock      (nothing is taken under it)
+    a socket client's _Client._lock                             (a leaf: nothing under it)
+
+No lock is held while calling into another component: the board queues notifications and the
+dispatcher delivers them with no lock held; a watcher (a socket client, an actionlib goal
+handle, progress lines) only queues or sends without blocking; the socket's I/O thread calls
+the board with no lock of its own held. :meth:`Server.stop` and :meth:`Server.force_end` are
+for any thread; ``cplus serve`` calls them from its watchdog (:mod:`cplus.cli.serve`), so
+that SIGINT and SIGTERM end it within 2 s whatever the threads are doing.
+
 The goal is a query of the domain whose step-0 conditions are where the robot starts and whose
 ``maxstep`` conditions say that nothing is pending. The run waits when nothing is to be done,
 and ends when it is stopped (:meth:`Server.stop`), or when every channel has finished (a
@@ -21,18 +37,23 @@ aborted.
 Python API::
 
     from cplus.api import Domain
-    from cplus.robot.serving.reactive import Server
+    from cplus.robot.serving.reactive import Server, ServerSettings
     from cplus.robot.serving.vocabulary import load_requests
 
     domain = Domain.load("domains/mailbot/mailbot.cp")
-    server = Server(domain, load_requests("domains/mailbot/requests.toml", domain))
+    server = Server(domain, load_requests("domains/mailbot/requests.toml", domain),
+                    ServerSettings(action_time=0.5))
     goal = server.board.submit("deliver(office3,office2)")     # from any thread
     host, port = server.listen("127.0.0.1", 0)                 # JSON lines
     result = server.run()                                      # until server.stop()
 """
 from __future__ import annotations
 
+import json
+import threading
+import time
 from collections.abc import Callable, Iterable
+from dataclasses import dataclass
 from typing import TextIO
 
 from cplus.robot.online import (
@@ -40,19 +61,20 @@ from cplus.robot.online import (
     JsonLinesLog,
     Observer,
     OnlineLoop,
+    OnlineStatus,
     Roles,
     RunResult,
     SimulatedExecutor,
     user_actions,
 )
-from cplus.robot.serving.channels import RequestScript, SocketChannel
-from cplus.robot.serving.goals import Goal, GoalBoard
+from cplus.robot.serving.channels import RequestScript, SocketChannel, SocketLimits
+from cplus.robot.serving.goals import Goal, GoalBoard, Limits
 from cplus.robot.serving.standing import DEFAULT_BUDGET, StandingModel
 from cplus.robot.serving.vocabulary import RequestsError, RequestVocabulary
 from cplus.sat.solver import DEFAULT_SOLVER
-from nxt_link.clock import MONOTONIC, Clock
+from nxt_link.clock import MONOTONIC, Clock, MonotonicClock
 
-__all__ = ["Server", "ServeLog", "serve_roles"]
+__all__ = ["SERVE_LOG", "Server", "ServerSettings", "ServeLog", "serve_roles"]
 
 
 def serve_roles(domain, vocabulary: RequestVocabulary, binding=None) -> Roles:
@@ -72,18 +94,104 @@ def serve_roles(domain, vocabulary: RequestVocabulary, binding=None) -> Roles:
     return roles
 
 
+SERVE_LOG = "cplus.serve/2"
+"""What a server adds to the ``cplus.online/1`` log (the start record's ``serve_format``):
+version 2 lists in each cycle record the goals whose status changed since the record before
+(version 1, unnamed, listed every open goal in every record: a log that grew with the goals
+open times the cycles)."""
+
+
 class ServeLog(JsonLinesLog):
-    """The ``cplus.online/1`` log of a server: each cycle's line also lists the goals (those
-    open, and those that changed since the last line), and the end record every goal."""
+    """The ``cplus.online/1`` log of a server: each cycle's record also names the goals that
+    changed since the record before (``goals``), and the end record every goal still
+    remembered with the counts of all (``goal_counts``).
+
+    Lines are written under the log's lock (:class:`JsonLinesLog`), so that the watchdog's end
+    record (:meth:`end_now`) is never interleaved with a line of the loop's, and after an end
+    record nothing more is written. Lock order: the log's lock, then the board's (never the
+    other way round: the board never calls the log)."""
 
     def __init__(self, stream: TextIO, board: GoalBoard, extra=None) -> None:
-        super().__init__(stream, extra, annotate=lambda record, line: line.update(goals=board.log_goals()))
+        super().__init__(stream, {**(extra or {}), "serve_format": SERVE_LOG},
+                         annotate=lambda record, line: line.update(goals=board.log_goals()))
         self.board = board
 
     def on_end(self, result: RunResult) -> None:
         line = result.to_json()
-        line["goals"] = [g.to_json() for g in self.board.goals.values()]
-        self._write(line)
+        line["goals"] = self.board.remembered()
+        line["goal_counts"] = self.board.summary()
+        self._write(line, end=True)
+
+    def end_now(self, line: dict, timeout: float) -> bool:
+        """Write ``line`` as the end record now (``"forced": true``, with the goals), unless the
+        loop already wrote one (:meth:`JsonLinesLog.end_forced` for a server: the watchdog's
+        end of a run that did not stop in time); False when the lock could not be had in time
+        (a write is stuck: the lines stay as they are)."""
+        if not self._lock.acquire(timeout=max(timeout, 0.0)):
+            return False
+        try:
+            if not self._ended:
+                line = dict(line, forced=True, goals=self.board.remembered(timeout),
+                            goal_counts=self.board.summary(timeout))
+                self.stream.write(json.dumps(line, separators=(",", ":")) + "\n")
+                self.stream.flush()
+                self._ended = True
+            return True
+        except (OSError, ValueError):         # the file is gone or closed: nothing more to save
+            return False
+        finally:
+            self._lock.release()
+
+
+class _StopClock:
+    """The server's clock: the settings' clock, except that in real time a sleep ends when the
+    server is stopped (so that a simulated robot's long action does not delay a stop)."""
+
+    def __init__(self, inner: Clock, stopping: threading.Event) -> None:
+        self.inner = inner
+        self.stopping = stopping
+        self.real = isinstance(inner, MonotonicClock)
+
+    def now(self) -> float:
+        return self.inner.now()
+
+    def sleep(self, seconds: float) -> None:
+        if self.real:
+            self.stopping.wait(max(seconds, 0.0))
+        else:
+            self.inner.sleep(seconds)
+
+
+@dataclass(frozen=True)
+class ServerSettings:
+    """How a server plans and runs, apart from what it serves and on which robot.
+
+    Attributes:
+        goal: the query label of the standing goal (None: the domain's first query).
+        budget: unit propagations for the shortest plan per re-plan (None: always the shortest).
+        horizon: steps the planner encodes when the server starts (more are added when a plan
+            needs them; None: 20).
+        max_horizon: the longest plan when the goal's maxstep range is open (None: the loop's default).
+        solver: the SAT solver (None: the default one).
+        action_time: seconds each action of the simulated robot takes (when no executor is given).
+        clock: the clock of the loop and the simulated robot (a ``VirtualClock`` in tests).
+        idle_poll_s: how long an idle step waits between two polls of the channels.
+        limits: how many goals may be open, per client and in all (:class:`Limits`).
+        socket: what the socket takes from its clients (:class:`SocketLimits`).
+        keep_records: cycle records kept in memory (the log has them all).
+    """
+
+    goal: str | None = None
+    budget: int | None = DEFAULT_BUDGET
+    horizon: int | None = None
+    max_horizon: int | None = None
+    solver: str | None = None
+    action_time: float = 0.0
+    clock: Clock = MONOTONIC
+    idle_poll_s: float = 0.05
+    limits: Limits = Limits()
+    socket: SocketLimits = SocketLimits()
+    keep_records: int = 1000
 
 
 class Server:
@@ -92,43 +200,50 @@ class Server:
     Args:
         domain: the C+ domain (:class:`cplus.api.Domain`).
         vocabulary: its requests (:func:`~cplus.robot.serving.vocabulary.load_requests`).
-        goal: the query label of the standing goal (default: the domain's first query).
+        settings: the goal, the planner's budget and horizons, the simulated robot's timing,
+            the limits (:class:`ServerSettings`; one object, so that a new setting is one
+            field, not one more argument in every caller).
         binding: a ``robot.toml`` (:class:`~cplus.robot.online.binding.RobotBinding`), for the roles.
         executor: the robot, or a function that makes it from the server's model (default: a
-            simulated robot whose actions take ``action_time`` seconds).
-        budget: unit propagations for the shortest plan per re-plan (None: always the shortest).
-        horizon: steps the planner encodes when the server starts (more are added when a plan
-            needs them; default 20).
+            simulated robot whose actions take ``settings.action_time`` seconds).
         observers: more observers of the loop (progress lines, the log).
+
+    Threads: the loop runs in the thread that calls :meth:`run`; the board's dispatcher tells
+    watchers (:mod:`.goals`); each channel has its own (the socket's I/O thread, rospy's).
+    Every one of them is stopped or ends with the run; :meth:`stop` and :meth:`force_end` may
+    be called from any thread.
     """
 
-    def __init__(self, domain, vocabulary: RequestVocabulary, *, goal: str | None = None, binding=None,
-                 executor: Executor | Callable[[StandingModel], Executor] | None = None, action_time: float = 0.0, budget: int | None = DEFAULT_BUDGET,
-                 max_horizon: int | None = None, horizon: int | None = None, solver: str | None = None,
-                 clock: Clock = MONOTONIC,
-                 observers: Iterable[Observer] = (), idle_poll_s: float = 0.05) -> None:
+    def __init__(self, domain, vocabulary: RequestVocabulary, settings: ServerSettings | None = None, *,
+                 binding=None, executor: Executor | Callable[[StandingModel], Executor] | None = None,
+                 observers: Iterable[Observer] = ()) -> None:
+        settings = settings or ServerSettings()
+        self.settings = settings
         self.domain = domain
         self.vocabulary = vocabulary
-        self.board = GoalBoard(vocabulary)
-        label = goal or domain.labels[0]
-        self.model = StandingModel(domain, label, serve_roles(domain, vocabulary, binding), max_horizon=max_horizon,
-                                   budget=budget, agenda=self.board.agenda, solver=solver or DEFAULT_SOLVER,
-                                   horizon=horizon)
+        self._stopping = threading.Event()
+        clock = _StopClock(settings.clock, self._stopping)
+        self.board = GoalBoard(vocabulary, limits=settings.limits)
+        label = settings.goal or domain.labels[0]
+        self.model = StandingModel(domain, label, serve_roles(domain, vocabulary, binding),
+                                   max_horizon=settings.max_horizon, budget=settings.budget, agenda=self.board.agenda,
+                                   solver=settings.solver or DEFAULT_SOLVER, horizon=settings.horizon)
         if executor is None:
-            executor = SimulatedExecutor(self.model, default_s=action_time, clock=clock)
+            executor = SimulatedExecutor(self.model, default_s=settings.action_time, clock=clock)
         elif not isinstance(executor, Executor):
             executor = executor(self.model)
         self.executor: Executor = executor
         self.channels: list = []
         self.loop = OnlineLoop(self.model, executor, [self.board], [self.board, *observers], when_done="wait",
-                               clock=clock, idle_poll_s=idle_poll_s)
+                               clock=clock, idle_poll_s=settings.idle_poll_s, keep_records=settings.keep_records)
+        self._t0 = time.monotonic()
 
     def add_script(self, script: RequestScript) -> None:
         script.attach(self.board)
 
     def listen(self, host: str = "127.0.0.1", port: int = 0) -> tuple[str, int]:
         """Take requests on a JSON-lines socket (loopback); returns the address it listens on."""
-        channel = SocketChannel(self.board, host, port)
+        channel = SocketChannel(self.board, host, port, self.settings.socket)
         address = channel.start()
         self.channels.append(channel)
         return address
@@ -141,13 +256,48 @@ class Server:
         return self.board.submit(request, origin="api")
 
     def run(self) -> RunResult:
-        """Serve until stopped or until every channel has finished; then close the channels."""
+        """Serve until stopped or until every channel has finished; then tell the clients how
+        their goals ended (a second at most) and close the channels."""
+        self._t0 = time.monotonic()
         try:
             return self.loop.run()
         finally:
+            self.board.drain(1.0)
             for channel in self.channels:
                 channel.close()
+            self.board.close(0.5)
 
     def stop(self) -> None:
-        """End the run between two cycles (thread-safe; from a signal handler too)."""
+        """End the run between two cycles (from any thread, but not from a signal handler: it
+        takes locks, which the interrupted main thread may hold; ``cplus serve`` calls it from
+        its watchdog thread): the simulated robot's action and an idle wait end at once."""
+        self._stopping.set()
         self.loop.stop()
+        self.board.wake()
+
+    def force_end(self, message: str, timeout: float = 0.6) -> None:
+        """End now, as well as can be in ``timeout`` seconds, whatever the loop is doing (the
+        watchdog's end, when :meth:`stop` was not enough): tell the robot to abort, abort the
+        goals open (their clients are told what the channels still send in time), write the
+        log's end record. Each part has a share of the time and is skipped when it cannot
+        have it; the process is expected to exit right after."""
+        deadline = time.monotonic() + timeout
+        self.stop()
+        robot = threading.Thread(target=self._abort_robot, name="cplus-serve-abort", daemon=True)
+        robot.start()
+        robot.join(timeout / 3)
+        reason = f"the server stopped (stopped: {message})"
+        self.board.abort_all(reason, timeout=max(deadline - time.monotonic(), 0.0) / 3)
+        self.board.drain(max(deadline - time.monotonic(), 0.0) / 3)
+        records = list(self.loop.records)
+        end = RunResult(OnlineStatus.STOPPED, message, records, self.loop.state, dropped=self.loop._dropped,
+                        dropped_replans=self.loop._dropped_replans, seconds=time.monotonic() - self._t0).to_json()
+        for obs in list(self.loop.observers):
+            if isinstance(obs, ServeLog):
+                obs.end_now(end, max(deadline - time.monotonic(), 0.05))
+
+    def _abort_robot(self) -> None:
+        try:
+            self.executor.abort()
+        except Exception:  # noqa: BLE001 - ending anyway; the robot's own failure is no news here
+            pass

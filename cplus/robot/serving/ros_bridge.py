@@ -36,6 +36,7 @@ from __future__ import annotations
 import os
 import sys
 import threading
+import time
 from dataclasses import dataclass
 from typing import Any
 
@@ -110,11 +111,14 @@ class RosSetup:
 
 
 class _RosGoal(GoalWatcher):
-    """One actionlib goal handle, told what happens to the server's goal."""
+    """One actionlib goal handle, told what happens to the server's goal (from the board's
+    dispatcher, with no lock of the server's held: the handle's methods take actionlib's
+    ``action_server.lock``, which actionlib holds while its callbacks call the board)."""
 
-    def __init__(self, channel: ActionChannel, handle) -> None:
+    def __init__(self, channel: ActionChannel, handle, ros_id: str) -> None:
         self.channel = channel
         self.handle = handle
+        self.ros_id = ros_id
 
     def _result(self, goal: Goal, status: GoalStatus):
         msgs = self.channel.msgs
@@ -142,6 +146,8 @@ class _RosGoal(GoalWatcher):
                 h.set_rejected(self._result(goal, status), text)
             else:
                 h.set_aborted(self._result(goal, status), text)
+        if goal.final:
+            self.channel._forget(self.ros_id)
 
     def feedback(self, goal: Goal, feedback: Feedback) -> None:
         msgs = self.channel.msgs
@@ -190,22 +196,39 @@ class ActionChannel:
         self._open = True
 
     def _on_goal(self, handle) -> None:
+        """actionlib's goal callback (its lock held): the board is called, and nothing waits."""
         ros_id = handle.get_goal_id().id
         request = handle.get_goal().request
-        goal = self.board.submit(request, _RosGoal(self, handle), f"ros {ros_id}")
+        # whose share of open goals: the node that sent it (actionlib's ids are NODE-COUNT-STAMP)
+        parts = ros_id.rsplit("-", 2)
+        client = ("ros", parts[0] if len(parts) == 3 else ros_id)
+        goal = self.board.submit(request, _RosGoal(self, handle, ros_id), f"ros {ros_id}", client=client)
         with self._lock:
-            self._ids[ros_id] = goal.id
+            if not goal.final:
+                self._ids[ros_id] = goal.id
 
     def _on_cancel(self, handle) -> None:
+        """actionlib's cancel callback (its lock held)."""
         with self._lock:
             gid = self._ids.get(handle.get_goal_id().id)
         if gid is not None:
-            self.board.cancel(gid, "ros")
+            try:
+                self.board.cancel(gid, "ros")
+            except KeyError:                  # ended and forgotten meanwhile
+                pass
 
-    def close(self) -> None:
-        """Stop taking goals (the run ended: open goals were aborted) and leave ROS."""
+    def _forget(self, ros_id: str) -> None:
+        with self._lock:
+            self._ids.pop(ros_id, None)
+
+    def close(self, timeout: float = 1.5) -> None:
+        """Stop taking goals (the run ended: open goals were aborted and told) and leave ROS,
+        within ``timeout`` seconds."""
         if self._open:
             self._open = False
             self.board.close_channel()
-            self.rospy.sleep(0.3)             # let the last results reach the clients
-            self.rospy.signal_shutdown("cplus serve stopped")
+            time.sleep(0.3)                   # let rospy's publisher threads send the last results
+            quit = threading.Thread(target=self.rospy.signal_shutdown, args=("cplus serve stopped",),
+                                    name="cplus-serve-ros-shutdown", daemon=True)
+            quit.start()
+            quit.join(max(timeout - 0.3, 0.1))

@@ -56,12 +56,37 @@ from cplus.errors import CPlusError, Location, Source
 from cplus.signature import ConstDecl, GroundConst, NamedSort, render_value
 from trajectory.toml_locations import KeyPath, locate_keys, nearest_location, toml_error
 
-__all__ = ["REQUESTS_FORMAT", "Rejected", "RequestForm", "RequestVocabulary", "RequestsError", "load_requests",
+__all__ = ["MAX_REQUEST", "REQUESTS_FORMAT", "Rejected", "RequestForm", "RequestVocabulary", "RequestsError", "load_requests",
            "parse_requests", "requests_beside"]
 
 REQUESTS_FORMAT = "cplus.requests/1"
 _NAME = re.compile(r"[a-z][A-Za-z0-9_]*\Z")
-_TERM = re.compile(r"\s*([A-Za-z0-9_]+)\s*(\((.*)\))?\s*\Z", re.S)
+
+MAX_REQUEST = 1000
+"""The longest request text read (characters): a longer one is rejected before it is parsed,
+so that a client's request costs the server a bounded amount of work."""
+MAX_ARGUMENT = 32
+"""The highest ``$N`` a requests file may use."""
+MAX_REQUESTS_FILE = 1 << 20
+"""The largest requests file read (bytes)."""
+
+
+def _term(text: str) -> tuple[str, str | None] | None:
+    """``name`` or ``name(inner)`` with blanks around: (name, inner or None), or None when the
+    text is neither. One pass over the text (a regex with two adjacent ``\\s*`` took time
+    quadratic in a run of blanks: 60,000 of them, a minute)."""
+    s = text.strip()
+    i = 0
+    while i < len(s) and s[i].isascii() and (s[i].isalnum() or s[i] == "_"):
+        i += 1
+    if i == 0:
+        return None
+    rest = s[i:].lstrip()
+    if not rest:
+        return s[:i], None
+    if rest[0] != "(" or rest[-1] != ")":
+        return None
+    return s[:i], rest[1:-1]
 
 
 class RequestsError(CPlusError):
@@ -130,10 +155,13 @@ class RequestVocabulary:
         when the domain cannot express it."""
         if not isinstance(text, str) or not text.strip():
             raise Rejected(f"an empty request; this domain accepts {self.usage()}")
-        m = _TERM.match(text)
-        if m is None:
+        if len(text) > MAX_REQUEST:
+            raise Rejected(f"a request of {len(text)} characters; a request has at most {MAX_REQUEST}, such as "
+                           f"{self.usage()}")
+        term = _term(text)
+        if term is None:
             raise Rejected(f"cannot read {text!r} as a request such as {self.usage()}")
-        name, inner = m.group(1), m.group(3)
+        name, inner = term
         form = self.forms.get(name)
         if form is None:
             raise Rejected(f"unknown request '{name}'; this domain accepts {self.usage()}")
@@ -155,7 +183,11 @@ class RequestVocabulary:
     def events(self, text: str, slot: object) -> list[str]:
         """The events that a request becomes, given the goal's slot; :class:`Rejected` when
         the domain cannot express it."""
-        form, values = self.parse(text)
+        return self.ground(self.parse(text), slot)
+
+    def ground(self, parsed: tuple[RequestForm, tuple[object, ...]], slot: object) -> list[str]:
+        """The events of a request already parsed (:meth:`parse`), given the goal's slot."""
+        form, values = parsed
         return [t.ground(slot, values).text for t in form.events]
 
     def cancel_events(self, slot: object) -> list[str]:
@@ -201,9 +233,15 @@ def _article(word: str) -> str:
 def load_requests(path: str, domain) -> RequestVocabulary:
     """Read and validate a ``requests.toml`` against a domain (:class:`cplus.api.Domain`)."""
     try:
-        text = Path(path).read_text(encoding="utf-8")
+        with open(path, "rb") as f:
+            data = f.read(MAX_REQUESTS_FILE + 1)
     except OSError as exc:
         raise RequestsError(f"cannot read requests file {path}: {exc.strerror or exc}") from None
+    if len(data) > MAX_REQUESTS_FILE:
+        raise RequestsError(f"requests file {path} is larger than {MAX_REQUESTS_FILE >> 20} MiB: it names a few "
+                            "requests, not data")
+    try:
+        text = data.decode("utf-8")
     except UnicodeDecodeError as exc:
         raise RequestsError(f"requests file {path} is not UTF-8 text: {exc.reason}") from None
     return parse_requests(text, path, domain)
@@ -301,12 +339,12 @@ class _Reader:
 
     def template(self, path: KeyPath, text: str, want: str, slots: tuple[object, ...],
                  sorts: dict[int, tuple[tuple[object, ...], str]] | None) -> _Template:
-        m = _TERM.match(text)
-        args = _split_args(m.group(3)) if m and m.group(3) is not None else []
-        if m is None or args is None:
+        term = _term(text)
+        args = _split_args(term[1]) if term is not None and term[1] is not None else []
+        if term is None or args is None:
             raise self.fail(path, f"cannot read {text!r}: write a constant with arguments $slot, $1, $2, ... or "
                             "objects, such as \"request($slot,$1)\"")
-        name = m.group(1)
+        name = term[0]
         decl = self.sig.lookup(name, len(args))
         if decl is None or decl.hidden:
             known = sorted({d.name for d in self.sig.constants.values() if not d.hidden and
@@ -330,8 +368,10 @@ class _Reader:
                                     "is not one of its objects")
                 out.append("$slot")
             elif arg.startswith("$"):
-                if sorts is None or not arg[1:].isdigit() or int(arg[1:]) < 1:
-                    what = "$slot" if sorts is None else "$slot, $1, $2, ..."
+                digits = arg[1:]
+                if sorts is None or not (digits.isascii() and digits.isdigit()) or not 1 <= int(digits[:4]) <= \
+                        MAX_ARGUMENT or len(digits) > 4:
+                    what = "$slot" if sorts is None else f"$slot, $1, $2, ... (up to ${MAX_ARGUMENT})"
                     raise self.fail(path, f"{arg}: only {what} may appear here")
                 k = int(arg[1:])
                 allowed = tuple(o for o in objects if o != "none")
