@@ -25,6 +25,7 @@ COMMANDS = {
     "brick": "emulate an NXT brick on a pseudo-terminal",
     "online": "run a domain online on a robot: act, sense, observe events, re-plan (Legolog's loop)",
     "serve": "serve goal requests on a domain (script, JSON-lines socket, ROS actionlib): plan, act, re-plan",
+    "batch": "run many planning jobs (a job file or a folder of domains) on a process pool or on Ray",
 }
 
 
