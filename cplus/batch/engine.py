@@ -66,11 +66,16 @@ def _deliver(record: dict, sink: Sink, progress: Progress) -> None:
 
 def run_local(jobs: list[Job], fn: Callable, workers: int, retries: int, sink: Sink, progress: Progress,
               initializer: Callable | None = None) -> None:
-    """The jobs on a pool of ``workers`` processes (forked: they inherit the environment)."""
+    """The jobs on a pool of ``workers`` processes.
+
+    The processes come from a fork server (``forkserver``): each starts from a small clean
+    process with the planner already imported, not from a copy of the caller, whose heap
+    (free memory included) would let a job allocate beyond its memory limit unnoticed."""
     import concurrent.futures as cf
     import multiprocessing
     from concurrent.futures.process import BrokenProcessPool
-    ctx = multiprocessing.get_context("fork")
+    ctx = multiprocessing.get_context("forkserver")
+    ctx.set_forkserver_preload(["cplus.api", "cplus.cli.batch_job"])
     queue = deque(jobs)
     attempts = {j.id: 0 for j in jobs}
     while queue:
@@ -136,7 +141,7 @@ def _quiet_worker(initializer: Callable | None) -> None:
 def _kill_pool(pool) -> None:
     """End the pool's processes now (``concurrent.futures`` has no way to stop a running
     call; its ``_processes`` are the pool's own ``multiprocessing`` processes)."""
-    for p in list(getattr(pool, "_processes", {}).values()):
+    for p in list((getattr(pool, "_processes", None) or {}).values()):
         try:
             if p.is_alive():
                 p.kill()
@@ -158,9 +163,12 @@ def run_ray(jobs: list[Job], fn: Callable, workers: int | None, address: str | N
     env = {"env_vars": {k: os.environ[k] for k in ("PYTHONPATH", "OPENBLAS_NUM_THREADS") if k in os.environ}}
     env["env_vars"].setdefault("OPENBLAS_NUM_THREADS", "1")
     kwargs: dict[str, Any] = dict(include_dashboard=False, logging_level="ERROR", log_to_driver=False, runtime_env=env)
+    os.environ.setdefault("RAY_USAGE_STATS_ENABLED", "0")     # no report home from a batch
     started_here = address is None
     if started_here:
-        ray.init(num_cpus=workers or os.cpu_count() or 1, **kwargs)
+        # on the loopback interface: a machine without a network (or as root in a container)
+        # starts it as well, and nothing listens beyond this host
+        ray.init(num_cpus=workers or os.cpu_count() or 1, _node_ip_address="127.0.0.1", **kwargs)
     else:
         ray.init(address=address, **kwargs)
     try:
@@ -214,7 +222,7 @@ def _ray_loop(ray, jobs: list[Job], fn: Callable, retries: int, sink: Sink, prog
                     status = "timeout" if _over_time(job, started) else "lost"
                     if isinstance(exc, ray.exceptions.OutOfMemoryError):
                         status = "memory"
-                    record = lost_record(job, retries + 1, f"{type(exc).__name__}: {str(exc).splitlines()[0]}",
+                    record = lost_record(job, retries + 1, f"{type(exc).__name__}: {_last_line(exc)}",
                                          status)
                 if name is not None:
                     finished.setdefault(job.id, {})[name] = record
@@ -237,3 +245,9 @@ def _ray_loop(ray, jobs: list[Job], fn: Callable, retries: int, sink: Sink, prog
         for ref in flight:
             ray.cancel(ref, force=True)
         raise
+
+
+def _last_line(exc: BaseException) -> str:
+    """The line of a Ray error that says what happened (its first names the task)."""
+    lines = [line.strip() for line in str(exc).splitlines() if line.strip()]
+    return lines[-1] if lines else type(exc).__name__
