@@ -160,7 +160,9 @@ def run_ray(jobs: list[Job], fn: Callable, workers: int | None, address: str | N
         import ray
     except ImportError:
         raise BatchError(RAY_MISSING) from None
-    env = {"env_vars": {k: os.environ[k] for k in ("PYTHONPATH", "OPENBLAS_NUM_THREADS") if k in os.environ}}
+    # a local instance's workers run this checkout (its PYTHONPATH); a cluster's nodes have cplus installed
+    names = ("PYTHONPATH", "OPENBLAS_NUM_THREADS") if address is None else ("OPENBLAS_NUM_THREADS",)
+    env = {"env_vars": {k: os.environ[k] for k in names if k in os.environ}}
     env["env_vars"].setdefault("OPENBLAS_NUM_THREADS", "1")
     kwargs: dict[str, Any] = dict(include_dashboard=False, logging_level="ERROR", log_to_driver=False, runtime_env=env)
     os.environ.setdefault("RAY_USAGE_STATS_ENABLED", "0")     # no report home from a batch

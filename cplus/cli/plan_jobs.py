@@ -32,7 +32,7 @@ def record_line(r: dict) -> str:
     verdict = {"sat": "solution", "unsat": "no solution", "dropped": "cancelled (a shorter plan was found)",
                "stopped": "stopped (not needed)"}.get(r["result"], str(r["result"]))
     return (f"% worker {r['worker']}, maxstep {r['maxstep']}: {r['variables']} variables, {r['clauses']} clauses, "
-            f"encode {r['encode_s']:.3f} s, solve {r['solve_s']:.3f} s (processor {r['cpu_s']:.3f} s, "
+            f"encode {r['encode_s']:.3f} s, solve {r['solve_s']:.3f} s (processor {r['cpu_s']:.3f} s in all, "
             f"{r['slices']} slices): {verdict}")
 
 

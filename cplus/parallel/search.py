@@ -242,7 +242,9 @@ class _Worker:
             s.stats.append(HorizonStats(slot.m, h.top, h.solver.count, t1 - t0, 0.0))
             st["encode_s"] += t1 - t0
             st["variables"], st["clauses"] = h.top, h.solver.count
-            slot.pass_ += (time.process_time() - c0) / slot.share
+            cpu = time.process_time() - c0
+            st["cpu_s"] += cpu
+            slot.pass_ += cpu / slot.share
             return
         solver = s.horizon.solver
         assumptions = [s.act, *s.assumptions]
