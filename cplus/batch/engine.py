@@ -9,11 +9,11 @@ worker names the jobs it had.
 * time and memory limits are enforced inside the job (:mod:`cplus.batch.limits`); as a
   backstop a job still running a grace period past its limit is killed (Ray: ``ray.cancel(
   force=True)``; the pool: its process);
-* a worker lost (killed, out of memory, crashed) fails the jobs it ran, and they are
-  submitted again, up to ``retries`` times each, then recorded as ``lost``; on the pool the
-  pool is rebuilt, since :mod:`concurrent.futures` breaks the whole pool when one process
-  dies (jobs that were only waiting are resubmitted without an attempt counted); on Ray,
-  ``max_retries`` does it;
+* a worker lost (killed, out of memory, crashed) fails the job it ran, which is submitted
+  again, up to ``retries`` times, then recorded as ``lost``; on Ray ``max_retries`` does it.
+  On the pool, :mod:`concurrent.futures` breaks the whole pool when one process dies and does
+  not say which: the pool is rebuilt, and the jobs that were running then run again one at a
+  time, uncharged, so that the one whose process dies alone is the one charged;
 * a portfolio job runs its variants at once: on Ray as one task each, the first with an
   answer wins and the others are cancelled (``force=True`` kills them); on the pool inside the
   job's process (:func:`cplus.cli.batch_job.race`), so that the pool's workers are the
@@ -77,16 +77,18 @@ def run_local(jobs: list[Job], fn: Callable, workers: int, retries: int, sink: S
     ctx = multiprocessing.get_context("forkserver")
     ctx.set_forkserver_preload(["cplus.api", "cplus.cli.batch_job"])
     queue = deque(jobs)
+    suspects: deque[Job] = deque()      # running when the pool broke beside others: run alone next
     attempts = {j.id: 0 for j in jobs}
-    while queue:
+    while queue or suspects:
         pool = cf.ProcessPoolExecutor(workers, mp_context=ctx, initializer=_quiet_worker,
                                       initargs=(initializer,))
         running: dict[cf.Future, tuple[Job, float]] = {}
         broken = False
         try:
-            while queue or running:
-                while queue and len(running) < workers and not broken:
-                    job = queue.popleft()
+            while queue or suspects or running:
+                while not broken and ((suspects and not running) or (queue and not suspects and
+                                                                        len(running) < workers)):
+                    job = suspects.popleft() if suspects else queue.popleft()
                     attempts[job.id] += 1
                     running[pool.submit(fn, job.to_dict(), attempts[job.id])] = (job, time.monotonic())
                     progress.start(job.id)
@@ -117,6 +119,13 @@ def run_local(jobs: list[Job], fn: Callable, workers: int, retries: int, sink: S
             pool.shutdown(wait=not broken, cancel_futures=True)
         if broken:
             _kill_pool(pool)
+            if len(running) > 1:
+                # the pool does not say whose process died: each runs alone next, uncharged
+                for job, _ in running.values():
+                    attempts[job.id] -= 1
+                    progress.running.pop(job.id, None)
+                    suspects.append(job)
+                continue
             for job, started in running.values():
                 if _over_time(job, started):
                     _deliver(lost_record(job, attempts[job.id], f"over its time limit of {job.timeout:g} s "
@@ -126,7 +135,7 @@ def run_local(jobs: list[Job], fn: Callable, workers: int, retries: int, sink: S
                                          "times"), sink, progress)
                 else:
                     progress.running.pop(job.id, None)
-                    queue.appendleft(job)
+                    suspects.appendleft(job)
 
 
 def _quiet_worker(initializer: Callable | None) -> None:

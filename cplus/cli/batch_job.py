@@ -249,5 +249,9 @@ def _robot(job: dict, scene: str, record: dict, timings: dict, t: float) -> None
 
 def worker_init() -> None:
     """A pool worker: one BLAS thread, as the ``cplus`` command asks (numpy's OpenBLAS
-    otherwise starts a spinning thread per core in every worker)."""
+    otherwise starts a spinning thread per core in every worker); and what is loaded so far
+    (the planner's modules) moved out of the cyclic collector's sight, so that the collection
+    after each job looks at that job's objects only."""
+    import gc
     os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+    gc.freeze()

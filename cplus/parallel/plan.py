@@ -9,25 +9,31 @@ planner does, in this process (the same session, committing to slow horizons the
 on an easy instance no worker is ever started, so it costs what the sequential planner
 costs.  Once a horizon's solve takes :data:`AUTO_SWITCH_S` or more, the remaining horizons
 go to workers forked from this process, each inheriting the live session (what its solver
-learned included) and extending it upwards.
+learned included) and extending it upwards.  The workers then run strategy A unless told.
 """
 from __future__ import annotations
 
 from collections.abc import Callable
+from typing import TYPE_CHECKING
 
-from cplus.parallel.search import Outcome, Work, available_cores, search
-from cplus.parallel.strategy import DEFAULT_GAMMA, Strategy
+from cplus.parallel.strategy import DEFAULT_GAMMA, Strategy, available_cores
 from cplus.planner import PlanStatus, QueryResult
 from cplus.sat.horizon import HorizonStats, QuerySession
 from cplus.sat.solver import DEFAULT_SOLVER
 
+if TYPE_CHECKING:
+    from cplus.parallel.workers import Outcome
+
 __all__ = ["ParallelResult", "solve_parallel", "resolve_jobs", "AUTO_SWITCH_S", "parallel_info"]
 
-AUTO_SWITCH_S = 0.2
-"""``--jobs auto`` goes parallel after a horizon whose solve took this long (seconds): the
-horizons after it are harder still, and starting the workers (a fork each, copy-on-write)
-costs a few milliseconds; on the corpus benchmarks below it every horizon is solved in
-this process."""
+AUTO_SWITCH_S = 1.0
+"""``--jobs auto`` goes parallel after a horizon whose solve took this long (seconds), and
+only when it took longer than the one before (the horizons are getting harder).  Going
+parallel is not free: every worker encodes every step again, a solver that skips horizons
+has learned less, and two solvers at once each run slower (docs/parallel.md): on
+ferryman-30-4, whose 57 horizons take at most 0.6 s each, strategy A on two workers took
+more processor time and more wall time than the sequential search.  On every corpus
+benchmark each horizon is below this, so ``auto`` stays in this process."""
 
 
 class ParallelResult(QueryResult):
@@ -71,13 +77,15 @@ def solve_parallel(domain, label: str = "0", solutions: int = 1, solver: str = D
             if ok:
                 return _sequential_answer(session, query, solutions, failed, n, strategy, gamma, any_length)
             failed.append(m)
-            if n > 1 and st.solve_s >= AUTO_SWITCH_S:
+            before = session.stats[-2].solve_s if len(session.stats) > 1 else 0.0
+            if n > 1 and st.solve_s >= AUTO_SWITCH_S and st.solve_s > before:
                 switched = m + 1
                 break
         else:
             return _sequential_answer(session, query, solutions, failed, n, strategy, gamma, any_length)
         session.query = _from(query, switched)
         session.commit = False
+    from cplus.parallel.workers import Work, search
     work = Work(session)
     out = search(work, n, strategy, gamma, solutions, any_length, on_record)
     session.query = query
@@ -117,8 +125,10 @@ def _sequential_answer(session: QuerySession, query, solutions: int, failed: lis
 def _result(query, out: Outcome, before: list[HorizonStats], failed: list[int], template_s: float, solutions: int,
             n: int, strategy: Strategy, gamma: float, any_length: bool, switched: int | None) -> ParallelResult:
     stats = list(before)
+    top = out.maxstep if out.maxstep is not None else float("inf")
     for r in sorted(out.records, key=lambda r: r["maxstep"]):
-        if r["result"] in ("sat", "unsat"):
+        # as the sequential search's: the horizons up to the answer (the rest is in "runs")
+        if r["result"] in ("sat", "unsat") and r["maxstep"] <= top:
             stats.append(HorizonStats(r["maxstep"], r["variables"], r["clauses"], r["encode_s"], r["solve_s"],
                                       r["result"] == "sat", len(out.histories) if r["maxstep"] == out.maxstep else 0))
     proved = failed + out.proved

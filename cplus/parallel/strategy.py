@@ -9,21 +9,24 @@ evaluation strategies; pure functions, no processes).
   horizon whose share is at least :data:`B_FLOOR` runs (at most :data:`B_MAX` of them, since
   each holds a solver with all its steps), placed on the worker with the least share.
 
-The scheduler of :mod:`cplus.parallel.search` asks these functions and nothing else, so a
+The scheduler of :mod:`cplus.parallel.workers` asks these functions and nothing else, so a
 strategy is one place here.
 """
 from __future__ import annotations
 
+import os
 from enum import StrEnum
 
-__all__ = ["Strategy", "B_FLOOR", "B_MAX", "in_flight", "share", "DEFAULT_GAMMA"]
+__all__ = ["Strategy", "B_FLOOR", "B_MAX", "in_flight", "share", "DEFAULT_GAMMA", "available_cores"]
 
 DEFAULT_GAMMA = 0.8
 """γ of strategy B unless told: the plasp paper's worked example (S 46, A 40, B 38 time units)."""
 
-B_FLOOR = 0.05
-"""Strategy B leaves out horizons whose share γ^i would be below this: a twentieth of the
-shortest horizon's time is not worth a solver's memory."""
+B_FLOOR = 0.2
+"""Strategy B leaves out horizons whose share γ^i would be below this (γ 0.8: 8 horizons).
+Each horizon in flight is a solver with every step up to it, encoded in Python: with a
+floor of 1/20 (14 horizons) B spent 8 times the sequential processor time on ferryman-25-4,
+most of it encoding steps for horizons above the plan (bench/bench_parallel.py)."""
 
 B_MAX = 16
 """At most this many horizons at once under strategy B, whatever γ (memory: a solver each)."""
@@ -56,3 +59,11 @@ def window_based(strategy: Strategy) -> bool:
     """B keeps the horizons k..k+W-1 running (a window over the shortest unfinished k); S and A
     keep a count of horizons running, the next one started as one is proved empty."""
     return strategy is Strategy.B
+
+
+def available_cores() -> int:
+    """The cores this process may run on (its affinity mask, not the machine's count)."""
+    try:
+        return len(os.sched_getaffinity(0))
+    except AttributeError:    # pragma: no cover - not Linux
+        return os.cpu_count() or 1

@@ -2,7 +2,7 @@
 
 :func:`refine_parallel` gives what :func:`~cplus.robot.offline.refine.refine` gives (the
 shortest collision-free plan, or the proof that there is none in the range), with the
-horizons spread over worker processes by :func:`cplus.parallel.search`.  Each worker checks
+horizons spread over worker processes by :func:`cplus.parallel.workers`.  Each worker checks
 the plans its solvers propose (the continuous check runs where the plan is, so the parent
 stays idle), learns nogoods from the violations, and teaches them to all its own sessions;
 the parent sends them to every other worker.  A nogood forbids positions at every step of
@@ -162,9 +162,10 @@ def refine_parallel(task: RobotTask, label: str = "0", max_iterations: int | Non
         return bool(max_iterations and len(result.iterations) >= max_iterations)
 
     out = search(work, n, strategy, gamma, 1, any_length, on_record, on_learned)
+    top = out.maxstep if out.maxstep is not None else float("inf")
     stats = [HorizonStats(r["maxstep"], r["variables"], r["clauses"], r["encode_s"], r["solve_s"],
                           r["result"] == "sat") for r in sorted(out.records, key=lambda r: r["maxstep"])
-             if r["result"] in ("sat", "unsat")]
+             if r["result"] in ("sat", "unsat") and r["maxstep"] <= top]
     result.horizon_stats = stats
     result.parallel = parallel_info(n, strategy, gamma, any_length, None, out.unproved, out.records, out.replaced,
                                     not out.unproved)

@@ -40,7 +40,7 @@ from typing import Any
 
 from cplus.errors import CPlusError
 from cplus.history import History
-from cplus.parallel.strategy import Strategy, in_flight, share, window_based
+from cplus.parallel.strategy import Strategy, available_cores, in_flight, share, window_based
 from cplus.sat.horizon import HorizonStats, QuerySession
 
 __all__ = ["Work", "Outcome", "search", "available_cores", "SLICE_S", "MAX_REPLACEMENTS"]
@@ -55,14 +55,6 @@ MAX_REPLACEMENTS = 3
 
 _FIRST_BUDGET = {"propagations": 200_000, "conflicts": 500}
 _CHUNK = 256     # histories per message
-
-
-def available_cores() -> int:
-    """The cores this process may run on (its affinity mask, not the machine's count)."""
-    try:
-        return len(os.sched_getaffinity(0))
-    except AttributeError:    # pragma: no cover - not Linux
-        return os.cpu_count() or 1
 
 
 class Work:
@@ -309,9 +301,11 @@ def _die_with_parent() -> None:
 
 
 def _worker_main(conn, wid: int, work: Work) -> None:
-    _die_with_parent()
-    signal.signal(signal.SIGTERM, signal.SIG_DFL)
     try:
+        # forked with SIGINT blocked (see _Search._start): a Ctrl-C from now on ends it here, quietly
+        signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
+        _die_with_parent()
+        signal.signal(signal.SIGTERM, signal.SIG_DFL)
         _Worker(conn, wid, work).run()
     except KeyboardInterrupt:
         os._exit(130)
@@ -384,7 +378,12 @@ class _Search:
             except (OSError, ValueError):
                 pass
         proc = ctx.Process(target=_worker_main, args=(child, wid, self.work), daemon=True)   # type: ignore[attr-defined]
-        proc.start()
+        # the child starts with SIGINT blocked, until it is inside the code that handles it
+        old = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+        try:
+            proc.start()
+        finally:
+            signal.pthread_sigmask(signal.SIG_SETMASK, old)
         child.close()
         return _Proc(wid, proc, parent)
 
@@ -392,7 +391,7 @@ class _Search:
         for p in self.procs:
             if p.alive:
                 try:
-                    p.conn.send(("stop",))
+                    _send(p, ("stop",))
                 except (OSError, ValueError):
                     p.alive = False
         deadline = time.monotonic() + 2.0
@@ -449,7 +448,7 @@ class _Search:
     def _give(self, m: int) -> None:
         p = self._pick()
         sh = share(self.strategy, self.gamma, m - self.k)
-        p.conn.send(("add", m, sh))
+        _send(p, ("add", m, sh))
         p.load[m] = sh
         p.last = max(p.last, m)
         self.running[m] = p
@@ -465,7 +464,7 @@ class _Search:
                     if p.alive and p.load:
                         new = {m: share(self.strategy, self.gamma, m - k) for m in p.load}
                         p.load.update(new)
-                        p.conn.send(("share", new))
+                        _send(p, ("share", new))
         if self.hi is not None and self.k > self.hi:
             self.done = True
         elif self.sat and self.k == min(self.sat):
@@ -479,7 +478,7 @@ class _Search:
         for h in [h for h in self.running if h > m]:
             p = self.running.pop(h)
             p.load.pop(h, None)
-            p.conn.send(("drop", h))
+            _send(p, ("drop", h))
 
     def _handle(self, p: _Proc, msg: tuple) -> None:
         kind = msg[0]
@@ -507,7 +506,7 @@ class _Search:
             self.out.learned.append((wid, m, learned))
             for other in self.procs:
                 if other is not p and other.alive:
-                    other.conn.send(("learn", learned))
+                    _send(other, ("learn", learned))
             if self.on_learned and self.on_learned(wid, m, learned):
                 self.out.stopped_early = True
                 self.done = True
@@ -535,17 +534,16 @@ class _Search:
         self.procs[self.procs.index(p)] = new
         self.out.replaced += 1
         for _, _, learned in self.out.learned:
-            new.conn.send(("learn", learned))
+            _send(new, ("learn", learned))
         for m in mine:
             sh = share(self.strategy, self.gamma, m - self.k)
-            new.conn.send(("add", m, sh))
+            _send(new, ("add", m, sh))
             new.load[m] = sh
             new.last = max(new.last, m)
             self.running[m] = new
 
     # ------------------------------------------------------------------ the loop
     def run(self) -> Outcome:
-        from multiprocessing.connection import wait
         old_term = None
         if threading.current_thread() is threading.main_thread():
             old_term = signal.signal(signal.SIGTERM, _term_as_interrupt)
@@ -554,44 +552,56 @@ class _Search:
             if self.hi is not None and self.lo > self.hi:
                 self.done = True
             self._fill()
-            while not self.done:
-                if not self.running and not self.sat:    # nothing can change any more
-                    break
-                ends = {p.conn: p for p in self.procs if p.alive}
-                ends.update({p.proc.sentinel: p for p in self.procs if p.alive})
-                for ready in wait(list(ends)):
-                    p = ends[ready]
-                    if not p.alive or self.done:
-                        continue
-                    if ready is p.conn or p.conn.poll(0):
-                        try:
-                            msg = p.conn.recv()
-                        except (EOFError, OSError):
-                            self._lost(p)
-                            continue
-                        self._handle(p, msg)
-                    else:
-                        self._lost(p)
-            if self.answer is not None:
-                self._collect(self.answer)
+            self._loop()
+            while self.answer is not None and not self._collect(self.answer):
+                self.done, self.answer = False, None     # the answer's worker died: solve it again
+                self._loop()
             return self._outcome()
         finally:
             self._shutdown()
             if old_term is not None:
                 signal.signal(signal.SIGTERM, old_term)
 
-    def _collect(self, m: int) -> None:
+    def _loop(self) -> None:
+        from multiprocessing.connection import wait
+        while not self.done:
+            if not self.running and not self.sat:    # nothing can change any more
+                break
+            ends = {p.conn: p for p in self.procs if p.alive}
+            ends.update({p.proc.sentinel: p for p in self.procs if p.alive})
+            for ready in wait(list(ends)):
+                p = ends[ready]
+                if not p.alive or self.done:
+                    continue
+                if ready is p.conn or p.conn.poll(0):
+                    try:
+                        msg = p.conn.recv()
+                    except (EOFError, OSError):
+                        self._lost(p)
+                        continue
+                    self._handle(p, msg)
+                else:
+                    self._lost(p)
+
+    def _collect(self, m: int) -> bool:
+        """The answer's histories, from the worker that holds its solver; False when that
+        worker died meanwhile (its horizons are then given to its replacement)."""
         p = self.sat[m]
-        p.conn.send(("enumerate", m, self.solutions))
+        _send(p, ("enumerate", m, self.solutions))
         for q in self.procs:          # the others are not needed any more
             if q is not p and q.alive:
-                q.conn.send(("stop",))
+                _send(q, ("stop",))
         while True:
-            msg = p.conn.recv()
+            try:
+                msg = p.conn.recv()
+            except (EOFError, OSError):
+                self.out.histories = []
+                self._lost(p)
+                return False
             if msg[0] == "histories":
                 self.out.histories.extend(self.work.decode(d) for d in msg[3])
                 if msg[4]:
-                    return
+                    return True
             elif msg[0] in ("done", "dropped", "learn", "error"):
                 self._handle(p, msg)
 
@@ -603,6 +613,15 @@ class _Search:
         if self.answer is not None:
             out.unproved = [m for m in range(self.lo, self.answer) if m not in self.proved]
         return out
+
+
+def _send(p: _Proc, msg: tuple) -> None:
+    """A message to a worker; one that died meanwhile misses it, and its end (seen on its
+    process sentinel) has everything it had re-sent to its replacement (:meth:`_Search._lost`)."""
+    try:
+        p.conn.send(msg)
+    except (OSError, ValueError):
+        pass
 
 
 def _term_as_interrupt(signum, frame) -> None:
