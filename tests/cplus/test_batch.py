@@ -144,18 +144,37 @@ def killer(job: dict, attempt: int = 1) -> dict:
     return run_job(job, attempt)
 
 
-@pytest.mark.parametrize("retries, status", [(1, "found"), (0, "lost")])
-def test_a_lost_worker_is_retried(tmp_path, retries, status):
+def always_killer(job: dict, attempt: int = 1) -> dict:
+    """A job function whose every run of the job 'victim' kills its own worker process."""
+    if job["id"] == "victim":
+        os.kill(os.getpid(), signal.SIGKILL)
+    return run_job(job, attempt)
+
+
+def lamp_jobs(tmp_path: Path):
     (tmp_path / "lamp.cp").write_text(LAMP.read_text())
-    f = jobs_file(tmp_path, [{"id": "victim", "domain": "lamp.cp", "query": "on"},
-                             {"id": "other", "domain": "lamp.cp", "query": "on"}])
+    return read_jobs(str(jobs_file(tmp_path, [{"id": "victim", "domain": "lamp.cp", "query": "on"},
+                                              {"id": "other", "domain": "lamp.cp", "query": "on"}])))
+
+
+def test_a_worker_lost_once_is_retried(tmp_path):
+    """The pool breaks while both jobs run; each runs again alone, and both are answered."""
     out: list[dict] = []
-    run_local(read_jobs(str(f)), killer, 2, retries, out.append, Progress(2, quiet=True))
+    run_local(lamp_jobs(tmp_path), killer, 2, 1, out.append, Progress(2, quiet=True))
     got = {r["id"]: r for r in out}
-    assert set(got) == {"victim", "other"} and len(out) == 2
-    assert got["victim"]["status"] == status and got["other"]["status"] == "found"
-    if status == "found":
-        assert got["victim"]["attempts"] == 2
+    assert len(out) == 2 and (tmp_path / "killed-once").exists()
+    assert got["victim"]["status"] == "found" and got["other"]["status"] == "found"
+
+
+@pytest.mark.parametrize("retries", [0, 1])
+def test_a_job_that_always_loses_its_worker_is_recorded_lost(tmp_path, retries):
+    """Run alone after the first break, it is the one whose process dies: charged, and lost
+    after its retries; the job beside it is not charged and is answered."""
+    out: list[dict] = []
+    run_local(lamp_jobs(tmp_path), always_killer, 2, retries, out.append, Progress(2, quiet=True))
+    got = {r["id"]: r for r in out}
+    assert len(out) == 2 and got["other"]["status"] == "found"
+    assert got["victim"]["status"] == "lost" and got["victim"]["attempts"] == retries + 1
 
 
 def test_a_portfolio_races_solvers(tmp_path, capsys):
