@@ -26,6 +26,7 @@ COMMANDS = {
     "online": "run a domain online on a robot: act, sense, observe events, re-plan (Legolog's loop)",
     "shell": "CCALC's interactive session: loadf, query, nmquery, sat, show, set, help (scriptable)",
     "serve": "serve goal requests on a domain (script, JSON-lines socket, ROS actionlib): plan, act, re-plan",
+    "batch": "run many planning jobs (a job file or a folder of domains) on a process pool or on Ray",
 }
 
 

@@ -52,8 +52,28 @@ def build_parser() -> OneLineArgumentParser:
     g.add_argument("--time-limit", type=positive, default=None, metavar="SECONDS",
                    help="with --minimize: stop looking for cheaper plans after SECONDS (exit 12, the best so far)")
     add_common(p)
+    g = p.add_argument_group("several horizons at once, on worker processes")
+    g.add_argument("--jobs", "-j", type=jobs, default=None, metavar="N|auto",
+                   help="solve on N worker processes ('auto': the cores there are, only once horizons get hard)")
+    g.add_argument("--strategy", choices=("sequential", "A", "B"), default=None,
+                   help="which horizons run at once: one (sequential), N (A, the default), or horizon k+i at "
+                        "a share gamma^i of the shortest unfinished k's time (B)")
+    g.add_argument("--gamma", type=gamma, default=None, metavar="G", help="strategy B's rate, 0 < G <= 1 (default 0.8)")
+    g.add_argument("--any-length", action="store_true",
+                   help="the first plan found, not proved shortest (say which shorter maxsteps are open)")
     add_robot_options(p)
     return p
+
+
+def jobs(text: str) -> int | str:
+    return "auto" if text == "auto" else positive_int(text)
+
+
+def gamma(text: str) -> float:
+    v = positive(text)
+    if v > 1:
+        raise argparse.ArgumentTypeError(f"expected 0 < G <= 1, got '{text}'")
+    return v
 
 
 def add_common(p: argparse.ArgumentParser) -> None:
@@ -94,6 +114,20 @@ ROBOT_OPTIONS = ("no_refine", "max_iterations", "nogoods", "eager", "trajectory"
 
 def main(args: argparse.Namespace) -> int:
     from cplus.load import STDIN
+    if args.jobs is not None:
+        if args.minimize:
+            print("cplus plan: error: --minimize runs in one process: leave out --jobs", file=sys.stderr)
+            return EXIT_INPUT
+        from cplus.cli.plan_jobs import check_options
+        error = check_options(args)
+        if error:
+            print(error, file=sys.stderr)
+            return EXIT_INPUT
+    else:
+        for flag, given in (("--strategy", args.strategy), ("--gamma", args.gamma), ("--any-length", args.any_length)):
+            if given:
+                print(f"cplus plan: error: {flag} applies with --jobs N", file=sys.stderr)
+                return EXIT_INPUT
     scene_path = args.scene or (None if args.file == STDIN else scene_beside(args.file))
     if scene_path is not None:
         args.n = 1 if args.n is None else args.n
@@ -160,6 +194,9 @@ def _plan_domain(args: argparse.Namespace) -> int:
         if args.minimize:
             from cplus.cli.optimal import cli_solve
             result, extra = cli_solve(domain, q, args, wanted, horizon_progress(args.stats))
+        elif args.jobs is not None and not q.nm:      # an nmquery's own completion is solved in this process
+            from cplus.cli.plan_jobs import solve
+            result = solve(domain, q.label, wanted, args)
         else:
             result = domain.solve(q.label, wanted, args.solver or DEFAULT_SOLVER, args.max_horizon,
                                   horizon_progress(args.stats), nmquery=q.nm)
@@ -171,6 +208,8 @@ def _plan_domain(args: argparse.Namespace) -> int:
                   f"{sum(s.solve_s for s in result.stats):.3f} s solving", file=sys.stderr)
         if args.json:
             docs.append(domain.to_json(result))
+            if args.jobs is not None and not q.nm:
+                docs[-1]["parallel"] = result.parallel
         else:
             sys.stdout.write(domain.format(result))
         if args.minimize:
@@ -253,11 +292,15 @@ def _plan_robot_task(args: argparse.Namespace, scene_path: str) -> int:
         def on_iteration(it) -> None:
             clear_progress(args.stats)
             print(it.text(), file=sys.stderr)
-        result = refine(task, label, args.max_iterations, args.max_horizon, args.solver, not args.no_refine,
-                        nogoods=args.nogoods, eager={"auto": None, "yes": True, "no": False}[args.eager],
-                        on_iteration=on_iteration, on_horizon=on_horizon,
-                        on_precheck=lambda pre: print(pre.text(), file=sys.stderr) if args.stats else None,
-                        minimize=objective, time_limit=args.time_limit)
+        options = dict(nogoods=args.nogoods, eager={"auto": None, "yes": True, "no": False}[args.eager],
+                       on_iteration=on_iteration, on_horizon=on_horizon,
+                       on_precheck=lambda pre: print(pre.text(), file=sys.stderr) if args.stats else None)
+        if args.jobs is not None and not args.no_refine:
+            from cplus.cli.plan_jobs import refine_on_jobs
+            result = refine_on_jobs(task, label, args, options)
+        else:
+            result = refine(task, label, args.max_iterations, args.max_horizon, args.solver, not args.no_refine,
+                            minimize=objective, time_limit=args.time_limit, **options)
         clear_progress(args.stats)
         warn(domain.diagnostics)  # type: ignore[attr-defined]
         results.append((label, result))

@@ -31,8 +31,10 @@ from cplus.robot.offline import (
     check_outputs,
     export_plan,
     refine,
+    refine_parallel,
     scene_beside,
 )
 
 __all__ = ["DEFAULT_MAX_HORIZON", "Iteration", "Nogood", "NogoodForm", "Precheck", "RefineStatus", "RefinementResult",
-           "RobotTask", "TaskError", "check_outputs", "export_plan", "refine", "scene_beside"]
+           "RobotTask", "TaskError", "check_outputs", "export_plan", "refine", "refine_parallel",
+           "scene_beside"]

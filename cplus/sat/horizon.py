@@ -398,6 +398,17 @@ class QuerySession:
     def solve_at(self, m: int) -> bool:
         """Extend to horizon m (only upwards) and solve; records statistics."""
         t0 = time.perf_counter()
+        self.open_horizon(m)
+        h = self.horizon
+        t1 = time.perf_counter()
+        ok = self._solve(h)
+        t2 = time.perf_counter()
+        self.stats.append(HorizonStats(m, h.top, h.solver.count, t1 - t0, t2 - t1, ok, 1 if ok else 0))
+        return ok
+
+    def open_horizon(self, m: int) -> None:
+        """Extend to horizon m (only upwards) and put its goal behind :attr:`act`, without
+        solving: for callers that solve in slices (:mod:`cplus.parallel`)."""
         if self._stale:
             self._renew()
         h = self.horizon
@@ -407,11 +418,6 @@ class QuerySession:
         h.extend_to(m, self.query.loc)
         self._add_items(m)
         self._projection = None
-        t1 = time.perf_counter()
-        ok = self._solve(h)
-        t2 = time.perf_counter()
-        self.stats.append(HorizonStats(m, h.top, h.solver.count, t1 - t0, t2 - t1, ok, 1 if ok else 0))
-        return ok
 
     def _solve(self, h: Horizon) -> bool:
         s = h.solver

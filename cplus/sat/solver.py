@@ -79,6 +79,25 @@ class _Native:
         ok = getattr(self._mod, self._prefix + "_solve_lim")(self.handle, assumptions, main, 0)
         return None if ok is None else bool(ok)
 
+    def solve_conflicts(self, assumptions: list[int], conflicts: int) -> bool | None:
+        budget = getattr(self._mod, self._prefix + "_cbudget", None)
+        if budget is None:
+            return self.solve(assumptions)
+        budget(self.handle, max(1, conflicts))
+        main = int(threading.current_thread() is threading.main_thread())
+        self._assumptions = assumptions
+        lim = getattr(self._mod, self._prefix + "_solve_lim")
+        if self._prefix.startswith("cadical"):      # 0: unknown, 1: satisfiable, -1: not
+            status = lim(self.handle, assumptions, main)
+            return None if not status else status > 0
+        ok = lim(self.handle, assumptions, main, 0)
+        return None if ok is None else bool(ok)
+
+    def budget_kind(self) -> str | None:
+        if hasattr(self._mod, self._prefix + "_pbudget"):
+            return "propagations"
+        return "conflicts" if hasattr(self._mod, self._prefix + "_cbudget") else None
+
     def propagations(self) -> int:
         stats = getattr(self._mod, self._prefix + "_acc_stats", None)
         return int(stats(self.handle).get("propagations", 0)) if stats else 0
@@ -120,6 +139,17 @@ class _Generic:
             return self.solve(assumptions)
         ok = self._s.solve_limited(assumptions=assumptions)
         return None if ok is None else bool(ok)
+
+    def solve_conflicts(self, assumptions: list[int], conflicts: int) -> bool | None:
+        try:
+            self._s.conf_budget(max(1, conflicts))
+        except NotImplementedError:
+            return self.solve(assumptions)
+        ok = self._s.solve_limited(assumptions=assumptions)
+        return None if ok is None else bool(ok)
+
+    def budget_kind(self) -> str | None:
+        return "conflicts"      # every pysat backend but a few bounds conflicts; the rest solve to the end
 
     def propagations(self) -> int:
         try:
@@ -191,6 +221,26 @@ class SatSolver:
             raise
         self._model = self._b.get_model() if ok else None
         return ok
+
+    def solve_conflicts(self, assumptions: list[int], conflicts: int) -> bool | None:
+        """:meth:`solve_limited` with a budget of conflicts, for backends that have no
+        propagation budget (CaDiCaL): how :mod:`cplus.parallel` time-shares them."""
+        assert self._b is not None
+        try:
+            ok = self._b.solve_conflicts(list(assumptions), conflicts)
+        except Exception as exc:   # pysolvers reports Ctrl-C as its own error
+            if _interrupted(exc):
+                raise KeyboardInterrupt from None
+            raise
+        self._model = self._b.get_model() if ok else None
+        return ok
+
+    @property
+    def budget_kind(self) -> str | None:
+        """What this backend's budgets count: ``"propagations"``, ``"conflicts"`` (CaDiCaL), or
+        ``None`` (no budget: a limited solve runs to the end)."""
+        assert self._b is not None
+        return self._b.budget_kind()
 
     @property
     def propagations(self) -> int:
