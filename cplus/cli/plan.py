@@ -310,7 +310,7 @@ def _plan_robot_task(args: argparse.Namespace, scene_path: str) -> int:
                                            False))
         if result.optimum is not None:
             from cplus.cli.optimal import robot_report
-            code = max(code, robot_report(result.optimum, args.json))  # type: ignore[arg-type]
+            code = max(code, robot_report(result.optimum, args.json))
         if args.stats:
             print(_summary(result), file=sys.stderr)
         if result.reason:
