@@ -53,10 +53,9 @@ a bounded number of goals. Final goals are remembered for status queries up to
 from __future__ import annotations
 
 import copy
-import sys
+import logging
 import threading
 import time
-import traceback
 from collections import deque
 from collections.abc import Callable, Hashable
 from dataclasses import dataclass, field
@@ -66,6 +65,9 @@ from cplus.robot.online import CycleRecord, EventSource, Observer, RunResult, St
 from cplus.robot.serving.standing import GoalLiteral
 from cplus.robot.serving.vocabulary import MAX_REQUEST, Rejected, RequestVocabulary
 from cplus.signature import render_value
+
+_log = logging.getLogger(__name__)
+"""A watcher's failure is logged here: the library prints nothing (the command shows warnings)."""
 
 __all__ = ["FINAL", "Feedback", "Goal", "GoalBoard", "GoalStatus", "GoalWatcher", "Limits"]
 
@@ -578,10 +580,8 @@ class GoalBoard(EventSource, Observer):
                             w.status(goal, what)
                         else:
                             w.feedback(goal, what)
-                    except Exception as exc:  # noqa: BLE001 - one watcher's bug must not silence the others
-                        print(f"cplus serve: a goal watcher ({type(w).__name__}) failed; the others go on:",
-                              file=sys.stderr)
-                        traceback.print_exception(exc, file=sys.stderr)
+                    except Exception:  # noqa: BLE001 - one watcher's bug must not silence the others
+                        _log.exception("a goal watcher (%s) failed; the others go on", type(w).__name__)
 
     def drain(self, timeout: float) -> bool:
         """Wait until every notification queued so far has been delivered (at most ``timeout``
