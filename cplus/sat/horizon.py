@@ -283,13 +283,18 @@ class QuerySession:
 
         def leaf(env: dict) -> None:
             parts.append(fn(env, None))
+        self._bind(variables, leaf, loc, m)
+        return mk_and(parts), self._oor
+
+    def _bind(self, variables, leaf, loc, m: int) -> None:
+        """Every instance of ``variables`` at horizon m, a grounding error located at ``loc``
+        when it names no place of its own."""
         try:
             bind(self.sig, variables, [], leaf, {"$maxstep": m})
         except GroundingError as exc:
             if exc.loc is None:
                 exc.loc = loc
             raise
-        return mk_and(parts), self._oor
 
     def _ground_facts(self, m: int) -> PF:
         """The theory's time-stamped facts at horizon m, as CCALC has them: each ground
@@ -305,12 +310,7 @@ class QuerySession:
                     pf = fn(env, None)
                     if not self._oor:
                         parts.append(pf)
-            try:
-                bind(self.sig, variables, [], leaf, {"$maxstep": m})
-            except GroundingError as exc:
-                if exc.loc is None:
-                    exc.loc = loc
-                raise
+            self._bind(variables, leaf, loc, m)
         return mk_and(parts)
 
     def _add_items(self, m: int) -> None:
@@ -355,12 +355,7 @@ class QuerySession:
                 elif type(head) is int and not out:
                     bodies.setdefault(head, []).append(body)
             self._m = m
-            try:
-                bind(self.sig, variables, [], leaf, {"$maxstep": m})
-            except GroundingError as exc:
-                if exc.loc is None:
-                    exc.loc = loc
-                raise
+            self._bind(variables, leaf, loc, m)
         for gc in self.sig.ground:
             d = gc.decl
             if d.hidden:

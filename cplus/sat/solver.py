@@ -196,16 +196,21 @@ class SatSolver:
             n += 1
         self.count += n
 
-    def solve(self, assumptions: list[int] = ()) -> bool:  # type: ignore[assignment]
-        assert self._b is not None
+    def _answer(self, call, assumptions, *budget) -> bool | None:
+        """One call of the backend (``solve``, or one with a budget), Ctrl-C as KeyboardInterrupt
+        and the model kept when it found one."""
         try:
-            ok = self._b.solve(list(assumptions))
+            ok = call(list(assumptions), *budget)
         except Exception as exc:   # pysolvers reports Ctrl-C as its own error
             if _interrupted(exc):
                 raise KeyboardInterrupt from None
             raise
-        self._model = self._b.get_model() if ok else None
+        self._model = self._b.get_model() if ok else None  # type: ignore[union-attr]
         return ok
+
+    def solve(self, assumptions: list[int] = ()) -> bool:  # type: ignore[assignment]
+        assert self._b is not None
+        return self._answer(self._b.solve, assumptions) is True   # a full solve always answers
 
     def solve_limited(self, assumptions: list[int], propagations: int) -> bool | None:
         """:meth:`solve`, giving up after about ``propagations`` unit propagations (None: no
@@ -213,27 +218,13 @@ class SatSolver:
         them gives the same answer on a loaded machine. (A backend without such a budget,
         CaDiCaL, solves without one.)"""
         assert self._b is not None
-        try:
-            ok = self._b.solve_limited(list(assumptions), propagations)
-        except Exception as exc:   # pysolvers reports Ctrl-C as its own error
-            if _interrupted(exc):
-                raise KeyboardInterrupt from None
-            raise
-        self._model = self._b.get_model() if ok else None
-        return ok
+        return self._answer(self._b.solve_limited, assumptions, propagations)
 
     def solve_conflicts(self, assumptions: list[int], conflicts: int) -> bool | None:
         """:meth:`solve_limited` with a budget of conflicts, for backends that have no
         propagation budget (CaDiCaL): how :mod:`cplus.parallel` time-shares them."""
         assert self._b is not None
-        try:
-            ok = self._b.solve_conflicts(list(assumptions), conflicts)
-        except Exception as exc:   # pysolvers reports Ctrl-C as its own error
-            if _interrupted(exc):
-                raise KeyboardInterrupt from None
-            raise
-        self._model = self._b.get_model() if ok else None
-        return ok
+        return self._answer(self._b.solve_conflicts, assumptions, conflicts)
 
     @property
     def budget_kind(self) -> str | None:
