@@ -203,7 +203,7 @@ def run_ray(jobs: list[Job], fn: Callable, workers: int | None, address: str | N
         try:
             ray.init(address=address, **kwargs)
         except (ConnectionError, RuntimeError, ValueError, ray.exceptions.RayError) as exc:
-            raise BatchError(unreachable(address, exc)) from None
+            raise BatchError(unreachable(str(address), exc)) from None
     try:
         _ray_loop(ray, jobs, fn, retries, sink, progress, variant, definite)
     finally:
