@@ -80,6 +80,7 @@ class _Search:
         self.lost = 0
         self.payloads: dict[int, object] = {}
         self._ctx = None
+        self._made: list = []     # every worker process ever started: an interrupt may land before it is in procs
 
     # ------------------------------------------------------------------ processes
     def _start(self, wid: int) -> _Proc:
@@ -95,6 +96,7 @@ class _Search:
                 pass
         proc = ctx.Process(target=worker_main, args=(child, wid, self.work), daemon=True)   # type: ignore[attr-defined]
         # the child starts with SIGINT blocked, until it is inside the code that handles it
+        self._made.append(proc)
         old = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
         try:
             proc.start()
@@ -133,6 +135,11 @@ class _Search:
                 p.proc.kill()
                 p.proc.join()
             p.conn.close()
+        known = {id(p.proc) for p in self.procs}
+        for proc in self._made:    # started, but an interrupt came before it was recorded
+            if id(proc) not in known and proc.pid is not None and proc.is_alive():
+                proc.kill()
+                proc.join()
 
     # ------------------------------------------------------------------ scheduling
     def _record(self, st: dict) -> None:
@@ -264,7 +271,8 @@ class _Search:
         if threading.current_thread() is threading.main_thread():
             old_term = signal.signal(signal.SIGTERM, _term_as_interrupt)
         try:
-            self.procs = [self._start(w) for w in range(self.jobs)]
+            for w in range(self.jobs):
+                self.procs.append(self._start(w))
             if self.hi is not None and self.lo > self.hi:
                 self.done = True
             self._fill()
