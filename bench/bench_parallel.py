@@ -3,6 +3,7 @@
     python bench/bench_parallel.py [--runs 3] [--only NAME]      # hard instances, side by side
     python bench/bench_parallel.py --corpus [--runs 5]           # corpus benchmarks: sequential vs --jobs auto
     python bench/bench_parallel.py --batch [--jobs 100] [--no-ray]   # 100 small jobs: loop, pool, Ray
+    python bench/bench_parallel.py --ceiling [--runs 5] [--only NAME] # what two cores can give at best
 
 **Instances.**  Generated here, harder than the corpus: random blocks worlds with one move at a
 time (``noconcurrency``: plans two to three times longer than with concurrent moves, and the
@@ -27,6 +28,12 @@ is using.
 ways: a shell loop of ``cplus plan`` (one process at a time), ``cplus batch`` on the process
 pool, and ``cplus batch --ray`` on a local Ray instance (its start-up, measured apart, is part of
 the batch's wall time and is reported too).  Jobs per second and the ratio to the loop.
+
+**Ceiling.**  The best any split of one search over two processes can do on this machine: the
+same sequential command alone, then two copies of it started at once (no work shared, nothing
+to wait for).  ``2 x alone / both`` is the throughput two busy cores give over one; a parallel
+strategy's speed-up cannot exceed it (on a guest whose two vCPUs share a physical core, or a
+memory bus that two SAT solvers saturate, it is well below 2).
 """
 from __future__ import annotations
 
@@ -220,24 +227,36 @@ def side_by_side(names: list[str], runs: int) -> None:
 
 
 def corpus(runs: int) -> None:
+    """Sequential against ``--jobs auto`` on every corpus benchmark, run after run, both with
+    ``--stats`` (auto's to see whether it went parallel; the sequential run's so that both do
+    the same work). Wall times, and processor times (this command and its workers), which a
+    shared machine's load changes far less: the ratio to read where the load is high."""
     manifest = json.loads((ROOT / "tests/corpus/manifest.json").read_text())
     cases = [c for c in manifest if c["path"].startswith("examples/benchmarks/")]
-    print(f"# corpus benchmarks: sequential vs --jobs auto, {runs} runs each (alternating), medians of wall time")
-    print("| benchmark | sequential | --jobs auto | auto / sequential | went parallel | load |")
+    print(f"# corpus benchmarks: sequential vs --jobs auto, {runs} runs each (alternating), medians")
+    print("| benchmark | sequential: wall / cpu | --jobs auto: wall / cpu | auto / sequential: wall, cpu | went parallel | load |")
     print("|---|---|---|---|---|---|")
+    ratios = []
     for c in cases:
         path = str(CORPUS / c["path"])
-        seq, auto, loads, went = [], [], [], False
+        seq, auto, seq_cpu, auto_cpu, loads, went = [], [], [], [], [], False
         for _ in range(runs):
             loads.append(load())
-            seq.append(timed([*cplus_cmd(), "plan", path, "--query", c["query_label"]])[0])
-            wall, _, err, _ = timed([*cplus_cmd(), "plan", path, "--query", c["query_label"], "--jobs", "auto",
-                                     "--stats"])
+            wall, cpu, _, _ = timed([*cplus_cmd(), "plan", path, "--query", c["query_label"], "--stats"])
+            seq.append(wall)
+            seq_cpu.append(cpu)
+            wall, cpu, err, _ = timed([*cplus_cmd(), "plan", path, "--query", c["query_label"], "--jobs", "auto",
+                                       "--stats"])
             auto.append(wall)
+            auto_cpu.append(cpu)
             went = went or "% worker" in err
         s, a = statistics.median(seq), statistics.median(auto)
-        print(f"| {Path(c['path']).stem} | {s:.3f} s | {a:.3f} s | {a / s:.3f} | {'yes' if went else 'no'} | "
-              f"{statistics.median(loads):.1f} |", flush=True)
+        sc, ac = statistics.median(seq_cpu), statistics.median(auto_cpu)
+        ratios.append(ac / sc)
+        print(f"| {Path(c['path']).stem} | {s:.3f} / {sc:.3f} s | {a:.3f} / {ac:.3f} s | {a / s:.3f}, {ac / sc:.3f} | "
+              f"{'yes' if went else 'no'} | {statistics.median(loads):.1f} |", flush=True)
+    print(f"# processor time auto / sequential: worst {max(ratios):.3f}, geometric mean "
+          f"{statistics.geometric_mean(ratios):.3f}")
 
 
 SMALL = ["examples/benchmarks/hanoi-8-4/hanoi-8-4-benchmark.cp", "examples/benchmarks/blocks-bench-15/bw-15-benchmark.cp",
@@ -281,6 +300,32 @@ def batch(n: int, ray: bool, workers: int) -> None:
         shutil.rmtree(folder, ignore_errors=True)
 
 
+def ceiling(names: list[str], runs: int) -> None:
+    folder = Path(tempfile.mkdtemp(prefix="cplus-bench-ceiling-"))
+    print(f"# one sequential run alone vs two copies at once, {runs} runs each, medians; {os.cpu_count()} cores")
+    print("| instance | alone: wall s | two at once: wall s (slower of the two) | ceiling 2 x alone / both | load |")
+    print("|---|---|---|---|---|")
+    try:
+        for name in names:
+            path = folder / f"{name}.cp"
+            path.write_text(INSTANCES[name]())
+            argv = [*cplus_cmd(), "plan", str(path)]
+            alone, both, loads = [], [], []
+            for _ in range(runs):
+                loads.append(load())
+                alone.append(timed(argv)[0])
+                t0 = time.perf_counter()
+                procs = [subprocess.Popen(["nice", "-n", "5", *argv], stdout=subprocess.DEVNULL,
+                                          stderr=subprocess.DEVNULL, env=env()) for _ in range(2)]
+                for p in procs:
+                    p.wait()
+                both.append(time.perf_counter() - t0)
+            a, b = statistics.median(alone), statistics.median(both)
+            print(f"| {name} | {a:.2f} | {b:.2f} | {2 * a / b:.2f}x | {statistics.median(loads):.1f} |", flush=True)
+    finally:
+        shutil.rmtree(folder, ignore_errors=True)
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--runs", type=int, default=3)
@@ -290,8 +335,11 @@ def main() -> None:
     ap.add_argument("--jobs", type=int, default=100, help="jobs of --batch")
     ap.add_argument("--workers", type=int, default=2, help="workers of --batch")
     ap.add_argument("--no-ray", action="store_true")
+    ap.add_argument("--ceiling", action="store_true", help="one run alone vs two copies at once")
     a = ap.parse_args()
-    if a.corpus:
+    if a.ceiling:
+        ceiling(a.only or list(INSTANCES), a.runs)
+    elif a.corpus:
         corpus(a.runs)
     elif a.batch:
         batch(a.jobs, not a.no_ray, a.workers)

@@ -36,12 +36,29 @@ from cplus.batch.limits import GRACE_S
 from cplus.batch.progress import Progress
 from cplus.batch.results import FAILED
 
-__all__ = ["run_local", "run_ray", "lost_record", "RAY_MISSING"]
+__all__ = ["run_local", "run_ray", "lost_record", "unreachable", "RAY_MISSING"]
 
 RAY_MISSING = ("--ray needs Ray, an optional extra: pip install 'cplus[ray]' (from a checkout: pip install '.[ray]'; "
                "or pip install 'ray>=2.40')")
 
 Sink = Callable[[dict], None]
+
+
+def unreachable(address: str, exc: BaseException) -> str:
+    """One line for a cluster that ``ray.init`` could not join: Ray's own reason, or the refused
+    token its causes name deep in a nested traceback's text, with the two ways Ray reads one."""
+    lines: list[str] = []
+    seen: BaseException | None = exc
+    while seen is not None and len(lines) < 200:
+        lines += [x.strip() for x in str(seen).splitlines() if x.strip()]
+        seen = seen.__cause__ or seen.__context__
+    auth = next((x for x in lines if "authenticat" in x.lower() or "auth token" in x.lower()), None)
+    why = auth.split(". ")[0] if auth else (lines[0] if lines else type(exc).__name__)
+    line = f"--ray {address}: cannot join the Ray cluster ({why.rstrip('.')})"
+    if auth:
+        line += ("; a cluster with token authentication needs RAY_AUTH_MODE=token and its token "
+                 "(RAY_AUTH_TOKEN, or the file ~/.ray/auth_token)")
+    return line
 
 
 def lost_record(job: Job, attempts: int, why: str, status: str = "lost") -> dict:
@@ -178,10 +195,15 @@ def run_ray(jobs: list[Job], fn: Callable, workers: int | None, address: str | N
     started_here = address is None
     if started_here:
         # on the loopback interface: a machine without a network (or as root in a container)
-        # starts it as well, and nothing listens beyond this host
-        ray.init(num_cpus=workers or os.cpu_count() or 1, _node_ip_address="127.0.0.1", **kwargs)
+        # starts it as well, and nothing listens beyond this host. address="local": a new
+        # instance even where RAY_ADDRESS is set or a `ray start` cluster runs on this host
+        # (ray.init() without an address would join that one instead)
+        ray.init(address="local", num_cpus=workers or os.cpu_count() or 1, _node_ip_address="127.0.0.1", **kwargs)
     else:
-        ray.init(address=address, **kwargs)
+        try:
+            ray.init(address=address, **kwargs)
+        except (ConnectionError, RuntimeError, ValueError, ray.exceptions.RayError) as exc:
+            raise BatchError(unreachable(str(address), exc)) from None
     try:
         _ray_loop(ray, jobs, fn, retries, sink, progress, variant, definite)
     finally:

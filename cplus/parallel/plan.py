@@ -22,7 +22,7 @@ from cplus.sat.horizon import HorizonStats, QuerySession
 from cplus.sat.solver import DEFAULT_SOLVER
 
 if TYPE_CHECKING:
-    from cplus.parallel.workers import Outcome
+    from cplus.parallel.work import Outcome
 
 __all__ = ["ParallelResult", "solve_parallel", "resolve_jobs", "AUTO_SWITCH_S", "parallel_info"]
 
@@ -85,7 +85,8 @@ def solve_parallel(domain, label: str = "0", solutions: int = 1, solver: str = D
             return _sequential_answer(session, query, solutions, failed, n, strategy, gamma, any_length)
         session.query = _from(query, switched)
         session.commit = False
-    from cplus.parallel.workers import Work, search
+    from cplus.parallel.dispatch import search
+    from cplus.parallel.work import Work
     work = Work(session)
     out = search(work, n, strategy, gamma, solutions, any_length, on_record)
     session.query = query

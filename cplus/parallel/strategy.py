@@ -9,7 +9,7 @@ evaluation strategies; pure functions, no processes).
   horizon whose share is at least :data:`B_FLOOR` runs (at most :data:`B_MAX` of them, since
   each holds a solver with all its steps), placed on the worker with the least share.
 
-The scheduler of :mod:`cplus.parallel.workers` asks these functions and nothing else, so a
+The scheduler of :mod:`cplus.parallel.dispatch` asks these functions and nothing else, so a
 strategy is one place here.
 """
 from __future__ import annotations

@@ -262,6 +262,8 @@ def test_a_batch_on_a_local_ray_instance(tmp_path, monkeypatch):
     # Ray's workers import the job function by name: this module's `killer` too
     here = str(Path(__file__).resolve().parent)
     monkeypatch.setenv("PYTHONPATH", os.pathsep.join(p for p in (here, os.environ.get("PYTHONPATH")) if p))
+    # a local instance is started even where RAY_ADDRESS names a cluster (nothing listens there)
+    monkeypatch.setenv("RAY_ADDRESS", "127.0.0.1:1")
     (tmp_path / "lamp.cp").write_text(LAMP.read_text())
     f = jobs_file(tmp_path, [{"id": "victim", "domain": "lamp.cp", "query": "on"},
                              {"id": "ferry", "domain": str(FERRY), "portfolio": ["glucose4", "minisat22"]},
@@ -278,3 +280,95 @@ def test_a_batch_on_a_local_ray_instance(tmp_path, monkeypatch):
     assert got["ferry"]["portfolio"]["winner"] in ("glucose4", "minisat22")
     assert got["slow"]["status"] == "timeout"
     assert got["lamp"]["status"] == "found"
+
+
+def test_a_cluster_that_refuses_the_token_is_named_in_one_line():
+    from cplus.batch.engine import unreachable
+    nested = RuntimeError("Failed to connect to GCS. Last connection error: Traceback (most recent call last):\n"
+                          "  File \"x.py\", line 1\nray.exceptions.AuthenticationError: RPC error: InvalidAuthToken: "
+                          "Authentication token is missing or incorrect. Note: RAY_AUTH_MODE is currently 'disabled'")
+    try:
+        raise ConnectionError("Failed to connect to Ray cluster at 10.0.0.1:6379") from nested
+    except ConnectionError as exc:
+        line = unreachable("head:6379", exc)
+    assert line.startswith("--ray head:6379: cannot join the Ray cluster (ray.exceptions.AuthenticationError: ")
+    assert "RAY_AUTH_MODE=token" in line and "\n" not in line
+    plain = unreachable("head:6379", ConnectionError("Failed to connect to Ray cluster at 10.0.0.1:6379"))
+    assert plain == "--ray head:6379: cannot join the Ray cluster (Failed to connect to Ray cluster at 10.0.0.1:6379)"
+
+
+def _free_port() -> int:
+    import socket
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+@pytest.fixture
+def ray_cluster():
+    """A Ray cluster as `ray start --head` makes one (its own processes, its own temp folder,
+    token authentication as Ray 2.5x enables it), reached only by its address; yields
+    (address, environment of a client holding the token), and is killed with its process group."""
+    if os.environ.get("CPLUS_REQUIRE_RAY"):
+        import ray  # noqa: F401
+    pytest.importorskip("ray")
+    import secrets
+    import selectors
+    import shutil
+    import tempfile
+    import time
+    temp = tempfile.mkdtemp(prefix="r", dir="/tmp")      # short: Ray's socket paths live under it
+    port = _free_port()
+    token = secrets.token_hex(32)
+    env = dict(os.environ, RAY_AUTH_MODE="token", RAY_AUTH_TOKEN=token, RAY_USAGE_STATS_ENABLED="0",
+               PYTHONPATH=os.pathsep.join(p for p in (str(ROOT), os.environ.get("PYTHONPATH")) if p))
+    env.pop("RAY_ADDRESS", None)
+    head = subprocess.Popen([sys.executable, "-m", "ray.scripts.scripts", "start", "--head", "--block",
+                             f"--port={port}", "--num-cpus=2", "--include-dashboard=false", "--disable-usage-stats",
+                             f"--temp-dir={temp}"],
+                            env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, start_new_session=True)
+    try:
+        sel = selectors.DefaultSelector()
+        sel.register(head.stdout, selectors.EVENT_READ)
+        seen = []
+        limit = time.monotonic() + 300       # a bound on failure only: the event awaited is Ray's line
+        while not any("Ray runtime started" in line for line in seen):
+            assert time.monotonic() < limit and head.poll() is None, f"ray start ({head.poll()}): " + "".join(seen[-30:])
+            if sel.select(timeout=1):
+                line = head.stdout.readline()
+                seen.append(line)
+        sel.close()
+        yield f"127.0.0.1:{port}", env
+    finally:
+        try:
+            os.killpg(head.pid, signal.SIGTERM)
+            head.wait(timeout=30)
+        except (ProcessLookupError, subprocess.TimeoutExpired):
+            pass
+        try:
+            os.killpg(head.pid, signal.SIGKILL)   # what SIGTERM left of the group (raylet, workers)
+        except ProcessLookupError:
+            pass
+        head.stdout.close()
+        shutil.rmtree(temp, ignore_errors=True)
+
+
+@pytest.mark.slow
+@pytest.mark.timeout(420)
+def test_a_batch_on_a_ray_cluster_at_its_address(tmp_path, ray_cluster):
+    """`--ray ADDRESS` joins an existing cluster (started apart, as on a head node) and runs every
+    job there; a client without the cluster's token gets one line that says what is missing."""
+    address, env = ray_cluster
+    f = jobs_file(tmp_path, [{"id": "ferry", "domain": str(FERRY)}, {"id": "lamp", "domain": str(LAMP), "query": "on"}])
+    cmd = [sys.executable, "-m", "cplus", "batch", str(f), f"--ray={address}", "--quiet"]
+    done = subprocess.run(cmd, capture_output=True, text=True, cwd=ROOT, env=env, timeout=300)
+    assert done.returncode == 0, done.stderr
+    got = {r["id"]: r for r in records(tmp_path / "jobs.results.jsonl")}
+    assert got["ferry"]["status"] == "found" and got["ferry"]["maxstep"] == 17
+    assert got["lamp"]["status"] == "found"
+    wrong = dict(env, RAY_AUTH_TOKEN="0" * 64)
+    refused = subprocess.run([*cmd, "--fresh"], capture_output=True, text=True, cwd=ROOT, env=wrong, timeout=300)
+    assert refused.returncode == 2 and "Traceback" not in refused.stderr
+    line = [x for x in refused.stderr.splitlines() if x.startswith("cplus batch:")]
+    assert len(line) == 1 and f"--ray {address}: cannot join the Ray cluster" in line[0]
+    assert "RAY_AUTH_MODE=token" in line[0]

@@ -2,7 +2,7 @@
 
 :func:`refine_parallel` gives what :func:`~cplus.robot.offline.refine.refine` gives (the
 shortest collision-free plan, or the proof that there is none in the range), with the
-horizons spread over worker processes by :func:`cplus.parallel.workers`.  Each worker checks
+horizons spread over worker processes by :func:`cplus.parallel.dispatch`.  Each worker checks
 the plans its solvers propose (the continuous check runs where the plan is, so the parent
 stays idle), learns nogoods from the violations, and teaches them to all its own sessions;
 the parent sends them to every other worker.  A nogood forbids positions at every step of

@@ -5,12 +5,7 @@ The parent grounds the query and builds the clause templates once, then forks th
 first solve, without pickling any of it).  The parent schedules horizons over the workers
 by a :mod:`~cplus.parallel.strategy` and waits on their pipes; it computes nothing itself.
 
-A worker holds one session per horizon it was given (a :class:`QuerySession`, i.e. one
-incremental solver), runs them in slices of a solver budget (pysat's ``solve_limited``
-with a propagation budget, or a conflict budget for CaDiCaL), picks the next slice by
-stride scheduling over the horizons' shares (strategy B: γ^i), and reads its pipe between
-slices.  A session whose horizon is proved empty is extended upwards to the next horizon
-the worker is given, so what its solver learned stays (as in the sequential search).
+The workers' side is :mod:`cplus.parallel.worker`.
 
 The answer keeps CCALC's meaning unless ``any_length``: the shortest maxstep with a
 history, so the search ends only once every shorter horizon is proved empty; a horizon
@@ -28,300 +23,21 @@ started again, up to :data:`MAX_REPLACEMENTS` times.
 """
 from __future__ import annotations
 
-import os
 import signal
 import sys
 import threading
 import time
-import traceback
 from collections.abc import Callable
-from dataclasses import dataclass, field
-from typing import Any
 
 from cplus.errors import CPlusError
-from cplus.history import History
-from cplus.parallel.strategy import Strategy, available_cores, in_flight, share, window_based
-from cplus.sat.horizon import HorizonStats, QuerySession
+from cplus.parallel.strategy import Strategy, in_flight, share, window_based
+from cplus.parallel.work import Outcome, Work
+from cplus.parallel.worker import worker_main
 
-__all__ = ["Work", "Outcome", "search", "available_cores", "SLICE_S", "MAX_REPLACEMENTS"]
-
-SLICE_S = 0.05
-"""Target length of one solver slice (seconds): how long a worker may be deaf to its pipe
-(a cancelled horizon goes on at most this long) against the cost of a call (restarting the
-search from the root level with what was learned: microseconds)."""
+__all__ = ["search", "MAX_REPLACEMENTS"]
 
 MAX_REPLACEMENTS = 3
 """Workers lost (killed, out of memory) and replaced in one search before it gives up."""
-
-_FIRST_BUDGET = {"propagations": 200_000, "conflicts": 500}
-_CHUNK = 256     # histories per message
-
-
-class Work:
-    """What the search needs from a domain inside a worker, and what a model means there.
-
-    The plain planner's: a model is the horizon's answer.  Built in the parent before the
-    workers are forked, so whatever it holds is in every worker without being sent."""
-
-    def __init__(self, session: QuerySession) -> None:
-        self.first: QuerySession | None = session      # ready for its first solve: one worker slot's
-        self.theory = session.theory
-        self.query = session.query
-        self.solver = session._solver_name
-        self.max_horizon = session.max_horizon
-        h = session.horizon
-        self.templates = (h.layout, h.t_rigid, h.t_init, h.t_trans)
-        self.template_s = h.template_s
-        self.index = {gc: i for i, gc in enumerate(self.theory.sig.ground)}
-
-    def new_session(self) -> QuerySession:
-        """A session for one more horizon in this worker (the inherited one first)."""
-        if self.first is not None:
-            s, self.first = self.first, None
-            return s
-        s = QuerySession(self.theory, self.query, self.solver, self.max_horizon, templates=self.templates)
-        self.prepare(s)
-        return s
-
-    def prepare(self, session: QuerySession) -> None:
-        """Whatever a new session must be taught before its first solve (robot: nogoods); the
-        first session was given to the constructor and is the caller's to prepare."""
-
-    def on_model(self, session: QuerySession, m: int, sessions: list[QuerySession]) -> tuple[bool, object]:
-        """A model at horizon m: ``(True, payload)`` when it answers the horizon, ``(False,
-        learned)`` when it is refuted and ``learned`` (already taught to ``sessions``, this
-        worker's) goes to the other workers; the horizon is then solved again."""
-        return True, None
-
-    def learn(self, sessions: list[QuerySession], learned: object) -> None:
-        """Teach this worker's sessions what another worker learned."""
-
-    def on_unsat(self, session: QuerySession, m: int) -> object:
-        """Extra facts about a horizon proved empty, for the parent (robot: were there plans)."""
-        return None
-
-    # histories travel as indices: ground constants are interned per process (identity is equality)
-    def encode(self, hist: History) -> tuple:
-        ix = self.index
-
-        def table(t: dict) -> list:
-            return [(ix[gc], gc.domain.index(v)) for gc, v in t.items()]
-        return hist.maxstep, table(hist.rigid), [table(s) for s in hist.states], [table(a) for a in hist.actions]
-
-    def decode(self, data: tuple) -> History:
-        ground = self.theory.sig.ground
-        m, rigid, states, actions = data
-
-        def table(rows: list) -> dict:
-            return {ground[i]: ground[i].domain[j] for i, j in rows}
-        return History(m, table(rigid), tuple(table(s) for s in states), tuple(table(a) for a in actions))
-
-
-@dataclass
-class Outcome:
-    """What a search found.  ``records``: one per (worker, horizon) that ran, in the order they
-    ended (``result``: ``unsat``, ``sat``, ``dropped`` for one cancelled by a shorter plan,
-    ``stopped`` for one still running at the end)."""
-
-    maxstep: int | None
-    histories: list[History]
-    proved: list[int]               # horizons proved empty, ascending
-    unproved: list[int]             # below maxstep and not proved empty (only with any_length)
-    records: list[dict] = field(default_factory=list)
-    extras: dict[int, object] = field(default_factory=dict)    # Work.on_unsat's, by horizon
-    payload: object = None          # Work.on_model's for the answer
-    learned: list[tuple[int, int, object]] = field(default_factory=list)   # (worker, maxstep, learned)
-    workers: int = 0
-    replaced: int = 0
-    stopped_early: bool = False     # a hook ended the search (robot: --max-iterations)
-
-
-# ---------------------------------------------------------------------------------------- worker
-
-
-class _Slot:
-    __slots__ = ("m", "session", "share", "pass_", "opened", "parked", "stat")
-
-    def __init__(self, m: int, session: QuerySession, share: float, pass_: float, wid: int) -> None:
-        self.m = m
-        self.session = session
-        self.share = share
-        self.pass_ = pass_
-        self.opened = False
-        self.parked = False
-        self.stat: dict[str, Any] = {"worker": wid, "maxstep": m, "result": None, "variables": 0, "clauses": 0, "encode_s": 0.0,
-                     "solve_s": 0.0, "cpu_s": 0.0, "slices": 0}
-
-
-class _Worker:
-    def __init__(self, conn, wid: int, work: Work) -> None:
-        self.conn = conn
-        self.wid = wid
-        self.work = work
-        self.slots: dict[int, _Slot] = {}
-        self.free: list[QuerySession] = []
-        self.budget: dict[str, int] = dict(_FIRST_BUDGET)
-
-    def sessions(self) -> list[QuerySession]:
-        return [s.session for s in self.slots.values()] + self.free
-
-    def run(self) -> None:
-        while True:
-            while self.conn.poll(0) or not any(not s.parked for s in self.slots.values()):
-                try:
-                    msg = self.conn.recv()
-                except EOFError:       # the parent is gone
-                    return
-                if not self.handle(msg):
-                    return
-            slot = min((s for s in self.slots.values() if not s.parked), key=lambda s: s.pass_)
-            self.slice(slot)
-
-    def handle(self, msg: tuple) -> bool:
-        kind = msg[0]
-        if kind == "add":
-            _, m, sh = msg
-            self.slots[m] = _Slot(m, self._session_for(m), sh, self._min_pass(), self.wid)
-        elif kind == "share":
-            for m, sh in msg[1].items():
-                if m in self.slots:
-                    self.slots[m].share = sh
-        elif kind == "drop":
-            slot = self.slots.pop(msg[1], None)
-            if slot is not None:
-                slot.stat["result"] = "dropped"
-                self.conn.send(("dropped", self.wid, slot.m, slot.stat))
-                self.free.append(slot.session)
-        elif kind == "enumerate":
-            self.enumerate(self.slots[msg[1]], msg[2])
-        elif kind == "learn":
-            self.work.learn(self.sessions(), msg[1])
-        elif kind == "stop":
-            left = []
-            for slot in self.slots.values():
-                if slot.stat["result"] is None:
-                    slot.stat["result"] = "stopped"
-                    left.append(slot.stat)
-            self.conn.send(("bye", self.wid, left))
-            return False
-        return True
-
-    def _min_pass(self) -> float:
-        running = [s.pass_ for s in self.slots.values() if not s.parked]
-        return min(running) if running else 0.0
-
-    def _session_for(self, m: int) -> QuerySession:
-        """The free session closest below m (its learned clauses kept), else a new one."""
-        usable = [s for s in self.free if s.horizon.m <= m]
-        if usable:
-            best = max(usable, key=lambda s: s.horizon.m)
-            self.free.remove(best)
-            for s in [s for s in self.free if s.horizon.m > m]:   # never usable again: horizons only grow
-                self.free.remove(s)
-                s.horizon.solver.delete()
-            return best
-        return self.work.new_session()
-
-    def slice(self, slot: _Slot) -> None:
-        s = slot.session
-        st = slot.stat
-        t0, c0 = time.perf_counter(), time.process_time()
-        if not slot.opened:
-            s.open_horizon(slot.m)
-            slot.opened = True
-            h = s.horizon
-            t1 = time.perf_counter()
-            s.stats.append(HorizonStats(slot.m, h.top, h.solver.count, t1 - t0, 0.0))
-            st["encode_s"] += t1 - t0
-            st["variables"], st["clauses"] = h.top, h.solver.count
-            cpu = time.process_time() - c0
-            st["cpu_s"] += cpu
-            slot.pass_ += cpu / slot.share
-            return
-        solver = s.horizon.solver
-        assumptions = [s.act, *s.assumptions]
-        kind = solver.budget_kind
-        if kind == "propagations":
-            ok = solver.solve_limited(assumptions, self.budget[kind])
-        elif kind == "conflicts":
-            ok = solver.solve_conflicts(assumptions, self.budget[kind])
-        else:        # a backend without budgets: one slice is the whole solve
-            ok = solver.solve(assumptions)
-        dt, cpu = time.perf_counter() - t0, time.process_time() - c0
-        if kind is not None and ok is None:     # aim the next slice at SLICE_S
-            factor = min(2.0, max(0.5, SLICE_S / max(dt, 1e-4)))
-            self.budget[kind] = max(1000 if kind == "propagations" else 10, int(self.budget[kind] * factor))
-        slot.pass_ += cpu / slot.share
-        st["solve_s"] += dt
-        st["cpu_s"] += cpu
-        st["slices"] += 1
-        s.stats[-1].solve_s += dt
-        if ok is None:
-            return
-        s.stats[-1].satisfiable = ok
-        if ok:
-            final, payload = self.work.on_model(s, slot.m, self.sessions())
-            if not final:
-                self.conn.send(("learn", self.wid, slot.m, payload))
-                return
-            slot.parked = True
-            st["result"] = "sat"
-            self.conn.send(("done", self.wid, slot.m, True, st, payload))
-            return
-        extra = self.work.on_unsat(s, slot.m)
-        st["result"] = "unsat"
-        del self.slots[slot.m]
-        self.free.append(s)
-        self.conn.send(("done", self.wid, slot.m, False, st, extra))
-
-    def enumerate(self, slot: _Slot, n: int) -> None:
-        """Send up to n histories at the slot's horizon (0: all), in chunks."""
-        from cplus.planner import iter_histories
-        s = slot.session
-        batch: list[tuple] = []
-        count = 0
-        for hist in iter_histories(s):
-            batch.append(self.work.encode(hist))
-            count += 1
-            if n and count >= n:
-                break
-            if len(batch) >= _CHUNK:
-                self.conn.send(("histories", self.wid, slot.m, batch, False))
-                batch = []
-        self.conn.send(("histories", self.wid, slot.m, batch, True))
-
-
-def _die_with_parent() -> None:
-    """Ask Linux to SIGKILL this worker when its parent dies (prctl PR_SET_PDEATHSIG)."""
-    try:
-        import ctypes
-        ctypes.CDLL(None, use_errno=True).prctl(1, signal.SIGKILL)
-    except (OSError, AttributeError):    # pragma: no cover - not Linux: the closed pipe ends it
-        pass
-
-
-def _worker_main(conn, wid: int, work: Work) -> None:
-    try:
-        # forked with SIGINT blocked (see _Search._start): a Ctrl-C from now on ends it here, quietly
-        signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
-        _die_with_parent()
-        signal.signal(signal.SIGTERM, signal.SIG_DFL)
-        _Worker(conn, wid, work).run()
-    except KeyboardInterrupt:
-        os._exit(130)
-    except BaseException as exc:   # report it: the parent raises it (a located error stays located)
-        try:
-            conn.send(("error", wid, exc if isinstance(exc, CPlusError) else None, traceback.format_exc()))
-        except Exception:   # unpicklable or the pipe is gone
-            try:
-                conn.send(("error", wid, None, traceback.format_exc()))
-            except Exception:
-                pass
-        os._exit(1)
-    os._exit(0)
-
-
-# ---------------------------------------------------------------------------------------- parent
 
 
 class _Proc:
@@ -364,6 +80,7 @@ class _Search:
         self.lost = 0
         self.payloads: dict[int, object] = {}
         self._ctx = None
+        self._made: list = []     # every worker process ever started: an interrupt may land before it is in procs
 
     # ------------------------------------------------------------------ processes
     def _start(self, wid: int) -> _Proc:
@@ -377,8 +94,9 @@ class _Search:
                 stream.flush()
             except (OSError, ValueError):
                 pass
-        proc = ctx.Process(target=_worker_main, args=(child, wid, self.work), daemon=True)   # type: ignore[attr-defined]
+        proc = ctx.Process(target=worker_main, args=(child, wid, self.work), daemon=True)   # type: ignore[attr-defined]
         # the child starts with SIGINT blocked, until it is inside the code that handles it
+        self._made.append(proc)
         old = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
         try:
             proc.start()
@@ -417,6 +135,11 @@ class _Search:
                 p.proc.kill()
                 p.proc.join()
             p.conn.close()
+        known = {id(p.proc) for p in self.procs}
+        for proc in self._made:    # started, but an interrupt came before it was recorded
+            if id(proc) not in known and proc.pid is not None and proc.is_alive():
+                proc.kill()
+                proc.join()
 
     # ------------------------------------------------------------------ scheduling
     def _record(self, st: dict) -> None:
@@ -548,7 +271,8 @@ class _Search:
         if threading.current_thread() is threading.main_thread():
             old_term = signal.signal(signal.SIGTERM, _term_as_interrupt)
         try:
-            self.procs = [self._start(w) for w in range(self.jobs)]
+            for w in range(self.jobs):
+                self.procs.append(self._start(w))
             if self.hi is not None and self.lo > self.hi:
                 self.done = True
             self._fill()
