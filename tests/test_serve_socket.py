@@ -171,6 +171,28 @@ def test_an_ipv6_address_is_printed_as_listen_takes_it():
     from cplus.cli.serve import address_text
     assert address_text("::1", 39429) == "[::1]:39429" and address_text("127.0.0.1", 7070) == "127.0.0.1:7070"
     assert parse_listen(address_text("::1", 39429)) == ("::1", 39429)
+    try:
+        socket.create_server(("::1", 0), family=socket.AF_INET6).close()
+    except OSError:
+        pytest.skip("no IPv6 loopback here")
+    proc = subprocess.Popen([sys.executable, "-m", "cplus", "serve", str(MAILBOT / "mailbot.cp"), "--listen",
+                             "[::1]:0"], stderr=subprocess.PIPE, text=True, env=dict(os.environ, PYTHONUNBUFFERED="1"))
+    try:
+        assert proc.stderr is not None
+        line = next(x for x in proc.stderr if "listening on" in x)
+        printed = line.split("listening on ")[1].split()[0]
+        assert printed.startswith("[::1]:") and parse_listen(printed)[0] == "::1"
+        c = Client(("::1", parse_listen(printed)[1]))
+        c.send({"status": 1})
+        assert c.line() == {"type": "error", "message": "no goal 1"}
+        c.close()
+        proc.send_signal(signal.SIGTERM)
+        proc.communicate(timeout=60)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+    assert proc.returncode == 0
 
 
 def test_listen_addresses_are_loopback_only():
@@ -220,3 +242,16 @@ def test_the_command_serves_a_socket_until_sigterm(tmp_path):
     assert lines[-1]["status"] == "stopped"
     assert [(g["id"], g["status"]) for g in lines[-1]["goals"]] == [(1, "rejected"), (2, "aborted")]
     assert "aborted" in rest and "stopped" in rest
+
+
+def test_the_python_line_of_docs_serve_talks_to_the_socket(server):
+    """The docs' way without netcat: Python alone, run as written (the port is the test's)."""
+    doc = (ROOT / "docs" / "serve.md").read_text()
+    line = next(x for x in doc.splitlines() if x.startswith("python3 -c 'import json, socket;"))
+    assert "| nc -q 30 127.0.0.1 7070" in doc and "| socat -t 30 - TCP:127.0.0.1:7070" in doc
+    code = line[len("python3 -c '"):-1].replace("7070", str(server.address[1]))
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert r.returncode == 0, r.stderr
+    lines = [json.loads(x) for x in r.stdout.splitlines()]
+    assert lines[0] == {"type": "goal", "id": 1, "request": "deliver(office3,office2)", "status": "pending"}
+    assert lines[-1]["type"] == "result" and lines[-1]["status"] == "succeeded"
