@@ -165,8 +165,16 @@ class Session(QuerySession):
         if m == self._solved:
             return self.resolve()
         self._model = super().solve_at(m)
-        self._solved = m
         return self._model
+
+    def open_horizon(self, m: int) -> None:
+        """Extend to a horizon above the current one without solving (ValueError at or below
+        it: opening it again would drop what was blocked there)."""
+        if self._solved is not None and m <= self._solved:
+            raise ValueError(f"horizon {m} is already open (this session is at horizon {self._solved}): solve "
+                             "again with solve_at or resolve, which keep what was blocked")
+        super().open_horizon(m)
+        self._solved, self._model = m, False
 
     def resolve(self) -> bool:
         """Solve again at the current horizon (after :meth:`block_current` or added clauses)."""

@@ -68,6 +68,8 @@ def test_a_session_says_what_it_cannot_do():
     assert session.solve_at(2)
     with pytest.raises(ValueError, match=r"^horizon 1 is below 2, the one this session solved last"):
         session.solve_at(1)
+    with pytest.raises(ValueError, match=r"^horizon 2 is already open \(this session is at horizon 2\)"):
+        session.open_horizon(2)
 
 
 def test_state_values_are_the_fluents_by_name():
