@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import signal
 import socket
 import subprocess
@@ -242,6 +243,8 @@ def test_the_command_serves_a_socket_until_sigterm(tmp_path):
     assert lines[-1]["status"] == "stopped"
     assert [(g["id"], g["status"]) for g in lines[-1]["goals"]] == [(1, "rejected"), (2, "aborted")]
     assert "aborted" in rest and "stopped" in rest
+    end = re.search(r"cplus serve: stopped: ended on request at cycle (\d+); (\d+) cycles? ran, ", rest)
+    assert end and end[1] == end[2], rest      # one word for how it ended, one count of cycles
 
 
 def test_the_python_line_of_docs_serve_talks_to_the_socket(server):
