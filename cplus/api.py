@@ -8,7 +8,7 @@
 >>> d.labels
 ['on']
 >>> r = d.solve("on")
->>> r.maxstep, r.histories[0].value("flip", 0), r.histories[0].state_text(1)
+>>> r.maxstep, r.histories[0].value("flip", 0), r.histories[0].state_values(1)
 (1, True, {'lit': True})
 >>> print(d.format(r).strip())
 No solution with maxstep 0.
@@ -31,7 +31,7 @@ from cplus.ground.theory import GroundTheory, ground_program
 from cplus.history import History
 from cplus.load import load_program, load_text
 from cplus.output import Display, format_result, result_json
-from cplus.planner import QueryResult, QuerySession, find_horizon, iter_histories, run_query, states_query
+from cplus.planner import QueryResult, QuerySession, Session, find_horizon, iter_histories, run_query, states_query
 from cplus.program import Program, QuerySpec
 from cplus.resolve import Externals
 from cplus.sat.solver import DEFAULT_SOLVER
@@ -140,6 +140,8 @@ class Domain:
               nmquery: bool = False) -> QueryResult:
         """Run a query (with ``nmquery``, the nmquery of that label): the shortest maxstep in
         its range with a history, and up to ``solutions`` histories there (0 = all)."""
+        if isinstance(solutions, bool) or not isinstance(solutions, int) or solutions < 0:
+            raise ValueError(f"solutions must be a non-negative integer (0: every history), not {solutions!r}")
         query = self._searchable(label, nmquery)
         return run_query(self.theory_for(query), query, solutions, solver, max_horizon, on_horizon)
 
@@ -153,10 +155,13 @@ class Domain:
             yield from iter_histories(session)
 
     def session(self, label: str = "0", solver: str = DEFAULT_SOLVER,
-                max_horizon: int | None = None, nmquery: bool = False) -> QuerySession:
-        """A live solver for a query, for callers that add constraints between solves."""
+                max_horizon: int | None = None, nmquery: bool = False) -> Session:
+        """A live solver for a query (:class:`~cplus.planner.Session`), for callers that
+        enumerate histories themselves or add constraints between solves: ``solve_at(m)``,
+        ``history()``, ``block_current()``, ``resolve()``, ``histories(m)``.  What is blocked
+        stays blocked when the same horizon is solved again."""
         query = self._searchable(label, nmquery)
-        return QuerySession(self.theory_for(query), query, solver, max_horizon)
+        return Session(self.theory_for(query), query, solver, max_horizon)
 
     def prove(self, label: str, solver: str | None = None):
         """The proof of a ``maxstep :: any`` query that no plan of any length exists

@@ -24,7 +24,7 @@ def json_value(gc: GroundConst, v: object):
 
 class History(Record):
     """The tables are keyed by ground constants and hold objects as the grounder knows them
-    (``"true"``/``"false"`` for Booleans); :meth:`value` and :meth:`state_text` speak by name
+    (``"true"``/``"false"`` for Booleans); :meth:`value` and :meth:`state_values` speak by name
     and give values as the JSON output does."""
 
     _fields = ("maxstep", "rigid", "states", "actions")
@@ -59,8 +59,8 @@ class History(Record):
                     return json_value(gc, v)
         raise KeyError(text)
 
-    def state_text(self, step: int) -> dict[str, object]:
-        """Every fluent's value at a step, by name, as in the JSON output."""
+    def state_values(self, step: int) -> dict[str, object]:
+        """Every fluent's value at a step, by name (``{"lit": True}``), as in the JSON output."""
         return {gc.text: json_value(gc, v) for gc, v in self.states[step].items()}
 
     def key(self) -> tuple:

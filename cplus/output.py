@@ -16,7 +16,7 @@ from cplus.history import json_value as _json_value
 from cplus.program import Pattern, Program
 from cplus.signature import GroundConst, NamedSort, RangeSort, Signature, render_value
 
-__all__ = ["Display", "format_history", "format_result", "result_json", "PLAN_FORMAT"]
+__all__ = ["Display", "format_history", "format_result", "result_json", "unshown_changes", "PLAN_FORMAT"]
 
 PLAN_FORMAT = "cplus.plan/1"
 
@@ -98,6 +98,13 @@ class Display:
                      or (not isinstance(s, str) and self._matches(s, gc, value)) for s in specs)
         return ok and not any(self._matches(p, gc, value) for p in self.program.hide)
 
+    @property
+    def hides_something(self) -> bool:
+        """The program has ``:- show`` or ``:- hide`` statements (without them CCALC's default,
+        ``positive``, shows every change of a step)."""
+        prog = self.program
+        return bool(prog.show_given or prog.hide or prog.hide_all)
+
     # -- order ---------------------------------------------------------------------
     def key(self, gc: GroundConst) -> tuple:
         k = self._order.get(gc.id)
@@ -176,18 +183,44 @@ class Display:
         return [t for _, t in sorted(items)]
 
 
+UNSHOWN_SHOWN = 8
+"""The most atoms an unshown-change note names (then ``...``)."""
+
+
 def format_history(display: Display, hist: History) -> str:
+    """CCALC's text of one history.  Where the domain's ``:- show``/``:- hide`` leave out
+    all that a step changes, so that two states print alike with no ``ACTIONS`` line
+    between them, a comment line says what changed (CCALC prints nothing there, and the
+    step looks like a mistake), or that it changes nothing; a domain that shows and hides
+    nothing prints as CCALC's."""
     lines: list[str] = []
     rigid = display.state_atoms(hist.rigid)
     if rigid:
         lines.append("  ".join(rigid))
+    states = [display.state_atoms(state) for state in hist.states]
     for t, state in enumerate(hist.states):
-        lines.append(f"{t}:  " + "  ".join(display.state_atoms(state)))
+        lines.append(f"{t}:  " + "  ".join(states[t]))
         if t < len(hist.actions):
             acts = display.action_atoms(hist.actions[t])
             if acts:
                 lines.append("ACTIONS:  " + "  ".join(acts))
+            elif states[t] == states[t + 1] and display.hides_something:
+                unshown = unshown_changes(display, state, hist.actions[t], hist.states[t + 1])
+                named = unshown[:UNSHOWN_SHOWN] + (["..."] if len(unshown) > UNSHOWN_SHOWN else [])
+                lines.append(f"% step {t} -> {t + 1} changes only what the show statements leave out: "
+                             + "  ".join(named) if unshown else f"% step {t} -> {t + 1} changes nothing")
     return "\n" + "\n\n".join(line.rstrip() for line in lines) + "\n\n\n"
+
+
+def unshown_changes(display: Display, before: dict[GroundConst, object], actions: dict[GroundConst, object],
+                    after: dict[GroundConst, object]) -> list[str]:
+    """What a step does that the display leaves out: the actions executed and the fluents
+    whose value changed, as atoms (``canCarry``, ``-trayUp``, ``loc(b1)=table``), in the
+    display's order."""
+    done = [gc for gc in executed_actions(actions) if not display.shown(gc, actions[gc])]
+    changed = [gc for gc, v in after.items() if before.get(gc) != v and not display.shown(gc, v)]
+    return [display.atom_text(gc, actions[gc]) for gc in sorted(done, key=display.key)] + \
+        [display.atom_text(gc, after[gc]) for gc in sorted(changed, key=display.key)]
 
 
 def format_result(display: Display, failed: Iterable[int], histories: list[History], numbered: bool) -> str:

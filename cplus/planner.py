@@ -23,7 +23,7 @@ from cplus.sat.horizon import HorizonStats, QuerySession
 from cplus.sat.solver import DEFAULT_SOLVER
 
 __all__ = ["PlanStatus", "QueryResult", "run_query", "find_horizon", "iter_histories", "states_query",
-           "QuerySession"]
+           "QuerySession", "Session"]
 
 
 class PlanStatus(Enum):
@@ -126,3 +126,88 @@ def iter_histories(session: QuerySession) -> Iterator[History]:
         session.block_current()
         if not session.resolve():
             return
+
+
+class Session(QuerySession):
+    """A live solver for one query, for callers that enumerate histories or add constraints
+    between solves (:meth:`cplus.Domain.session`).
+
+    What a caller blocks stays blocked: :meth:`solve_at` at the horizon already solved solves
+    again with every history blocked there still excluded (a :class:`QuerySession` would
+    open the horizon afresh and drop them), a lower horizon is refused, and a higher one
+    starts from what it allows.  :meth:`histories` is the loop that enumerates them.
+
+    >>> from cplus import Domain
+    >>> s = Domain.from_text('''
+    ... :- constants lit :: inertialFluent; flip :: exogenousAction.
+    ... flip causes lit.
+    ... :- query maxstep :: 1; 1: lit.''').session()
+    >>> s.solve_at(1), s.history().value("lit", 1)
+    (True, True)
+    >>> s.block_current(); s.solve_at(1)     # 3 histories: 2 are left
+    True
+    >>> len(list(s.histories(1)))            # those 2, each blocked as it is given
+    2
+    >>> s.solve_at(1)
+    False
+    """
+
+    _solved: int | None = None      # the horizon opened last
+    _model = False                  # the last solve found a history (the solver holds its model)
+
+    def solve_at(self, m: int) -> bool:
+        """Solve at horizon m: the query's conditions there, and every history blocked at m
+        (:meth:`block_current`) still excluded.  Horizons only go up (ValueError below the
+        last one)."""
+        if self._solved is not None and m < self._solved:
+            raise ValueError(f"horizon {m} is below {self._solved}, the one this session solved last: a session's "
+                             "horizons only go up (start another with Domain.session)")
+        if m == self._solved:
+            return self.resolve()
+        self._model = super().solve_at(m)
+        return self._model
+
+    def open_horizon(self, m: int) -> None:
+        """Extend to a horizon above the current one without solving (ValueError at or below
+        it: opening it again would drop what was blocked there)."""
+        if self._solved is not None and m <= self._solved:
+            raise ValueError(f"horizon {m} is already open (this session is at horizon {self._solved}): solve "
+                             "again with solve_at or resolve, which keep what was blocked")
+        super().open_horizon(m)
+        self._solved, self._model = m, False
+
+    def resolve(self) -> bool:
+        """Solve again at the current horizon (after :meth:`block_current` or added clauses)."""
+        if self._solved is None:
+            raise ValueError("nothing to solve again: call solve_at(m) first")
+        self._model = super().resolve()
+        return self._model
+
+    def _need_model(self, what: str) -> None:
+        if self._solved is None:
+            raise ValueError(f"no {what}: call solve_at(m) first")
+        if not self._model:
+            raise ValueError(f"no {what}: the last solve (horizon {self._solved}) found no history")
+
+    def history(self) -> History:
+        """The history the last solve found (ValueError when it found none)."""
+        self._need_model("history")
+        return decode_history(self)
+
+    def block_current(self) -> None:
+        """Exclude the history the last solve found, at this horizon, for the rest of the
+        session (ValueError when it found none)."""
+        self._need_model("history to block")
+        super().block_current()
+
+    def histories(self, m: int | None = None) -> Iterator[History]:
+        """Every history at horizon m not blocked yet (None: the shortest horizon of the
+        query's range that has one), each once and blocked as it is given."""
+        if m is None:
+            self.found = next((h for h in self.horizons()
+                               if (self._solved is None or h >= self._solved) and self.solve_at(h)), None)
+            if self.found is None:
+                return
+        elif not self.solve_at(m):
+            return
+        yield from iter_histories(self)

@@ -67,14 +67,46 @@ def test_an_event_from_the_keyboard_file_replans(delivery, tmp_path, capsys):
 def test_events_from_standard_input(delivery, capsys, monkeypatch):
     import io
     monkeypatch.setattr("sys.stdin", io.StringIO("@1 press\nhello\n"))
-    code, _, err = run([str(delivery), "--simulate", "--events", "-"], capsys)
+    code, _, err = run([str(delivery), "--simulate", "--events", "-", "--action-time", "0"], capsys)
     assert code == 0
-    assert "events press" in err
+    assert "on simulated robot (atLandmark; 0 s per action)" in err and "events press" in err
+
+
+def test_typed_events_give_the_simulated_robot_time_to_type(delivery, capsys, monkeypatch):
+    """The README's `--simulate --events -` example: actions of 1 s unless --action-time says
+    otherwise (of 0 s the run would end before anyone typed), and the README's table says so."""
+    import io
+    readme = " ".join((ROOT / "README.md").read_text().split())
+    assert "actions taking S seconds (default 0; 1 with `--events -`, so that there is time to type an event)" \
+        in readme
+    assert "cplus online domains/delivery/delivery.cp --simulate --events -  # no brick: type \"press\"" \
+        in (ROOT / "README.md").read_text()
+    monkeypatch.setattr("sys.stdin", io.StringIO(""))
+    code, _, err = run([str(delivery), "--simulate", "--events", "-", "--max-cycles", "0"], capsys)
+    assert code == 3 and "on simulated robot (atLandmark; 1 s per action)" in err
+    code, _, err = run([str(delivery), "--simulate", "--max-cycles", "0"], capsys)
+    assert code == 3 and "on simulated robot (atLandmark; 0 s per action)" in err
+    from cplus.cli.online import build_parser
+    assert "(default 0; with --events -, 1, so that there is time to type an event)" in \
+        " ".join(build_parser().format_help().split())
 
 
 def test_max_cycles_is_exit_3(delivery, capsys):
     code, _, err = run([str(delivery), "--simulate", "--max-cycles", "3"], capsys)
-    assert code == 3 and "max_cycles: no goal after 3 cycles" in err
+    assert code == 3
+    assert "cplus online: max_cycles: no goal after 3 cycles, the --max-cycles limit; 3 cycles ran, 0 replans, " in err
+
+
+def test_the_end_line_counts_the_cycles_that_ran(delivery, capsys):
+    code, _, err = run([str(delivery), "--simulate"], capsys)
+    assert code == 0
+    assert "cplus online: goal_reached: goal 'deliver' reached at cycle 7; 7 cycles ran, 0 replans, " in err
+
+
+def test_an_unknown_goal_names_the_labels_without_a_place_in_the_file(delivery, capsys):
+    code, _, err = run([str(delivery), "--simulate", "--goal", "nope"], capsys)
+    assert code == 2
+    assert err == "cplus online: error: --goal nope: no query with label 'nope' (this file's labels: deliver)\n"
 
 
 def test_an_ambiguous_state_is_exit_7(delivery, capsys):

@@ -165,3 +165,84 @@ def test_an_actionlib_client_sends_hears_cancels_and_gets_results(roscore, tmp_p
     lines = [json.loads(x) for x in log.read_text().splitlines()]
     assert [(g["id"], g["status"]) for g in lines[-1]["goals"]] == [(1, "preempted"), (2, "rejected"),
                                                                     (3, "succeeded"), (4, "succeeded")]
+
+
+STATES = textwrap.dedent("""
+    import json, sys, time
+    import rospy, actionlib
+    from actionlib import CommState
+    from actionlib_msgs.msg import GoalStatus
+    from cplus_msgs.msg import ServeAction, ServeGoal
+    ns = sys.argv[1]
+    rospy.init_node("cplus_test_states", anonymous=True, disable_signals=True)
+    ac = actionlib.ActionClient(ns, ServeAction)
+    assert ac.wait_for_server(rospy.Duration(60))
+    requests = ["deliver(office4,office1)", "deliver(office3,office1)", "deliver(office2,office1)",
+                "deliver(office1,office4)", "deliver(office1,office3)"]
+    goals = [ac.send_goal(ServeGoal(request=r)) for r in requests]
+
+    def wait(pred):
+        deadline = time.monotonic() + 120
+        while not pred():
+            assert time.monotonic() < deadline, [g.get_goal_status() for g in goals]
+            time.sleep(0.02)
+
+    # three in flight (three packages at most), two pending; each acknowledged by the server
+    wait(lambda: [g.get_goal_status() for g in goals] == [GoalStatus.ACTIVE] * 3 + [GoalStatus.PENDING] * 2
+         and all(g.get_comm_state() != CommState.WAITING_FOR_GOAL_ACK for g in goals))
+    goals[3].cancel()                       # still pending: recalled
+    wait(lambda: goals[3].get_comm_state() == CommState.DONE)
+
+    def final(g):
+        r = g.get_result()
+        return {"state": g.get_goal_status(), "text": g.get_goal_status_text(),
+                "result": None if r is None else {"status": r.status, "reason": r.reason}}
+    out = {"recalled": final(goals[3])}
+    print("ready", flush=True)              # the test stops the server now
+    wait(lambda: all(g.get_comm_state() == CommState.DONE for g in goals))
+    out["active"], out["pending"] = final(goals[0]), final(goals[4])
+    print(json.dumps(out), flush=True)
+""")
+
+
+@pytest.mark.slow
+@needs_ros
+def test_recalled_and_pending_at_the_stop_are_the_states_docs_serve_says(roscore, tmp_path):
+    """A goal cancelled while pending is RECALLED (result status "recalled"); when the server
+    stops, an active goal is ABORTED and a pending one REJECTED (actionlib aborts active goals
+    only), both with result status "aborted": the states docs/serve.md gives."""
+    doc = " ".join((ROOT / "docs" / "serve.md").read_text().split())
+    assert "a goal still pending when the server stops is REJECTED for actionlib (which aborts active goals only), " \
+           "with the result status `aborted` and the reason" in doc
+    assert "client.cancel_goal() # -> PREEMPTED, or RECALLED when the goal had not started yet; with a result" in doc
+    server = subprocess.Popen([sys.executable, "-m", "cplus", "serve", str(MAILBOT / "mailbot.cp"), "--ros",
+                               "--ros-name", "states", "--action-time", "1"],
+                              env=dict(roscore, PYTHONUNBUFFERED="1"), stderr=subprocess.PIPE, text=True)
+    client = None
+    try:
+        for line in server.stderr:
+            if "ROS action server" in line:
+                break
+        env = dict(roscore, PYTHONPATH=os.pathsep.join([MSG_PATH, DIST]))
+        client = subprocess.Popen([*client_python(), "-c", STATES, "/states"], env=env, stdout=subprocess.PIPE,
+                                  stderr=subprocess.PIPE, text=True)
+        assert client.stdout is not None
+        assert client.stdout.readline() == "ready\n", client.stderr.read() if client.stderr else ""
+        server.send_signal(signal.SIGTERM)
+        out_text, err_text = client.communicate(timeout=120)
+        assert client.returncode == 0, err_text
+        server.wait(60)
+    finally:
+        for proc in (client, server):
+            if proc is not None and proc.poll() is None:
+                proc.kill()
+                proc.wait()
+    assert server.returncode == 0
+    out = json.loads(out_text.strip().splitlines()[-1])
+    ABORTED, REJECTED, RECALLED = 4, 5, 8       # actionlib_msgs/GoalStatus
+    assert out["recalled"]["state"] == RECALLED and out["recalled"]["result"]["status"] == "recalled"
+    assert out["recalled"]["result"]["reason"].endswith("before it started")
+    assert out["active"]["state"] == ABORTED and out["active"]["result"]["status"] == "aborted"
+    assert out["pending"]["state"] == REJECTED and out["pending"]["result"]["status"] == "aborted"
+    assert out["pending"]["result"]["reason"].startswith("the server stopped (ended on request at cycle ")
+    assert out["pending"]["text"] == out["pending"]["result"]["reason"]

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import signal
 import socket
 import subprocess
@@ -142,7 +143,65 @@ def test_a_client_cancels_a_goal_and_its_owner_hears_the_preemption(server):
     other.close()
 
 
+def test_a_cancellation_is_answered_before_the_result_it_causes():
+    """A pending goal is recalled at once, and the board's dispatcher tells its owner while the
+    I/O thread is still answering the cancel line: the answer comes first all the same. No
+    loop runs here, so every goal stays pending until it is cancelled."""
+    from cplus.robot.serving.channels import SocketChannel
+    from cplus.robot.serving.goals import GoalBoard
+    d = Domain.load(str(MAILBOT / "mailbot.cp"))
+    board = GoalBoard(load_requests(str(MAILBOT / "requests.toml"), d))
+    channel = SocketChannel(board)
+    c = Client(channel.start())
+    try:
+        for gid in range(1, 31):
+            c.send({"request": "deliver(office3,office2)"})
+            assert c.line() == {"type": "goal", "id": gid, "request": "deliver(office3,office2)", "status": "pending"}
+            c.send({"cancel": gid})
+            answer, result = c.line(), c.line()
+            assert (answer["type"], answer["id"], answer["status"]) == ("cancel", gid, "recalled")
+            assert (result["type"], result["id"], result["status"]) == ("result", gid, "recalled")
+            assert result["reason"] == "cancelled by 127.0.0.1:" + str(c.sock.getsockname()[1]) + " before it started"
+    finally:
+        c.close()
+        channel.close()
+        board.close()
+
+
+def test_an_ipv6_address_is_printed_as_listen_takes_it():
+    from cplus.cli.serve import address_text
+    assert address_text("::1", 39429) == "[::1]:39429" and address_text("127.0.0.1", 7070) == "127.0.0.1:7070"
+    assert parse_listen(address_text("::1", 39429)) == ("::1", 39429)
+    try:
+        socket.create_server(("::1", 0), family=socket.AF_INET6).close()
+    except OSError:
+        pytest.skip("no IPv6 loopback here")
+    proc = subprocess.Popen([sys.executable, "-m", "cplus", "serve", str(MAILBOT / "mailbot.cp"), "--listen",
+                             "[::1]:0"], stderr=subprocess.PIPE, text=True, env=dict(os.environ, PYTHONUNBUFFERED="1"))
+    try:
+        assert proc.stderr is not None
+        line = next(x for x in proc.stderr if "listening on" in x)
+        printed = line.split("listening on ")[1].split()[0]
+        assert printed.startswith("[::1]:") and parse_listen(printed)[0] == "::1"
+        c = Client(("::1", parse_listen(printed)[1]))
+        c.send({"status": 1})
+        assert c.line() == {"type": "error", "message": "no goal 1"}
+        c.close()
+        proc.send_signal(signal.SIGTERM)
+        proc.communicate(timeout=60)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+    assert proc.returncode == 0
+
+
 def test_listen_addresses_are_loopback_only():
+    assert parse_listen("127.0.0.2:0") == ("127.0.0.2", 0)
+    with pytest.raises(ValueError) as e:
+        parse_listen("0.0.0.0:7070")
+    assert str(e.value) == ("0.0.0.0 is not a loopback address: the socket has no authentication, so it listens on "
+                            "loopback addresses only (127.0.0.0/8 or ::1)")
     assert parse_listen("127.0.0.1:0") == ("127.0.0.1", 0)
     assert parse_listen("localhost:7070") == ("127.0.0.1", 7070)
     assert parse_listen("[::1]:7070") == ("::1", 7070)
@@ -173,7 +232,7 @@ def test_the_command_serves_a_socket_until_sigterm(tmp_path):
         c.until("feedback", 2)
         proc.send_signal(signal.SIGTERM)        # the goal in flight is aborted, the client told
         last = c.until("result", 2)[-1]
-        assert last["status"] == "aborted" and last["reason"].startswith("the server stopped (stopped:")
+        assert last["status"] == "aborted" and last["reason"].startswith("the server stopped (ended on request at cycle ")
         _, rest = proc.communicate(timeout=60)
     finally:
         if proc.poll() is None:
@@ -184,3 +243,18 @@ def test_the_command_serves_a_socket_until_sigterm(tmp_path):
     assert lines[-1]["status"] == "stopped"
     assert [(g["id"], g["status"]) for g in lines[-1]["goals"]] == [(1, "rejected"), (2, "aborted")]
     assert "aborted" in rest and "stopped" in rest
+    end = re.search(r"cplus serve: stopped: ended on request at cycle (\d+); (\d+) cycles? ran, ", rest)
+    assert end and end[1] == end[2], rest      # one word for how it ended, one count of cycles
+
+
+def test_the_python_line_of_docs_serve_talks_to_the_socket(server):
+    """The docs' way without netcat: Python alone, run as written (the port is the test's)."""
+    doc = (ROOT / "docs" / "serve.md").read_text()
+    line = next(x for x in doc.splitlines() if x.startswith("python3 -c 'import json, socket;"))
+    assert "| nc -q 30 127.0.0.1 7070" in doc and "| socat -t 30 - TCP:127.0.0.1:7070" in doc
+    code = line[len("python3 -c '"):-1].replace("7070", str(server.address[1]))
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert r.returncode == 0, r.stderr
+    lines = [json.loads(x) for x in r.stdout.splitlines()]
+    assert lines[0] == {"type": "goal", "id": 1, "request": "deliver(office3,office2)", "status": "pending"}
+    assert lines[-1]["type"] == "result" and lines[-1]["status"] == "succeeded"

@@ -39,11 +39,18 @@ from cplus.cli.common import (
 )
 from cplus.cli.signals import Shutdown, exit_code_of, motors_off, reason_of
 
-__all__ = ["build_parser", "main", "exit_code"]
+__all__ = ["build_parser", "main", "exit_code", "end_line", "goal_error"]
 
 MAX_EVENTS_FILE = 16 * 1024 * 1024
 """The largest ``--events FILE`` read (characters): a script of a few hundred thousand lines,
 read and checked in seconds; anything larger is a mistake (a device, a log)."""
+
+
+ACTION_TIME = 0.0
+"""``--simulate``: seconds per action by default (a run as fast as the planner goes)."""
+TYPING_ACTION_TIME = 1.0
+"""``--simulate --events -``: seconds per action by default, so that a person at the keyboard
+can type ``press`` before the goal is reached."""
 
 
 def build_parser() -> OneLineArgumentParser:
@@ -61,8 +68,9 @@ def build_parser() -> OneLineArgumentParser:
                         "emulate every brick in its world")
     p.add_argument("--simulate", action="store_true",
                    help="no brick: a simulated robot that does what the model predicts (events come from --events)")
-    p.add_argument("--action-time", type=seconds, default=0.0, metavar="SECONDS",
-                   help="with --simulate: how long each action takes (default 0)")
+    p.add_argument("--action-time", type=seconds, default=None, metavar="SECONDS",
+                   help=f"with --simulate: how long each action takes (default {ACTION_TIME:g}; with --events -, "
+                        f"{TYPING_ACTION_TIME:g}, so that there is time to type an event)")
     p.add_argument("--events", metavar="FILE|-", help="events from a file or standard input: lines "
                    "'[@CYCLE] EVENT ...' naming events whose binding source is 'input'")
     p.add_argument("--log", metavar="FILE", help="write the run as JSON lines (cplus.online/1)")
@@ -145,8 +153,16 @@ class Progress:
                 self._line(f"cycle {record.cycle} [{record.time:.2f} s] " + " | ".join(parts))
 
     def on_end(self, result) -> None:
-        self._line(f"{result.status.value}: {result.message} ({len(result.records)} cycles, {result.replans} "
-                   f"replan{'s' if result.replans != 1 else ''}, {result.seconds:.2f} s)")
+        self._line(end_line(result))
+
+
+def end_line(result) -> str:
+    """How a run ended, with how many cycles ran (those that executed a step or waited: cycle k
+    is reached after k of them), its re-plans and its time (every cycle counted, also those
+    whose records the loop no longer keeps)."""
+    ran = max(result.cycles - 1, 0)
+    return (f"{result.status.value}: {result.message}; {ran} cycle{'s' if ran != 1 else ''} ran, {result.replans} "
+            f"replan{'s' if result.replans != 1 else ''}, {result.seconds:.2f} s")
 
 
 def _step(actions: Sequence[str]) -> str:
@@ -194,15 +210,29 @@ def main(args: argparse.Namespace) -> int:
 
 
 def _domain_and_goal(args: argparse.Namespace, domain) -> str | None:
-    from cplus.cli.common import query
     Warnings()(domain.diagnostics)
     if not domain.labels:
         print(f"cplus online: error: {args.domain} has no query: add one whose step-0 conditions are the start "
               "and whose maxstep conditions are the goal", file=sys.stderr)
         return None
     label = args.goal or domain.labels[0]
-    query(domain, label, args.domain)
+    wrong = goal_error(domain, label)
+    if wrong:
+        print(f"cplus online: error: {wrong}", file=sys.stderr)
+        return None
     return label
+
+
+def goal_error(domain, label: str) -> str | None:
+    """What is wrong with ``--goal LABEL`` (no such query: the labels there are), or None. Not
+    located in the file: the label came from the command line, and no line of the file is
+    wrong."""
+    from cplus.errors import QueryError
+    try:
+        domain.query(label)
+    except QueryError as exc:
+        return f"--goal {label}: {exc.message}"
+    return None
 
 
 class _Log:
@@ -300,10 +330,18 @@ def _behaviours(args: argparse.Namespace, robot: str, ports: dict[str, str]) -> 
     return shutdown.exit_code if result.status.value == "stopped" else exit_code(result.status)
 
 
+def action_time(args: argparse.Namespace) -> float:
+    """``--action-time``, or its default: :data:`TYPING_ACTION_TIME` when events are typed
+    (``--events -``), else :data:`ACTION_TIME`."""
+    if args.action_time is not None:
+        return args.action_time
+    return TYPING_ACTION_TIME if args.events == "-" else ACTION_TIME
+
+
 def _executor(args: argparse.Namespace, model, binding, ports: dict[str, str]):
     from cplus.robot.online.executors import SimulatedExecutor
     if args.simulate:
-        return SimulatedExecutor.from_binding(model, binding, default_s=args.action_time)
+        return SimulatedExecutor.from_binding(model, binding, default_s=action_time(args))
     from cplus.robot.online.nxt_executor import NxtExecutor
     return NxtExecutor(model, binding, ports or None, latency=not args.no_latency, time_scale=args.time_scale)
 

@@ -39,7 +39,7 @@ from cplus.cli.common import (
     positive_int,
     seconds,
 )
-from cplus.cli.online import Progress
+from cplus.cli.online import Progress, goal_error
 from cplus.cli.signals import EXIT_FORCED
 from cplus.robot.serving.goals import GoalWatcher
 
@@ -125,6 +125,11 @@ def build_parser() -> OneLineArgumentParser:
     return p
 
 
+def address_text(host: str, port: int) -> str:
+    """``HOST:PORT`` as ``--listen`` takes it back: an IPv6 host in brackets (``[::1]:7070``)."""
+    return f"[{host}]:{port}" if ":" in host else f"{host}:{port}"
+
+
 class ServeProgress(Progress):
     """``cplus online``'s progress lines, without repeating an idle cycle's line when it ends."""
 
@@ -138,10 +143,6 @@ class ServeProgress(Progress):
         if record.cycle != self.shown or record.failure:
             super().on_cycle(record)
 
-    def on_end(self, result) -> None:
-        # every cycle counted, also those whose records the loop no longer keeps
-        self._line(f"{result.status.value}: {result.message} ({result.cycles} cycles, {result.replans} "
-                   f"replan{'s' if result.replans != 1 else ''}, {result.seconds:.2f} s)")
 
 
 class GoalLines(GoalWatcher):
@@ -212,7 +213,6 @@ def _check(args: argparse.Namespace) -> ServeOptions | int:
     """Read and check every input; the options, or the exit code of the first bad one (its
     message printed)."""
     from cplus.api import Domain
-    from cplus.cli.common import query
     from cplus.robot.serving.channels import SocketLimits, load_script, parse_listen
     from cplus.robot.serving.goals import Limits
     from cplus.robot.serving.reactive import ServerSettings
@@ -240,7 +240,9 @@ def _check(args: argparse.Namespace) -> ServeOptions | int:
         return _fail(f"{args.domain} has no query: add one whose step-0 conditions are the start and whose maxstep "
                     "conditions say that nothing is pending")
     label = args.goal or domain.labels[0]
-    query(domain, label, args.domain)
+    wrong = goal_error(domain, label)
+    if wrong:
+        return _fail(wrong)
     vocabulary = load_requests(requests_path, domain)
     script = load_script(args.script) if args.script else None
     binding = None
@@ -314,7 +316,7 @@ def _run(opts: ServeOptions) -> int:
         try:
             if listen is not None:
                 host, port = server.listen(*listen)
-                print(f"cplus serve: listening on {host}:{port} (JSON lines; requests: {opts.vocabulary.usage()})",
+                print(f"cplus serve: listening on {address_text(host, port)} (JSON lines; requests: {opts.vocabulary.usage()})",
                       file=err, flush=True)
             if ros is not None:
                 from cplus.robot.serving import ros_bridge
@@ -326,7 +328,7 @@ def _run(opts: ServeOptions) -> int:
         except (OSError, RuntimeError) as exc:
             for c in server.channels:
                 c.close()
-            what = f"cannot listen on {listen[0]}:{listen[1]}: {exc.strerror}" \
+            what = f"cannot listen on {address_text(*listen)}: {exc.strerror}" \
                 if isinstance(exc, OSError) and listen else str(exc)
             print(f"cplus serve: error: {what}", file=err)
             return EXIT_INPUT

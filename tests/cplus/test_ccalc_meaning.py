@@ -151,7 +151,7 @@ caused q if r. default -q. default -p(X).
 :- constants r :: simpleFluent.
 :- query maxstep :: 0; 0: r."""
     (h,) = histories(src).histories
-    assert h.state_text(0) == {"p(x)": True, "p(y)": True, "q": True, "r": True}
+    assert h.state_values(0) == {"p(x)": True, "p(y)": True, "q": True, "r": True}
     with pytest.raises(CPlusError, match="unknown name 'zz'"):
         Domain.from_text(":- constants p :: inertialFluent.\ncaused p if zz.")
 

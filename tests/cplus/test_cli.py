@@ -242,7 +242,7 @@ def test_the_api_values_are_the_json_values(lamp, capsys):
     code, out, _ = run(["plan", lamp, "--query", "on", "--json"], capsys)
     hist = json.loads(out)["results"][0]["histories"][0]
     api = Domain.load(lamp).solve("on").histories[0]
-    assert [api.state_text(t) for t in range(2)] == hist["states"] == [{"lit": False}, {"lit": True}]
+    assert [api.state_values(t) for t in range(2)] == hist["states"] == [{"lit": False}, {"lit": True}]
     assert api.value("flip", 0) is True and api.value("lit", 1) is True
 
 

@@ -41,7 +41,7 @@ def test_thousands_of_conjuncts(n):
     text = (":- constants q, r :: inertialFluent; s :: sdFluent.\ndefault -s.\n"
             "caused s if " + " & ".join(["q"] * (n - 1)) + " & -r.\n:- query maxstep :: 0; 0: s.")
     (hist,) = Domain.from_text(text).solve("0", solutions=0).histories
-    assert hist.state_text(0) == {"q": True, "r": False, "s": True}
+    assert hist.state_values(0) == {"q": True, "r": False, "s": True}
 
 
 def test_a_thousand_term_sum_has_its_value():

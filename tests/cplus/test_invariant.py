@@ -212,7 +212,7 @@ def test_a_proof_is_never_contradicted_by_a_plan(case):
         assert planned.status.name == "NO_PLAN", text     # 8 states: a plan would be this short
         return
     cex = proof.failed.counterexample
-    states = [cex.state_text(t) for t in range(cex.maxstep + 1)]
+    states = [cex.state_values(t) for t in range(cex.maxstep + 1)]
     if proof.failed.name == "init":
         assert init.holds(states[0]) and not inv.holds(states[0])
     elif proof.failed.name == "goal":

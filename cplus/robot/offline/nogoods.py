@@ -163,10 +163,21 @@ class NogoodStore:
         for t in range(self.h.m + 1):
             self.vectors.step(self.h, t)
 
-    def excludes(self, states: list[dict]) -> str | None:
-        """What in the store forbids a history with these states (fluent -> value per step),
+    def excludes(self, history) -> str | None:
+        """What in the store forbids a history (a :class:`~cplus.history.History`, such as a
+        refinement's ``first_history``, or its ``states``: ground fluent -> value per step),
         as text, or ``None``: the solver's view of the clauses, evaluated in Python (to tell
-        why a plan cannot be proposed, and to test the store)."""
+        why a plan cannot be proposed, and to test the store). TypeError for anything else
+        (a trajectory's ``StepState`` s, a result's ``states``, say which plan they are but
+        not its fluents)."""
+        given = list(history.states) if isinstance(history, History) else \
+            list(history) if isinstance(history, (list, tuple)) else None
+        wrong = type(history).__name__ if given is None else \
+            next((f"a {type(history).__name__} of {type(s).__name__}" for s in given if not isinstance(s, dict)), None)
+        if given is None or wrong is not None:
+            raise TypeError(f"excludes() takes a History (such as result.history or result.first_history) or its "
+                            f"states (list(history.states)), not {wrong}")
+        states: list[dict] = given
         for nogood, _ in self.windows:
             for t in range(len(states) - nogood.span):
                 if not any(self._holds(states, t, lit) for lit in nogood.lits):

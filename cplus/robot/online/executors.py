@@ -60,7 +60,8 @@ class SimulatedExecutor(Executor):
         # the world fixes every event: what the schedule says happens, happens; nothing else
         self.world = OnlineModel(model.domain, model.query.label, Roles(roles.agent, roles.events))
         self.log: list[tuple[int, list[str], State]] = []
-        self.description = f"simulated robot ({', '.join(f.text for f in self.sensed) or 'no sensors'})"
+        timing = f"{default_s:g} s per action" + (", some timed by name" if self.durations else "")
+        self.description = f"simulated robot ({', '.join(f.text for f in self.sensed) or 'no sensors'}; {timing})"
 
     @classmethod
     def from_binding(cls, model: OnlineModel, binding, **kw) -> SimulatedExecutor:

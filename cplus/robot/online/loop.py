@@ -461,13 +461,13 @@ class OnlineLoop:
                                  f"state of cycle {cycle} within {hi} steps")
             if self._stop.is_set():
                 self._record(record)
-                return self._end(OnlineStatus.STOPPED, f"stopped at cycle {cycle}")
+                return self._end(OnlineStatus.STOPPED, f"ended on request at cycle {cycle}")
             if plan.length == 0 and self.when_done == "stop":
                 self._record(record)
                 return self._end(OnlineStatus.GOAL_REACHED, f"goal '{model.query.label}' reached at cycle {cycle}")
             if self.max_cycles is not None and cycle >= self.max_cycles:
                 self._record(record)
-                return self._end(OnlineStatus.MAX_CYCLES, f"no goal after {cycle} cycles (--max-cycles)")
+                return self._end(OnlineStatus.MAX_CYCLES, f"no goal after {cycle} cycles, the --max-cycles limit")
             # act
             acts = plan.steps[0] if plan.length else []
             predicted = plan.states[1] if plan.length else None
@@ -486,7 +486,7 @@ class OnlineLoop:
             if outcome is None:
                 self._record(record)
                 if self._stop.is_set():
-                    return self._end(OnlineStatus.STOPPED, f"stopped at cycle {cycle}")
+                    return self._end(OnlineStatus.STOPPED, f"ended on request at cycle {cycle}")
                 return self._end(OnlineStatus.GOAL_REACHED, f"goal '{model.query.label}' holds at cycle {cycle} "
                                  "and no more events will come")
             record.act_s = self.clock.now() - t_act

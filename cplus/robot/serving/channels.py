@@ -35,7 +35,7 @@ anything else                                ``{"type": "error", "message": ...}
 ============================================ =================================================
 
 Each line is answered at once and in order (a request with its acknowledgement, before any
-news of that goal). A client that disconnects leaves its goals running (a mail robot does not
+news of that goal; a cancellation with its answer, before the goal's ``result`` it causes). A client that disconnects leaves its goals running (a mail robot does not
 drop a package because the person who asked hung up); their results are in the log.
 
 One I/O thread serves every connection (:class:`SocketChannel`), and no client can make the
@@ -199,8 +199,8 @@ def parse_script(text: str, path: str) -> RequestScript:
         elif e.cancel is not None and e.cancel > requests:
             lines = text.splitlines(keepends=True)
             start = sum(len(x) for x in lines[:e.line - 1])
-            raise ScriptError(f"cancels goal {e.cancel}, but only {requests} request{'s' if requests != 1 else ''} "
-                              f"arrive by cycle {e.cycle}", Location(source, start, start + len(lines[e.line - 1].rstrip())))
+            arrive = "request arrives" if requests == 1 else "requests arrive"
+            raise ScriptError(f"cancels goal {e.cancel}, but only {requests} {arrive} by cycle {e.cycle}", Location(source, start, start + len(lines[e.line - 1].rstrip())))
     return RequestScript(entries, Path(path).name)
 
 
@@ -219,7 +219,7 @@ def parse_listen(text: str) -> tuple[str, int]:
         loopback = False
     if not loopback:
         raise ValueError(f"{host or 'an empty host'} is not a loopback address: the socket has no "
-                         "authentication, so it listens on 127.0.0.1 or ::1 only")
+                         "authentication, so it listens on loopback addresses only (127.0.0.0/8 or ::1)")
     return host, int(port)
 
 
@@ -327,10 +327,14 @@ class _Client(GoalWatcher):
 
     def acknowledge(self, ack: dict, final: bool) -> None:
         """The I/O thread's answer to a request, then the goal's news that came before it."""
-        gid = ack["id"]
+        self._answer_first({"type": "goal", **ack}, ack["id"], not final)
+
+    def _answer_first(self, answer: dict, gid: int, in_flight: bool) -> None:
+        """Send ``answer``, then the news of goal ``gid`` held back until it was out; from now
+        on that goal's news goes out as it comes, while it is ``in_flight`` (not final)."""
         with self._lock:
-            wake = self._send({"type": "goal", **ack}, now=False)
-            if not final:
+            wake = self._send(answer, now=False)
+            if in_flight:
                 self._acked.add(gid)
             for obj in self._early.pop(gid, []):
                 wake = self._send(obj, now=False) or wake
@@ -338,6 +342,17 @@ class _Client(GoalWatcher):
                     self._acked.discard(gid)
         if wake:
             self.channel._wake()
+
+    def _hold(self, gid: int) -> bool:
+        """Keep the news of this client's goal ``gid`` back (in ``_early``) until the answer
+        to the line being handled is out: a cancellation's ``result`` (a pending goal is
+        recalled at once, by the board's dispatcher) must not overtake the ``cancel`` answer.
+        True when the goal is this client's and in flight."""
+        with self._lock:
+            if gid in self._acked:
+                self._acked.discard(gid)
+                return True
+        return False
 
     def _news(self, goal: Goal, obj: dict, final: bool) -> None:
         wake = False
@@ -452,16 +467,19 @@ class _Client(GoalWatcher):
         if isinstance(value, bool) or not isinstance(value, int):
             self.answer({"type": "error", "message": f"\"{key}\" takes a goal id (an integer)"})
             return
+        held = False
         if key == "cancel":
+            held = self._hold(value)
             try:
                 board.cancel(value, self.peer)
             except KeyError:
                 pass
         now = board.describe(value)
-        if now is None:
-            self.answer({"type": "error", "message": _unknown(board, value)})
+        answer = {"type": "error", "message": _unknown(board, value)} if now is None else {"type": key, **now}
+        if held:
+            self._answer_first(answer, value, True)
         else:
-            self.answer({"type": key, **now})
+            self.answer(answer)
 
 
 def _unknown(board: GoalBoard, goal_id: int) -> str:

@@ -429,7 +429,8 @@ class GoalBoard(EventSource, Observer):
         self._started()
 
     def on_end(self, result: RunResult) -> None:
-        self.abort_all(f"the server stopped ({result.status.value}: {result.message})")
+        why = result.message if result.status.value == "stopped" else f"{result.status.value}: {result.message}"
+        self.abort_all(f"the server stopped ({why})")
 
     def abort_all(self, reason: str, timeout: float = -1) -> bool:
         """Abort every goal not final with ``reason``, and reject every later request with it

@@ -286,7 +286,7 @@ class Server:
         robot = threading.Thread(target=self._abort_robot, name="cplus-serve-abort", daemon=True)
         robot.start()
         robot.join(timeout / 3)
-        reason = f"the server stopped (stopped: {message})"
+        reason = f"the server stopped ({message})"
         self.board.abort_all(reason, timeout=max(deadline - time.monotonic(), 0.0) / 3)
         self.board.drain(max(deadline - time.monotonic(), 0.0) / 3)
         records = list(self.loop.records)
