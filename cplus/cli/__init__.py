@@ -79,6 +79,9 @@ def main(argv: list[str] | None = None) -> int:
     except CPlusError as exc:
         print(exc.render(), file=sys.stderr)
         return EXIT_INPUT
+    except CliError as exc:     # the command line's, found once the file is read (an unknown --query)
+        print(exc, file=sys.stderr)
+        return EXIT_INPUT
     except KeyboardInterrupt as exc:
         from cplus.cli.signals import exit_code_of, reason_of
         print(f"cplus: {reason_of(exc)}", file=sys.stderr)

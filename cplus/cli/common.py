@@ -210,15 +210,15 @@ def clear_progress(enabled: bool) -> None:
         print("\r\033[K", end="", file=sys.stderr, flush=True)
 
 
-def query(domain, label: str, path: str, nmquery: bool = False):
-    """The query (``nmquery``: the nmquery) ``label`` of ``domain``; an unknown label is an
-    error located at the file."""
+def query(domain, label: str, prog: str, nmquery: bool = False):
+    """The query (``nmquery``: the nmquery) ``label`` of ``domain``. An unknown label is the
+    command line's error, not the file's (no line of the file is wrong): one line naming the
+    option and the labels there are."""
     from cplus.errors import QueryError
     try:
         return domain.nmquery(label) if nmquery else domain.query(label)
     except QueryError as exc:
-        exc.loc = file_loc(path)
-        raise
+        raise CliError(f"{prog}: error: {'--nmquery' if nmquery else '--query'} {label}: {exc.message}") from None
 
 
 def scene_beside(domain_path: str) -> str | None:

@@ -40,7 +40,7 @@ def main(args: argparse.Namespace) -> int:
     scene = args.scene or (None if args.file == STDIN else scene_beside(args.file))
     domain: Domain = (RobotTask.load(args.file, scene, args.extern).domain if scene  # type: ignore[assignment]
                       else Domain.load(args.file, externals(args.extern)))
-    q = query(domain, args.query, args.file) if args.query else None
+    q = query(domain, args.query, "cplus ground") if args.query else None
     nvars, clauses, names = horizon_cnf(domain.theory, args.maxstep, q)
     warn(domain.diagnostics)
     if args.dimacs == "-":

@@ -162,7 +162,7 @@ def _plan_domain(args: argparse.Namespace) -> int:
         from cplus.errors import QueryError
         raise QueryError("this file has no queries; use '--query states' to list its states",
                          file_loc(args.file))
-    queries = [query(domain, lab, args.file, nm) for lab, nm in wanted_labels]
+    queries = [query(domain, lab, "cplus plan", nm) for lab, nm in wanted_labels]
     if args.minimize:
         from cplus.cli.optimal import cli_check
         cli_check(domain, queries, args)
@@ -252,7 +252,7 @@ def _plan_robot_task(args: argparse.Namespace, scene_path: str) -> int:
     warn(domain.diagnostics)  # type: ignore[attr-defined]
     labels = [args.query] if args.query else domain.labels  # type: ignore[attr-defined]
     for label in labels:
-        query(domain, label, args.file)
+        query(domain, label, "cplus plan")
     objective = None
     if args.minimize:
         from cplus.cli.optimal import robot_check

@@ -137,7 +137,7 @@ def test_cplus_plan_nmquery(tmp_path):
     both = run()
     assert "% query 0" in both.stdout and "% nmquery 0" in both.stdout
     bad = run("--nmquery", "nope")
-    assert bad.returncode == 2 and "error: no nmquery with label 'nope'" in bad.stderr
+    assert bad.returncode == 2 and "cplus plan: error: --nmquery nope: no nmquery with label 'nope'" in bad.stderr
 
 
 # ----------------------------------------------------------------------------- declarations

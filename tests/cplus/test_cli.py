@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import json
+import os
 import subprocess
 import sys
 
@@ -115,9 +116,14 @@ def test_bad_command_lines(argv, fragment, lamp, capsys):
     assert "Traceback" not in err
 
 
-def test_missing_label_is_located(lamp, capsys):
+def test_an_unknown_label_is_the_command_lines_error_with_the_labels_there_are(lamp, capsys):
+    # not located in the file: no line of it is wrong (its first line is a comment)
     code, _, err = run(["plan", lamp, "--query", "x"], capsys)
-    assert err.startswith(f"{lamp}:1:1: error: no query with label 'x'")
+    assert (code, err) == (2, "cplus plan: error: --query x: no query with label 'x' (this file's labels: on, never)\n")
+    code, _, err = run(["plan", lamp, "--nmquery", "x"], capsys)
+    assert code == 2 and err.startswith("cplus plan: error: --nmquery x: no nmquery with label 'x'")
+    code, _, err = run(["ground", lamp, "--query", "x", "--maxstep", "1", "--dimacs", os.devnull], capsys)
+    assert code == 2 and err.startswith("cplus ground: error: --query x: no query with label 'x'")
 
 
 def test_console_script_runs_as_a_process(lamp):
