@@ -134,7 +134,7 @@ def run(name: str, total: int, seed: int, budget: int | None, solver: str | None
     server.loop.observers.append(stream)
     if name == "mailbot":                      # Table I first: requests 1 and 2, a cancellation
         script = [(1, "deliver(office3,office2)"), (3, 1), (4, "deliver(office3,office4)")]
-        from cplus.robot.serving.channels import RequestScript, ScriptEntry
+        from cplus.robot.serving.script import RequestScript, ScriptEntry
         server.add_script(RequestScript([ScriptEntry(c, x if isinstance(x, str) else None,
                                                      x if isinstance(x, int) else None, i)
                                          for i, (c, x) in enumerate(script, 1)]))

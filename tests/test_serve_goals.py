@@ -13,9 +13,9 @@ import pytest
 
 from cplus.api import Domain
 from cplus.robot.online.loop import OnlineStatus
-from cplus.robot.serving.channels import ScriptError, parse_script
 from cplus.robot.serving.goals import GoalBoard, GoalStatus, GoalWatcher, Limits
 from cplus.robot.serving.reactive import ServeLog, Server, ServerSettings
+from cplus.robot.serving.script import ScriptError, parse_script
 from cplus.robot.serving.vocabulary import Rejected, RequestsError, load_requests, parse_requests
 from nxt_link.clock import VirtualClock
 

@@ -17,8 +17,8 @@ import pytest
 
 from cplus.api import Domain
 from cplus.robot.online.loop import OnlineStatus
-from cplus.robot.serving.channels import parse_listen
 from cplus.robot.serving.reactive import Server, ServerSettings
+from cplus.robot.serving.socket_channel import parse_listen
 from cplus.robot.serving.vocabulary import load_requests
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -147,8 +147,8 @@ def test_a_cancellation_is_answered_before_the_result_it_causes():
     """A pending goal is recalled at once, and the board's dispatcher tells its owner while the
     I/O thread is still answering the cancel line: the answer comes first all the same. No
     loop runs here, so every goal stays pending until it is cancelled."""
-    from cplus.robot.serving.channels import SocketChannel
     from cplus.robot.serving.goals import GoalBoard
+    from cplus.robot.serving.socket_channel import SocketChannel
     d = Domain.load(str(MAILBOT / "mailbot.cp"))
     board = GoalBoard(load_requests(str(MAILBOT / "requests.toml"), d))
     channel = SocketChannel(board)

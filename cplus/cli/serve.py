@@ -46,8 +46,8 @@ from cplus.robot.serving.goals import GoalWatcher
 if TYPE_CHECKING:
     from cplus.api import Domain
     from cplus.robot.online.binding import RobotBinding
-    from cplus.robot.serving.channels import RequestScript
     from cplus.robot.serving.reactive import ServerSettings
+    from cplus.robot.serving.script import RequestScript
     from cplus.robot.serving.vocabulary import RequestVocabulary
 
 __all__ = ["build_parser", "main", "DEFAULT_LISTEN"]
@@ -213,9 +213,10 @@ def _check(args: argparse.Namespace) -> ServeOptions | int:
     """Read and check every input; the options, or the exit code of the first bad one (its
     message printed)."""
     from cplus.api import Domain
-    from cplus.robot.serving.channels import SocketLimits, load_script, parse_listen
     from cplus.robot.serving.goals import Limits
     from cplus.robot.serving.reactive import ServerSettings
+    from cplus.robot.serving.script import load_script
+    from cplus.robot.serving.socket_channel import SocketLimits, parse_listen
     from cplus.robot.serving.standing import DEFAULT_BUDGET
     from cplus.robot.serving.vocabulary import load_requests, requests_beside
     listen = None

@@ -7,24 +7,17 @@ the goals that are open.
 * :class:`GoalBoard` — each goal's life, from pending to a final status (:mod:`.goals`);
 * :class:`StandingModel` — one solver for the run, goals as assumptions (:mod:`.standing`);
 * the requests a domain accepts — ``requests.toml`` (:mod:`.vocabulary`);
-* channels — a script, a JSON-lines socket (:mod:`.channels`), ROS actionlib
+* channels — a script (:mod:`.script`), a JSON-lines socket (:mod:`.socket_channel`), ROS actionlib
   (:mod:`.ros_bridge`, imported only when asked for: ROS is optional).
 
 This package builds on :mod:`cplus.robot.online`, never the other way round.
 """
 from __future__ import annotations
 
-from cplus.robot.serving.channels import (
-    RequestScript,
-    ScriptEntry,
-    ScriptError,
-    SocketChannel,
-    load_script,
-    parse_listen,
-    parse_script,
-)
 from cplus.robot.serving.goals import Goal, GoalBoard, GoalStatus, GoalWatcher
 from cplus.robot.serving.reactive import ServeLog, Server, ServerSettings, serve_roles
+from cplus.robot.serving.script import RequestScript, ScriptEntry, ScriptError, load_script, parse_script
+from cplus.robot.serving.socket_channel import SocketChannel, parse_listen
 from cplus.robot.serving.standing import DEFAULT_BUDGET, GoalLiteral, StandingModel
 from cplus.robot.serving.vocabulary import (
     Rejected,

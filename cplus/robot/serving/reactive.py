@@ -8,12 +8,12 @@ the online loop of :mod:`cplus.robot.online.loop` with three parts added, and no
   actionlib states as the estimated state closes it;
 * a :class:`~cplus.robot.serving.standing.StandingModel`: one solver for the run, the shortest plan
   within a budget, the oldest goal first beyond it;
-* the channels: a script (:class:`~cplus.robot.serving.channels.RequestScript`), a JSON-lines socket
-  (:class:`~cplus.robot.serving.channels.SocketChannel`), ROS actionlib (:mod:`cplus.robot.serving.ros_bridge`).
+* the channels: a script (:class:`~cplus.robot.serving.script.RequestScript`), a JSON-lines socket
+  (:class:`~cplus.robot.serving.socket_channel.SocketChannel`), ROS actionlib (:mod:`cplus.robot.serving.ros_bridge`).
 
 **Threads and the lock order.** The loop runs in the thread that calls :meth:`Server.run`;
 the board's dispatcher tells watchers (:mod:`.goals`); the socket has one I/O thread
-(:mod:`.channels`); rospy has its own (:mod:`.ros_bridge`). Every lock of the server, and the
+(:mod:`.socket_channel`); rospy has its own (:mod:`.ros_bridge`). Every lock of the server, and the
 one order in which they may be held::
 
     actionlib's action_server.lock  ─┐
@@ -67,8 +67,9 @@ from cplus.robot.online import (
     SimulatedExecutor,
     user_actions,
 )
-from cplus.robot.serving.channels import RequestScript, SocketChannel, SocketLimits
 from cplus.robot.serving.goals import Goal, GoalBoard, Limits
+from cplus.robot.serving.script import RequestScript
+from cplus.robot.serving.socket_channel import SocketChannel, SocketLimits
 from cplus.robot.serving.standing import DEFAULT_BUDGET, StandingModel
 from cplus.robot.serving.vocabulary import RequestsError, RequestVocabulary
 from cplus.sat.solver import DEFAULT_SOLVER
