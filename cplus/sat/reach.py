@@ -7,8 +7,9 @@ for domains whose integers move in steps from a known start (three tanks of 200,
 the values the query fixes at step 0 (and every value of a fluent it leaves free, C.3), a
 value becomes *possible* when some rule with that head has a body whose positive top-level
 atoms are all possible (for a self-supporting rule, its rest: inertia keeps what was
-possible, ``exogenous`` makes everything possible).  This is a sound over-approximation of
-the values taken at *any* step, so the others are false in every history and the templates
+possible, ``exogenous`` makes everything possible; a fluent on a loop of same-step support
+has every value possible, see :func:`cplus.ground.restrict.cyclic_fluents`).  This is a
+sound over-approximation of the values taken at *any* step, so the others are false in every history and the templates
 drop them with every rule that needs them.  Non-Boolean fluents other than additive ones
 are pruned; actions, rigid and Boolean constants never are.
 
@@ -38,3 +39,5 @@ def unreachable(theory: GroundTheory, fixed: set[int]) -> set[int]:
         reach.add_rules(theory.rules["static"])
         reach.add_rules(theory.rules["dynamic"])
     return set(reach.closed)
+
+
