@@ -10,8 +10,11 @@ Reachability (:class:`Reachability`): starting from the values the query fixes a
 (and every value of a fluent it leaves free, C.3), a value of a non-Boolean fluent becomes
 *possible* when some static or dynamic rule with that head has a body whose positive
 top-level atoms are all possible (for a self-supporting rule, its rest: inertia keeps what
-was possible, ``exogenous`` makes everything possible).  This over-approximates the values
-taken at *any* step, so the others are false in every history.
+was possible, ``exogenous`` makes everything possible).  Rules are completed, not
+minimised, so values that a step's own laws support in a loop (``caused f=1 if g=1`` and
+``caused g=1 if f=1``) hold together with no chain from the start: every value of a fluent on
+such a loop (:func:`cyclic_fluents`) is possible from the outset.  This over-approximates
+the values taken at *any* step, so the others are false in every history.
 
 Restricted grounding (:func:`ground_reachable`) interleaves the two, as a semi-naive
 bottom-up grounder does: a law's positive body atoms ``c(args) = V`` over such fluents are
@@ -32,7 +35,7 @@ from cplus.ground.pf import PF, mk_and
 from cplus.ground.vector import ground_vectorized, matching
 from cplus.signature import SIMPLE_KINDS, ConstDecl, StepSort
 
-__all__ = ["Reachability", "ground_reachable", "fixed_at_zero", "has_step_var"]
+__all__ = ["Reachability", "ground_reachable", "fixed_at_zero", "has_step_var", "cyclic_fluents"]
 
 
 class Reachability:
@@ -43,11 +46,14 @@ class Reachability:
     rules; :meth:`take_fresh` hands out the atoms that became possible since its last call.
     """
 
-    def __init__(self, sig, atoms, fixed: Iterable[int]) -> None:
+    def __init__(self, sig, atoms, fixed: Iterable[int], laws: Iterable = ()) -> None:
+        """``laws``: the program's laws, whose same-step cycles make values possible without
+        a start (:func:`cyclic_fluents`)."""
         fixed = set(fixed)
         self.atoms = atoms
         candidates: set[int] = set()
         possible: set[int] = set()
+        cyclic = cyclic_fluents(laws, _candidate_decls(sig))
         for gc in sig.ground:
             d = gc.decl
             if gc.boolean or not d.is_fluent or d.kind == "additiveFluent":
@@ -55,7 +61,9 @@ class Reachability:
             ids = atoms.atoms(gc)
             candidates.update(ids)
             pinned = [a for a in ids if a in fixed]
-            if pinned:
+            if id(d) in cyclic:              # may support itself at any step
+                possible.update(ids)
+            elif pinned:
                 possible.update(pinned)
             elif d.kind in SIMPLE_KINDS:     # free at step 0 (C.3)
                 possible.update(ids)
@@ -116,6 +124,132 @@ class Reachability:
         return out
 
 
+def _candidate_decls(sig) -> dict[int, ConstDecl]:
+    """The declarations whose values :class:`Reachability` may prune, by id."""
+    return {id(gc.decl): gc.decl for gc in sig.ground
+            if not gc.boolean and gc.decl.is_fluent and gc.decl.kind != "additiveFluent"}
+
+
+def _shape(node: object) -> object:
+    """A term or atom without its locations, to compare two occurrences."""
+    if isinstance(node, ConstDecl):
+        return id(node)
+    if isinstance(node, tuple):
+        fields = getattr(node, "_fields", None)
+        if fields is not None:
+            return (type(node).__name__, *(_shape(getattr(node, f)) for f in fields if f != "loc"))
+        return tuple(_shape(x) for x in node)
+    return node
+
+
+def cyclic_fluents(laws: Iterable, candidates: dict[int, ConstDecl]) -> set[int]:
+    """Ids of the declarations among ``candidates`` that lie on a cycle of same-step support.
+
+    Causal rules are completed, not minimised: ``caused f=1 if g=1`` with ``caused g=1 if
+    f=1`` (both statically determined) has a history where f=g=1 supports itself, though no
+    chain of rules from the start leads there.  Values a step's own laws can support in a
+    loop are therefore possible whatever the start: a law whose head value is a value of
+    ``c`` and whose body (at the head's step: a static law's, a dynamic law's ``if`` part)
+    has a positive atom of ``d`` is an edge c -> d, and every declaration on a cycle of such
+    edges counts.  An atom that is literally the law's head (``caused c=V if c=V``, the
+    frames) supports only itself, which :class:`Reachability` allows for already."""
+    if not candidates:
+        return set()
+    edges: dict[int, set[int]] = {}
+    for law in laws:
+        if law.cls not in ("static", "dynamic"):
+            continue
+        if law.frame is not None:          # one rule c=v if c=v & body per value v of c
+            if law.frame == "rigid" or law.frame_cst is None:
+                continue
+            heads: list = [law.frame_cst]
+            own = {_shape(law.frame_cst)}
+        else:
+            heads = [h.cst for h in ir.conjuncts(law.head) if isinstance(h, ir.Atom)]
+            own = {_shape(h) for h in ir.conjuncts(law.head) if isinstance(h, ir.Atom)}
+        head_ids = _decls(heads, candidates)
+        if not head_ids:
+            continue
+        # what a ground body may need at the head's step: the constants of every conjunct but
+        # a negated atom and the head itself, and those inside the head's arguments and value
+        needs: list = []
+        for h in heads:
+            for t in (h.args if isinstance(h, ir.Cst) else ()):
+                ir.constants_in(t, needs)
+        for h in ir.conjuncts(law.head):
+            if isinstance(h, ir.Atom):
+                ir.constants_in(h.value, needs)
+        for c in ir.conjuncts(law.body):
+            if isinstance(c, ir.Not) and isinstance(c.arg, ir.Atom):
+                continue
+            if isinstance(c, ir.Atom) and _shape(c.cst if law.frame is not None else c) in own:
+                ir.constants_in(c.value, needs)
+                for t in (c.cst.args if isinstance(c.cst, ir.Cst) else ()):
+                    ir.constants_in(t, needs)
+                continue
+            ir.constants_in(c, needs)
+        body_ids = _decls(needs, candidates)
+        for h in head_ids:
+            edges.setdefault(h, set()).update(body_ids)
+    return _on_cycles(edges)
+
+
+def _decls(csts: list, candidates: dict[int, ConstDecl]) -> set[int]:
+    """The candidate declarations of constant occurrences (all of them for a variable)."""
+    out: set[int] = set()
+    for c in csts:
+        if isinstance(c, ir.Cst):
+            if id(c.decl) in candidates:
+                out.add(id(c.decl))
+        else:
+            out.update(candidates)
+    return out
+
+
+def _on_cycles(edges: dict[int, set[int]]) -> set[int]:
+    """The nodes of a directed graph that lie on a cycle (Tarjan's strongly connected
+    components, iteratively)."""
+    index: dict[int, int] = {}
+    low: dict[int, int] = {}
+    stack: list[int] = []
+    on_stack: set[int] = set()
+    out: set[int] = set()
+    for root in edges:
+        if root in index:
+            continue
+        work = [(root, iter(edges.get(root, ())))]
+        index[root] = low[root] = len(index)
+        stack.append(root)
+        on_stack.add(root)
+        while work:
+            v, it = work[-1]
+            for w in it:
+                if w not in index:
+                    index[w] = low[w] = len(index)
+                    stack.append(w)
+                    on_stack.add(w)
+                    work.append((w, iter(edges.get(w, ()))))
+                    break
+                if w in on_stack:
+                    low[v] = min(low[v], index[w])
+            else:
+                work.pop()
+                if work:
+                    u = work[-1][0]
+                    low[u] = min(low[u], low[v])
+                if low[v] == index[v]:
+                    comp = []
+                    while True:
+                        w = stack.pop()
+                        on_stack.discard(w)
+                        comp.append(w)
+                        if w == v:
+                            break
+                    if len(comp) > 1 or v in edges.get(v, ()):
+                        out.update(comp)
+    return out
+
+
 # --------------------------------------------------------------------------- the grounder
 
 
@@ -171,7 +305,7 @@ def ground_reachable(g, fixed: set[int]) -> frozenset[int]:
     is reachable from the positive atoms ``fixed`` at step 0; returns the unreachable values."""
     th = g.theory
     atoms = g.atoms
-    reach = Reachability(g.sig, atoms, fixed)
+    reach = Reachability(g.sig, atoms, fixed, g.program.laws)
     if reach.trivial:
         for law in g.program.laws:
             g._law(law)
