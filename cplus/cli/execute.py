@@ -4,7 +4,7 @@ Without ``--brick`` each robot gets an emulated brick on a pseudo-terminal.  The
 report compares the encoder logs with the plan (:mod:`cplus.robot.execution`).
 
 Everything that can be checked is checked before a motor moves: every option, every output
-path (``--log``, ``--report``, ``--plot``), the trajectory file, the scene, the ``--brick``
+path (``--log``, ``--report``, ``--plot``, ``--animate``), the trajectory file, the scene, the ``--brick``
 ports.  A run that fails after the start still writes its log and report, marked incomplete
 with the reason and the time it stopped.
 
@@ -109,7 +109,9 @@ def build_parser() -> OneLineArgumentParser:
     p.add_argument("trajectory", help="trajectory JSON (cplus.trajectory/1)")
     add_execution_options(p)
     p.add_argument("--log", metavar="FILE", help="write the execution log (cplus.execlog/1)")
-    p.add_argument("--plot", metavar="FILE", help="plot executed against planned (.png or .svg)")
+    p.add_argument("--plot", metavar="FILE", help="plot executed against planned (.png or .svg), with the "
+                   "motor angles, tracking error and brick phases against time")
+    add_animation_options(p)
     p.add_argument("--report", metavar="FILE",
                    help="write the tracking report to FILE instead of standard output")
     p.add_argument("--scene", metavar="SCENE",
@@ -147,6 +149,80 @@ def add_execution_options(p: argparse.ArgumentParser, *, fast: bool = False) -> 
     p.add_argument("--seed", type=nonneg, default=0, metavar="N",
                    help="emulated bricks: the random seed of the link model and the session ids (default 0; "
                         "on simulated time the same seed gives the same log)")
+
+
+def add_animation_options(p: argparse.ArgumentParser, what: str = "executed over planned") -> None:
+    """``--animate FILE`` and its knobs (``cplus execute``, ``cplus run``, ``cplus plan``, ``cplus replay``)."""
+    from trajectory.timeline import DEFAULT_DPI, DEFAULT_MAX_FRAMES
+    p.add_argument("--animate", metavar="FILE",
+                   help=f"write an animation of the arms, the payload and the obstacles, {what} (.gif; .mp4 "
+                        "needs ffmpeg)")
+    p.add_argument("--frames", type=_frames, default=DEFAULT_MAX_FRAMES, metavar="N",
+                   help=f"with --animate: at most N frames, sampled evenly (default {DEFAULT_MAX_FRAMES})")
+    p.add_argument("--dpi", type=_dpi, default=DEFAULT_DPI, metavar="N",
+                   help=f"with --animate: dots per inch of the 8 in wide frames (default {DEFAULT_DPI})")
+
+
+def _frames(text: str) -> int:
+    try:
+        n = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a whole number of frames, got {text!r}") from None
+    if not 1 <= n <= 10000:
+        raise argparse.ArgumentTypeError(f"must be from 1 to 10000 frames, got {n}")
+    return n
+
+
+def _dpi(text: str) -> int:
+    try:
+        n = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected whole dots per inch, got {text!r}") from None
+    if not 10 <= n <= 600:
+        raise argparse.ArgumentTypeError(f"must be from 10 to 600 dpi, got {n}")
+    return n
+
+
+def animation_check(path: str | None, option: str, prog: str) -> str | None:
+    """One line when ``path`` cannot take an animation (its name, ffmpeg, the place), or None."""
+    if not path:
+        return None
+    from trajectory.animate import animation_problem
+    problem = animation_problem(path)
+    if problem is not None:
+        return f"{prog}: error: {option} {problem}"
+    where = output_problem(path)
+    return None if where is None else f"{prog}: error: cannot write {option} {path}: {where}"
+
+
+class FrameProgress:
+    """Progress of a long animation on stderr: a line at every quarter."""
+
+    def __init__(self, prog: str, path: str, out: TextIO, quiet: bool = False) -> None:
+        self.prog, self.path, self.out, self.quiet = prog, path, out, quiet
+        self.shown = -1
+
+    def __call__(self, done: int, total: int) -> None:
+        quarter = 4 * done // max(total, 1)
+        if self.quiet or total < 20 or quarter == self.shown:
+            return
+        self.shown = quarter
+        print(f"{self.prog}: animating {self.path}: frame {done}/{total}", file=self.out, flush=True)
+
+
+def run_timeline(log: nxt_link.ExecutionLog) -> trajectory.RunTimeline:
+    """The log as `trajectory` draws it over time: each brick's setpoints and readings per tick
+    on the PC's clock (a tick lasts ``tick_ms / time_scale`` there), its start interval, its
+    events, and the run's stop and start skew."""
+    bricks = []
+    for b in log.bricks:
+        measured = [[float("nan")] * len(b.ports) if r is None else list(r) for r in b.measured_deg]
+        bricks.append(trajectory.BrickTimeline(
+            b.name, b.ports, b.tick_ms / 1000.0 / log.time_scale, [list(r) for r in b.reference_deg], measured,
+            start_s=b.start_s, events=tuple((e.t_s, e.event, e.detail) for e in b.events), reached=b.reached))
+    skew = log.start_skew()
+    return trajectory.RunTimeline(tuple(bricks), None if log.stopped is None else (log.stopped.t_s, log.stopped.reason),
+                                  None if skew is None else (skew.estimate, skew.min, skew.max))
 
 
 def output_problem(path: str) -> str | None:
@@ -245,8 +321,18 @@ class _Outputs:
                     title += ", incomplete"
                 trajectory.plot_execution(self.scene, self.traj.planned_paths(),
                                           {k: v for k, v in report.executed_paths.items() if len(v)},
-                                          args.plot, title=title)
+                                          args.plot, title=title, timeline=run_timeline(log))
                 self._wrote(args.plot)
+            if args.animate and self.scene is not None and not plot:
+                print(f"cplus execute: no animation {args.animate}: the run was stopped by a signal", file=self.err)
+            elif args.animate and self.scene is not None:
+                title = f"{self.scene.name}: executed (solid) vs planned (dashed)"
+                trajectory.animate_run(self.scene, self.traj, args.animate, timeline=run_timeline(log),
+                                       title=title + ("" if log.complete else ", incomplete"),
+                                       max_frames=args.frames, dpi=args.dpi,
+                                       on_progress=FrameProgress("cplus execute", args.animate, self.err,
+                                                                 args.quiet))
+                self._wrote(args.animate)
         except trajectory.TrajectoryError as exc:
             print(f"cplus execute: {exc}", file=self.err)
             return False
@@ -270,10 +356,12 @@ def main(args: argparse.Namespace) -> int:
     except CliError as exc:
         print(exc, file=err)
         return EXIT_INPUT
-    problem = check_outputs({"--log": args.log, "--report": args.report, "--plot": args.plot},
-                            prog)
+    problem = check_outputs({"--log": args.log, "--report": args.report, "--plot": args.plot,
+                             "--animate": args.animate}, prog)
     if problem is None and args.plot and Path(args.plot).suffix.lower() not in (".png", ".svg"):
         problem = f"{prog}: error: cannot plot to {args.plot}: use a .png or .svg file name"
+    if problem is None:
+        problem = animation_check(args.animate, "--animate", prog)
     if problem is not None:
         print(problem, file=err)
         return EXIT_INPUT
@@ -283,9 +371,10 @@ def main(args: argparse.Namespace) -> int:
     except trajectory.TrajectoryError as exc:
         print(f"{prog}: {exc}", file=err)
         return EXIT_INPUT
-    if args.plot and scene is None:
-        print(f"{prog}: error: --plot needs the scene: pass --scene SCENE", file=err)
-        return EXIT_INPUT
+    for option, given in (("--plot", args.plot), ("--animate", args.animate)):
+        if given and scene is None:
+            print(f"{prog}: error: {option} needs the scene: pass --scene SCENE", file=err)
+            return EXIT_INPUT
     if scene is None:
         print(f"{prog}: warning: no scene found beside the trajectory's domain (give --scene): "
               "the motor limits come from the trajectory file's own joint limits", file=err)
