@@ -35,10 +35,14 @@ from .kinematics import choices_at, forward, inverse
 from .model import RobotTrajectory, Trajectory
 from .plots import PAYLOAD_COLOR, _color, _draw_scene
 from .scene import Robot, Scene
-from .timeline import DEFAULT_DPI, DEFAULT_MAX_FRAMES, CycleFrame, RunTimeline
+from .timeline import CycleFrame, RunTimeline
 
 __all__ = ["animate_run", "animate_cycles", "animation_problem", "DEFAULT_MAX_FRAMES", "DEFAULT_DPI"]
 
+#: Enough frames for a smooth 10-step plan (a longer run is sampled evenly down to this many).
+DEFAULT_MAX_FRAMES = 150
+#: Frames 8 inches wide at 100 dpi: 800 pixels.
+DEFAULT_DPI = 100
 _WRITERS = {".gif": "pillow", ".mp4": "ffmpeg"}
 
 Progress = Callable[[int, int], None]
@@ -48,14 +52,20 @@ def animation_problem(path: str | Path) -> str | None:
     """Why an animation cannot be written to ``path`` (its name, or a missing ffmpeg), or None.
 
     >>> animation_problem("run.gif") is None, animation_problem("run.avi")
-    (True, 'cannot animate to run.avi: use a .gif or .mp4 file name')
+    (True, 'use a .gif or .mp4 file name')
     """
     suffix = Path(path).suffix.lower()
     if suffix not in _WRITERS:
-        return f"cannot animate to {path}: use a .gif or .mp4 file name"
+        return "use a .gif or .mp4 file name"
     if suffix == ".mp4" and not animation.writers.is_available("ffmpeg"):
-        return f"cannot write {path}: an .mp4 needs ffmpeg, which is not installed (install it, or use a .gif name)"
+        return "an .mp4 needs ffmpeg, which is not installed (install it, or use a .gif file name)"
     return None
+
+
+def _refuse(path: Path) -> None:
+    problem = animation_problem(path)
+    if problem is not None:
+        raise TrajectoryError(f"cannot animate to {path}: {problem}")
 
 
 def _write(fig: Figure, draw: Callable[[int], None], frames: int, path: Path, fps: float, dpi: int,
@@ -66,14 +76,12 @@ def _write(fig: Figure, draw: Callable[[int], None], frames: int, path: Path, fp
     artists ``draw`` changes) the rest is rendered once and every frame only redraws those,
     ten times faster than a whole figure per frame. An MP4 goes through matplotlib's ffmpeg
     writer, a whole figure per frame."""
-    problem = animation_problem(path)
-    if problem is not None:
-        raise TrajectoryError(problem)
+    _refuse(path)
     if frames < 1:
         raise TrajectoryError("an animation needs at least one frame")
     path.parent.mkdir(parents=True, exist_ok=True)
     if _WRITERS[path.suffix.lower()] == "ffmpeg":
-        writer = animation.FFMpegWriter(fps=fps)
+        writer = animation.FFMpegWriter(fps=max(1, round(fps)))
         with writer.saving(fig, str(path), dpi):
             for i in range(frames):
                 draw(i)
@@ -213,14 +221,23 @@ def _executed_joints(robot: RobotTrajectory, timeline: RunTimeline, ticks: npt.N
     return np.where(beyond, np.nan, s), np.where(beyond, np.nan, theta)
 
 
+def _lag_ticks(traj: Trajectory, timeline: RunTimeline) -> int:
+    """How many ticks after the first brick the last one started (rounded up)."""
+    first = timeline.first_start_s
+    lags = [(b.start_mid_s - first) / b.tick_s for b in timeline.bricks
+            if first is not None and b.start_mid_s is not None and b.name in {r.name for r in traj.robots}]
+    return max(0, math.ceil(max(lags, default=0.0) - 1e-9))
+
+
 def animate_run(scene: Scene, traj: Trajectory, path: str | Path, *, timeline: RunTimeline | None = None,
                 title: str | None = None, max_frames: int = DEFAULT_MAX_FRAMES, dpi: int = DEFAULT_DPI,
                 fps: float | None = None, on_progress: Progress | None = None) -> Path:
     """Animate a trajectory over its scene and save it (GIF, or MP4 with ffmpeg).
 
     Without ``timeline`` the plan moves alone; with one (an execution's `RunTimeline`) the
-    executed arms move over the planned ones. One frame per tick, sampled evenly down to
-    ``max_frames``; ``fps`` defaults to the pace of the trajectory's own clock (between 2 and 25
+    executed arms move over the planned ones, on the first brick's clock: a brick that started
+    late lags, and the animation lasts until it ends. One frame per tick, sampled evenly down
+    to ``max_frames``; ``fps`` defaults to the pace of the trajectory's own clock (between 2 and 25
     frames a second). Returns the path written.
 
     Raises:
@@ -228,18 +245,17 @@ def animate_run(scene: Scene, traj: Trajectory, path: str | Path, *, timeline: R
             bad ``max_frames``/``dpi``/``fps``.
     """
     out = Path(path)
-    problem = animation_problem(out)
-    if problem is not None:
-        raise TrajectoryError(problem)
+    _refuse(out)
     _check(max_frames, dpi, fps)
     names = list(scene.robot_names)
     for r in traj.robots:
         if r.name not in names:
             raise TrajectoryError(f"cannot animate robot {r.name}: it is not in the scene")
     n = traj.ticks
-    ticks = _sample(n, max_frames)
     tick_s = traj.tick_ms / 1000.0
-    rate = fps if fps is not None else min(25.0, max(2.0, len(ticks) / max(n * tick_s, 1e-9)))
+    span = n + (_lag_ticks(traj, timeline) if timeline is not None else 0)   # a late brick ends later
+    ticks = _sample(span, max_frames)
+    rate = fps if fps is not None else min(25.0, max(2.0, len(ticks) / max(span * tick_s, 1e-9)))
     fig = Figure(figsize=(8, 6))
     ax = fig.add_subplot()
     _draw_scene(ax, scene)
@@ -288,7 +304,7 @@ def animate_run(scene: Scene, traj: Trajectory, path: str | Path, *, timeline: R
         moving += arm.artists
 
     def draw(i: int) -> None:
-        j = int(ticks[i])
+        j = min(int(ticks[i]), n - 1)
         hands_plan: dict[str, tuple[float, float]] = {}
         hands_exec: dict[str, tuple[float, float]] = {}
         missing = []
@@ -312,7 +328,7 @@ def animate_run(scene: Scene, traj: Trajectory, path: str | Path, *, timeline: R
         step = int(traj.robots[0].step[j])
         frac = j / traj.points_per_step - step
         where = f"step {step}" if frac < 1e-9 or step >= m else f"step {step} -> {step + 1}"
-        text = f"{where} of {m}   t = {j * tick_s:.2f} s   tick {j}/{n - 1}"
+        text = f"{where} of {m}   t = {int(ticks[i]) * tick_s:.2f} s   tick {j}/{n - 1}"
         if missing:
             text += "\nno measurement: " + ", ".join(missing)
         stamp.set_text(text)
@@ -334,7 +350,12 @@ def _ik(robot: Robot, x: float, y: float) -> tuple[float, float]:
 def _cycle_scene(ax: Axes, scene: Scene, frames: Sequence[CycleFrame]) -> Callable[[int], None]:
     """The arms and the payload where each cycle's state puts them, with the hands' trails."""
     _draw_scene(ax, scene)
-    _view(ax, scene)
+    carriages = []
+    for f in frames:
+        for robot in scene.robots:
+            if robot.name in f.positions:
+                carriages += _carriage(robot, _ik(robot, *f.positions[robot.name])[0])
+    _view(ax, scene, carriages)
     names = list(scene.robot_names)
     xs = [ax.get_xlim()[0], ax.get_xlim()[1]]
     arms, trails = {}, {}
@@ -394,7 +415,7 @@ def _cycle_table(ax: Axes, frames: Sequence[CycleFrame]) -> Callable[[int], None
         ax.set_axis_off()
         lo = max(0, i - _TABLE_COLUMNS + 1)
         cols = list(range(lo, i + 1))
-        header = [f"{frames[c].cycle}" + ("\nre-plan" if frames[c].replanned else "")
+        header = [("end" if frames[c].ended else f"{frames[c].cycle}") + ("\nre-plan" if frames[c].replanned else "")
                   + ("\nfailure" if frames[c].failed else "") for c in cols]
         cells, colours = [], []
         for name in rows:
@@ -412,8 +433,8 @@ def _cycle_table(ax: Axes, frames: Sequence[CycleFrame]) -> Callable[[int], None
         table = ax.table(cellText=cells, cellColours=colours, rowLabels=rows, colLabels=header, loc="upper center",
                          cellLoc="center")
         table.auto_set_font_size(False)
-        table.set_fontsize(7.5)
-        table.scale(1.0, 1.25)
+        table.set_fontsize(8)
+        table.scale(1.0, min(2.6, max(1.2, 26.0 / (len(rows) + 2))))
         for (r, c), cell in table.get_celld().items():
             if c == len(cols) - 1 and r >= 0:
                 cell.set_edgecolor("black")
@@ -445,32 +466,30 @@ def animate_cycles(frames: Sequence[CycleFrame], path: str | Path, *, scene: Sce
         TrajectoryError: no frames, a bad file name, no ffmpeg for an .mp4, or bad options.
     """
     out = Path(path)
-    problem = animation_problem(out)
-    if problem is not None:
-        raise TrajectoryError(problem)
+    _refuse(out)
     _check(max_frames, dpi, fps)
     if not frames:
         raise TrajectoryError("the run has no cycle to replay")
     chosen = [frames[int(k)] for k in _sample(len(frames), max_frames)]
     rate = fps if fps is not None else min(4.0, max(1.0, len(chosen) / 15.0))
-    fig = Figure(figsize=(11, 6))
-    grid = fig.add_gridspec(1, 2, width_ratios=(2.6, 1.4))
+    fig = Figure(figsize=(12, 6))
+    grid = fig.add_gridspec(1, 2, width_ratios=(2.5, 1.5))
     ax = fig.add_subplot(grid[0, 0])
     side = fig.add_subplot(grid[0, 1])
     side.set_axis_off()
     with_scene = scene is not None and any(f.positions for f in chosen)
     draw_main = _cycle_scene(ax, scene, chosen) if with_scene and scene is not None else _cycle_table(ax, chosen)
     fig.suptitle(title or "online run", fontsize=11)
-    trace = side.text(0.0, 1.0, "", ha="left", va="top", fontsize=8, family="monospace", transform=side.transAxes)
+    trace = side.text(0.0, 1.0, "", ha="left", va="top", fontsize=7.5, family="monospace", transform=side.transAxes)
     last = frames[-1].cycle
     fig.subplots_adjust(left=0.16 if not with_scene else 0.06, right=0.98, top=0.9, bottom=0.06, wspace=0.12)
 
     def draw(i: int) -> None:
         draw_main(i)
         f = chosen[i]
-        lines = [f"cycle {f.cycle} of {last}", f"t = {f.time_s:.2f} s", ""]
+        lines = ["the end of the run" if f.ended else f"cycle {f.cycle} of {last}", f"t = {f.time_s:.2f} s", ""]
         for line in f.lines:
-            lines += textwrap.wrap(line, 44, subsequent_indent="  ") or [""]
+            lines += textwrap.wrap(line, 62, subsequent_indent="  ") or [""]
         trace.set_text("\n".join(lines[:40]))
         trace.set_color("crimson" if f.failed else "black")
 

@@ -23,19 +23,13 @@ import numpy.typing as npt
 
 from .errors import TrajectoryError
 
-__all__ = ["BrickTimeline", "CycleFrame", "RunTimeline", "MILESTONES", "DEFAULT_MAX_FRAMES", "DEFAULT_DPI"]
+__all__ = ["BrickTimeline", "CycleFrame", "RunTimeline", "MILESTONES"]
 
 #: Events that mark a brick's phases (drawn as the phase bars, not as separate marks).
 MILESTONES = ("program started", "link ok", "upload verified", "homing", "ready", "start sent",
               "start acked", "log read")
 
 FloatArray = npt.NDArray[np.float64]
-
-#: The animations' defaults (`trajectory.animate`), here so that a command line can show them
-#: without importing matplotlib: enough frames for a smooth 10-step plan (a longer run is
-#: sampled evenly down to this many), and frames 8 inches wide at 100 dpi (800 pixels).
-DEFAULT_MAX_FRAMES = 150
-DEFAULT_DPI = 100
 
 
 def _rows(name: str, what: str, values: npt.ArrayLike, width: int) -> FloatArray:
@@ -160,7 +154,8 @@ class CycleFrame:
     """One cycle of an online run, as a replay draws it: when, the state (fluent -> value
     text), where the scene's bodies are (robot and payload-end names -> grid position; empty
     when the run has no scene), the run's trace of this cycle (``lines``: actions, events,
-    the re-plan and its reason, a failure), and whether it re-planned or failed."""
+    the re-plan and its reason, a failure), and whether it re-planned or failed; ``ended``
+    marks the frame of the run's end (after its last cycle)."""
 
     cycle: int
     time_s: float
@@ -169,6 +164,7 @@ class CycleFrame:
     lines: tuple[str, ...] = ()
     replanned: bool = False
     failed: bool = False
+    ended: bool = False
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "state", MappingProxyType({str(k): str(v) for k, v in self.state.items()}))

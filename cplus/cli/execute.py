@@ -15,6 +15,7 @@ apart), 2 bad input, 130 SIGINT, 143 SIGTERM (the bricks stopped, the log and re
 from __future__ import annotations
 
 import argparse
+import math
 import os
 import sys
 from collections.abc import Mapping
@@ -22,8 +23,11 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TextIO
 
+import numpy as np
+
 import nxt_link
 import trajectory
+from cplus.cli.animation_options import FrameProgress, add_animation_options, animation_check
 from cplus.cli.common import (
     EXIT_INPUT,
     EXIT_LINK,
@@ -151,74 +155,15 @@ def add_execution_options(p: argparse.ArgumentParser, *, fast: bool = False) -> 
                         "on simulated time the same seed gives the same log)")
 
 
-def add_animation_options(p: argparse.ArgumentParser, what: str = "executed over planned") -> None:
-    """``--animate FILE`` and its knobs (``cplus execute``, ``cplus run``, ``cplus plan``, ``cplus replay``)."""
-    from trajectory.timeline import DEFAULT_DPI, DEFAULT_MAX_FRAMES
-    p.add_argument("--animate", metavar="FILE",
-                   help=f"write an animation of the arms, the payload and the obstacles, {what} (.gif; .mp4 "
-                        "needs ffmpeg)")
-    p.add_argument("--frames", type=_frames, default=DEFAULT_MAX_FRAMES, metavar="N",
-                   help=f"with --animate: at most N frames, sampled evenly (default {DEFAULT_MAX_FRAMES})")
-    p.add_argument("--dpi", type=_dpi, default=DEFAULT_DPI, metavar="N",
-                   help=f"with --animate: dots per inch of the 8 in wide frames (default {DEFAULT_DPI})")
-
-
-def _frames(text: str) -> int:
-    try:
-        n = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a whole number of frames, got {text!r}") from None
-    if not 1 <= n <= 10000:
-        raise argparse.ArgumentTypeError(f"must be from 1 to 10000 frames, got {n}")
-    return n
-
-
-def _dpi(text: str) -> int:
-    try:
-        n = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected whole dots per inch, got {text!r}") from None
-    if not 10 <= n <= 600:
-        raise argparse.ArgumentTypeError(f"must be from 10 to 600 dpi, got {n}")
-    return n
-
-
-def animation_check(path: str | None, option: str, prog: str) -> str | None:
-    """One line when ``path`` cannot take an animation (its name, ffmpeg, the place), or None."""
-    if not path:
-        return None
-    from trajectory.animate import animation_problem
-    problem = animation_problem(path)
-    if problem is not None:
-        return f"{prog}: error: {option} {problem}"
-    where = output_problem(path)
-    return None if where is None else f"{prog}: error: cannot write {option} {path}: {where}"
-
-
-class FrameProgress:
-    """Progress of a long animation on stderr: a line at every quarter."""
-
-    def __init__(self, prog: str, path: str, out: TextIO, quiet: bool = False) -> None:
-        self.prog, self.path, self.out, self.quiet = prog, path, out, quiet
-        self.shown = -1
-
-    def __call__(self, done: int, total: int) -> None:
-        quarter = 4 * done // max(total, 1)
-        if self.quiet or total < 20 or quarter == self.shown:
-            return
-        self.shown = quarter
-        print(f"{self.prog}: animating {self.path}: frame {done}/{total}", file=self.out, flush=True)
-
-
 def run_timeline(log: nxt_link.ExecutionLog) -> trajectory.RunTimeline:
     """The log as `trajectory` draws it over time: each brick's setpoints and readings per tick
     on the PC's clock (a tick lasts ``tick_ms / time_scale`` there), its start interval, its
     events, and the run's stop and start skew."""
     bricks = []
     for b in log.bricks:
-        measured = [[float("nan")] * len(b.ports) if r is None else list(r) for r in b.measured_deg]
+        measured = np.array([[math.nan] * len(b.ports) if r is None else r for r in b.measured_deg], dtype=float)
         bricks.append(trajectory.BrickTimeline(
-            b.name, b.ports, b.tick_ms / 1000.0 / log.time_scale, [list(r) for r in b.reference_deg], measured,
+            b.name, b.ports, b.tick_ms / 1000.0 / log.time_scale, np.array(b.reference_deg, dtype=float), measured,
             start_s=b.start_s, events=tuple((e.t_s, e.event, e.detail) for e in b.events), reached=b.reached))
     skew = log.start_skew()
     return trajectory.RunTimeline(tuple(bricks), None if log.stopped is None else (log.stopped.t_s, log.stopped.reason),
