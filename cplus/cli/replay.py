@@ -63,6 +63,8 @@ def read_log(path: str) -> tuple[dict[str, Any], list[dict[str, Any]], dict[str,
         text = data.decode("utf-8")
     except UnicodeDecodeError:
         raise _fail(path, f"not a {ONLINE_FORMAT} log (not UTF-8 text)") from None
+    if not text.strip():
+        raise _fail(path, f"the file is empty (not a {ONLINE_FORMAT} log)")
     lines = text.split("\n")
     complete = text.endswith("\n")
     if complete:
