@@ -7,6 +7,13 @@ Per brick, the motor angles (setpoint dashed, measured solid) and the tracking e
 started (the start skew between bricks), the other events the log holds (timeouts, damaged
 replies, a lost link ...) and where the run stopped. Every panel uses the PC's clock, so a
 late brick shows as a shifted curve.
+
+The phases come from the brick's events:
+
+>>> b = BrickTimeline("r1", ("A",), 0.1, [[0], [5]], [[0], [4]], start_s=(1.0, 1.02),
+...                   events=[(0.2, "link ok", ""), (0.5, "upload verified", ""), (1.5, "log read", "")])
+>>> [(p, round(a, 2), round(z, 2)) for p, a, z in _phases(b)]
+[('connect', 0.0, 0.2), ('upload', 0.2, 0.5), ('run', 1.01, 1.21), ('log read', 1.21, 1.5)]
 """
 
 from __future__ import annotations
@@ -76,7 +83,8 @@ def _motor_panels(ax_deg: Axes, ax_err: Axes, brick: BrickTimeline, color: str) 
         known = e[np.isfinite(e)]
         stats = (f": max {np.abs(known).max():.0f}°, rms {np.sqrt((known ** 2).mean()):.2f}°" if len(known)
                  else ": not measured")
-        ax_err.plot(t, e, color=c, linewidth=width * 0.8, alpha=0.85, label=f"{port}{stats}")
+        ax_err.plot(t, e, color=c, linewidth=1.0 + 0.7 * (len(brick.ports) - 1 - j), alpha=0.85,
+                    label=f"{port}{stats}")
     ax_err.axhline(0.0, color="0.4", linewidth=0.7, zorder=1)
     ax_deg.set_title(f"{brick.name}: motor angles (setpoint dashed, measured solid)", fontsize=9, color=color)
     ax_err.set_title(f"{brick.name}: tracking error (measured - setpoint)", fontsize=9, color=color)
@@ -86,8 +94,8 @@ def _motor_panels(ax_deg: Axes, ax_err: Axes, brick: BrickTimeline, color: str) 
     if brick.start_mid_s is None:
         ax_deg.text(0.5, 0.5, f"{brick.name} never started (reached: {brick.reached})", transform=ax_deg.transAxes,
                     ha="center", va="center", fontsize=9, color="crimson")
-    ax_deg.legend(fontsize=7, loc="best", frameon=False, ncol=len(brick.ports))
-    ax_err.legend(fontsize=7, loc="best", frameon=False)
+    for ax, cols in ((ax_deg, len(brick.ports)), (ax_err, 1)):
+        ax.legend(fontsize=7, loc="best", ncol=cols, frameon=True, framealpha=0.85, edgecolor="none")
     for ax in (ax_deg, ax_err):
         ax.tick_params(labelsize=7)
         ax.grid(True, linewidth=0.4, alpha=0.5)

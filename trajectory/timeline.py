@@ -7,7 +7,7 @@ the command-line glue converts one into a `RunTimeline`, and `plot_execution` an
 execution); a tick lasts ``tick_s`` on that clock.
 
 >>> b = BrickTimeline("r1", ("A",), 0.1, [[0], [5]], [[0], [4]], start_s=(1.0, 1.02))
->>> [round(t, 2) for t in b.tick_end_s], b.error_deg.tolist()
+>>> b.tick_end_s.round(2).tolist(), b.error_deg.tolist()
 ([1.11, 1.21], [[0.0], [-1.0]])
 """
 

@@ -12,7 +12,15 @@ from test_traj_plots import timeline_of
 from traj_helpers import CLEAN_PAYLOAD_PLAN, plan
 
 import trajectory.animate as animate_module
-from trajectory import CycleFrame, Scene, TrajectoryError, animate_cycles, animate_run, animation_problem, build_trajectory
+from trajectory import (
+    CycleFrame,
+    Scene,
+    TrajectoryError,
+    animate_cycles,
+    animate_run,
+    animation_problem,
+    build_trajectory,
+)
 
 
 @pytest.fixture(scope="module")
