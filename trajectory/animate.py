@@ -7,8 +7,8 @@ the time shown. `animate_cycles` replays an online run cycle by cycle: the arms 
 where the log puts them when the run has a scene, otherwise the state's fluents over the
 cycles; with each cycle's actions, events, re-plans and failures.
 
-The files are GIF (Pillow, which matplotlib depends on) or MP4 (matplotlib's ffmpeg writer,
-when ffmpeg is installed), chosen by the file name; `animation_problem` says what is wrong
+The files are GIF (Pillow, which matplotlib depends on) or MP4 (ffmpeg, where matplotlib's
+animation writers find it, when it is installed), chosen by the file name; `animation_problem` says what is wrong
 with a file name before any work is done. Frames are rendered on a bare `Figure` (no pyplot,
 no display); ``on_progress(done, total)`` is called after every frame.
 """
@@ -16,10 +16,13 @@ no display); ``on_progress(done, total)`` is called after every frame.
 from __future__ import annotations
 
 import math
+import os
+import subprocess
 import textwrap
 from collections.abc import Callable, Sequence
 from pathlib import Path
 
+import matplotlib
 import numpy as np
 import numpy.typing as npt
 from matplotlib import animation
@@ -72,23 +75,15 @@ def _write(fig: Figure, draw: Callable[[int], None], frames: int, path: Path, fp
            on_progress: Progress | None, moving: Sequence[Artist] | None = None) -> Path:
     """Render ``frames`` frames (``draw(i)`` updates the figure for frame ``i``) into ``path``.
 
-    A GIF is rendered on an Agg canvas and assembled by Pillow; with ``moving`` (the only
-    artists ``draw`` changes) the rest is rendered once and every frame only redraws those,
-    ten times faster than a whole figure per frame. An MP4 goes through matplotlib's ffmpeg
-    writer, a whole figure per frame."""
+    Frames are rendered on an Agg canvas; with ``moving`` (the only artists ``draw`` changes)
+    the rest is rendered once and every frame only redraws those, ten times faster than a
+    whole figure per frame. A GIF is assembled by Pillow; an MP4 is encoded by ffmpeg (the one
+    matplotlib's animation writers use), fed the raw frames. The file appears whole or not at
+    all (written beside it, then renamed)."""
     _refuse(path)
     if frames < 1:
         raise TrajectoryError("an animation needs at least one frame")
     path.parent.mkdir(parents=True, exist_ok=True)
-    if _WRITERS[path.suffix.lower()] == "ffmpeg":
-        writer = animation.FFMpegWriter(fps=max(1, round(fps)))
-        with writer.saving(fig, str(path), dpi):
-            for i in range(frames):
-                draw(i)
-                writer.grab_frame()
-                if on_progress is not None:
-                    on_progress(i + 1, frames)
-        return path
     fig.set_dpi(dpi)
     canvas = FigureCanvasAgg(fig)
     moving = sorted(moving or (), key=lambda a: a.get_zorder())   # blitting draws in this order
@@ -96,27 +91,80 @@ def _write(fig: Figure, draw: Callable[[int], None], frames: int, path: Path, fp
         artist.set_animated(True)
     canvas.draw()
     background = canvas.copy_from_bbox(fig.bbox) if moving else None
-    images = []
-    for i in range(frames):
-        draw(i)
-        if background is not None:
-            canvas.restore_region(background)
-            for artist in moving:
-                fig.draw_artist(artist)
-        else:
-            canvas.draw()
-        images.append(Image.frombuffer("RGBA", canvas.get_width_height(), canvas.buffer_rgba(), "raw", "RGBA", 0, 1)
-                      .convert("RGB").quantize(colors=128, method=Image.Quantize.FASTOCTREE))
-        if on_progress is not None:
-            on_progress(i + 1, frames)
-    tmp = path.with_name(f".{path.name}.tmp")
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp{path.suffix}")
+    sink = _Mp4(tmp, canvas.get_width_height(), fps) if _WRITERS[path.suffix.lower()] == "ffmpeg" else _Gif(tmp, fps)
     try:
-        images[0].save(tmp, format="GIF", save_all=True, append_images=images[1:], duration=round(1000 / fps), loop=0)
+        for i in range(frames):
+            draw(i)
+            if background is not None:
+                canvas.restore_region(background)
+                for artist in moving:
+                    fig.draw_artist(artist)
+            else:
+                canvas.draw()
+            sink.add(canvas)
+            if on_progress is not None:
+                on_progress(i + 1, frames)
+        sink.close()
         tmp.replace(path)
     finally:
+        sink.abort()
         if tmp.exists():
             tmp.unlink()
     return path
+
+
+class _Gif:
+    """Frames kept as palette images, written by Pillow at the end."""
+
+    def __init__(self, path: Path, fps: float) -> None:
+        self.path, self.fps, self.images = path, fps, []
+
+    def add(self, canvas: FigureCanvasAgg) -> None:
+        image = Image.frombuffer("RGBA", canvas.get_width_height(), canvas.buffer_rgba(), "raw", "RGBA", 0, 1)
+        self.images.append(image.convert("RGB").quantize(colors=128, method=Image.Quantize.FASTOCTREE))
+
+    def close(self) -> None:
+        self.images[0].save(self.path, format="GIF", save_all=True, append_images=self.images[1:],
+                            duration=round(1000 / self.fps), loop=0)
+
+    def abort(self) -> None:
+        self.images.clear()
+
+
+class _Mp4:
+    """Frames piped to ffmpeg as raw RGBA, encoded H.264 (even dimensions, yuv420p: what players take)."""
+
+    def __init__(self, path: Path, size: tuple[int, int], fps: float) -> None:
+        width, height = size
+        command = [str(matplotlib.rcParams["animation.ffmpeg_path"]), "-y", "-loglevel", "error",
+                   "-f", "rawvideo", "-pix_fmt", "rgba", "-s", f"{width}x{height}", "-r", f"{fps:g}", "-i", "-",
+                   "-vf", "pad=ceil(iw/2)*2:ceil(ih/2)*2:color=white", "-c:v", "libx264", "-pix_fmt", "yuv420p",
+                   "-f", "mp4", str(path)]
+        self.proc: subprocess.Popen[bytes] | None = subprocess.Popen(
+            command, stdin=subprocess.PIPE, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+
+    def add(self, canvas: FigureCanvasAgg) -> None:
+        assert self.proc is not None and self.proc.stdin is not None
+        try:
+            self.proc.stdin.write(bytes(canvas.buffer_rgba()))
+        except BrokenPipeError:
+            self.close()
+
+    def close(self) -> None:
+        proc, self.proc = self.proc, None
+        if proc is None:
+            return
+        _, err = proc.communicate()
+        if proc.returncode != 0:
+            detail = err.decode("utf-8", "replace").strip().splitlines()
+            raise TrajectoryError(f"ffmpeg failed (exit {proc.returncode})" + (f": {detail[-1]}" if detail else ""))
+
+    def abort(self) -> None:
+        proc, self.proc = self.proc, None
+        if proc is not None:
+            proc.kill()
+            proc.wait()
 
 
 def _check(max_frames: int, dpi: int, fps: float | None) -> None:

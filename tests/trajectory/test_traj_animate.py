@@ -109,3 +109,11 @@ def test_bad_requests_are_refused_before_any_work(payload_scene: Scene, traj, tm
     with pytest.raises(TrajectoryError, match="no cycle to replay"):
         animate_cycles([], tmp_path / "a.gif")
     assert not list(tmp_path.iterdir())     # nothing written
+
+
+@pytest.mark.skipif(not animate_module.animation.writers.is_available("ffmpeg"), reason="ffmpeg is not installed")
+def test_an_mp4_is_written_by_ffmpeg(payload_scene: Scene, traj, tmp_path: Path) -> None:
+    out = animate_run(payload_scene, traj, tmp_path / "plan.mp4", max_frames=5, dpi=25)
+    data = out.read_bytes()
+    assert data[4:8] == b"ftyp" and len(data) > 1000          # an MP4 container
+    assert [p.name for p in tmp_path.iterdir()] == ["plan.mp4"]   # nothing left beside it
