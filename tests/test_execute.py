@@ -426,3 +426,27 @@ def test_a_trajectory_that_continues_from_elsewhere_is_streamed_in_the_encoders_
                    for (r0, r1), (s0, s1) in zip(zip(a.rows, a.rows[1:]), zip(b.rows, b.rows[1:]))
                    for j in range(3))
         assert b.limits == f.limits
+
+
+def test_cplus_plan_animates_the_plan(tmp_path, capsys):
+    from PIL import Image
+    domain = str(ROOT / "domains/payload/payload.cp")
+    gif = tmp_path / "plan.gif"
+    assert main(["plan", domain, "--animate", str(gif), "--frames", "4", "--dpi", "20"]) == 0
+    with Image.open(gif) as im:
+        assert im.format == "GIF" and im.n_frames == 4
+    assert f"% wrote {gif}\n" in capsys.readouterr().err
+    unsafe = tmp_path / "unsafe.gif"      # the first plan meets the post: animated all the same, exit 9
+    assert main(["plan", domain, "--no-refine", "--animate", str(unsafe), "--frames", "3", "--dpi", "20"]) == 9
+    assert unsafe.is_file()
+
+
+def test_cplus_plan_checks_the_animation_first(tmp_path, capsys):
+    domain = str(ROOT / "domains/payload/payload.cp")
+    assert main(["plan", domain, "--animate", str(tmp_path / "plan.txt")]) == 2
+    err = capsys.readouterr().err
+    assert err == f"cplus plan: error: --animate {tmp_path / 'plan.txt'}: use a .gif or .mp4 file name\n"
+    lamp = str(ROOT / "domains/examples/lamp.cp")
+    assert main(["plan", lamp, "--animate", str(tmp_path / "lamp.gif")]) == 0
+    assert "--animate applies to robot tasks only" in capsys.readouterr().err
+    assert not (tmp_path / "lamp.gif").exists()

@@ -72,6 +72,13 @@ def test_a_real_online_log_replays_cycle_by_cycle(tmp_path, capsys):
     assert f"cplus replay: wrote {out} ({len(cycles) + 1} frames)" in capsys.readouterr().err
 
 
+def test_a_servers_log_names_the_goals_that_changed():
+    record = cycle(3, {"at": "office3"}, goals=[{"id": 1, "request": "deliver(office3,office2)",
+                                               "status": "preempted", "reason": "cancelled"}])
+    (frame,) = frames_of([record], None)
+    assert "goal 1 deliver(office3,office2): preempted (cancelled)" in frame.lines
+
+
 def test_an_arms_log_draws_the_arms_where_the_states_put_them(tmp_path):
     log = arms_log(tmp_path / "arms.jsonl")
     _, cycles, end = read_log(str(log))

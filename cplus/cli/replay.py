@@ -110,7 +110,7 @@ def _check_cycle(record: dict[str, Any], where: str) -> None:
         raise _fail(where, "a cycle record needs \"time\" (seconds)")
     if record.get("state") is not None and not isinstance(record["state"], dict):
         raise _fail(where, "\"state\" must be an object (fluent: value) or null")
-    for key in ("events", "inferred", "executed", "notes"):
+    for key in ("events", "inferred", "executed", "notes", "goals"):
         if not isinstance(record.get(key, []), list):
             raise _fail(where, f"\"{key}\" must be a list")
     for key in ("sensed", "replanned"):
@@ -171,6 +171,10 @@ def _trace(record: dict[str, Any]) -> list[str]:
         lines.append("executed: nothing (an idle step)")
     if record.get("failure"):
         lines.append(f"FAILURE: {record['failure']}")
+    for goal in record.get("goals") or []:       # a server's log: the goals that changed
+        if isinstance(goal, dict):
+            lines.append(f"goal {goal.get('id', '?')} {goal.get('request', '')}: {goal.get('status', '?')}"
+                         + (f" ({goal['reason']})" if goal.get("reason") else ""))
     lines += [f"note: {n}" for n in record.get("notes", [])]
     return lines
 
