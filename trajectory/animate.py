@@ -118,7 +118,8 @@ class _Gif:
     """Frames kept as palette images, written by Pillow at the end."""
 
     def __init__(self, path: Path, fps: float) -> None:
-        self.path, self.fps, self.images = path, fps, []
+        self.path, self.fps = path, fps
+        self.images: list[Image.Image] = []
 
     def add(self, canvas: FigureCanvasAgg) -> None:
         image = Image.frombuffer("RGBA", canvas.get_width_height(), canvas.buffer_rgba(), "raw", "RGBA", 0, 1)
@@ -419,7 +420,9 @@ def _cycle_scene(ax: Axes, scene: Scene, frames: Sequence[CycleFrame]) -> Callab
     (failures,) = ax.plot([], [], linestyle="none", marker="X", markersize=12, color="crimson", zorder=8,
                           label="failure here")
     handles = [Line2D([], [], color=_color(k), linewidth=3, label=f"robot {n}") for k, n in enumerate(names)]
-    ax.legend(handles=[*handles, replans, failures], loc="upper right", fontsize=8, framealpha=0.9)
+    ax.legend(handles=[*handles, replans, failures], loc="lower left", bbox_to_anchor=(0.0, 1.0), ncol=4, fontsize=8,
+              frameon=False)
+    anchor = names[0]
 
     def draw(i: int) -> None:
         marks: dict[str, list[tuple[float, float]]] = {"replan": [], "fail": []}
@@ -428,13 +431,12 @@ def _cycle_scene(ax: Axes, scene: Scene, frames: Sequence[CycleFrame]) -> Callab
             trails[robot.name].set_data([p[0] for p in past], [p[1] for p in past])
             here = frames[i].positions.get(robot.name)
             arms[robot.name].show(*(_ik(robot, *here) if here else (math.nan, math.nan)))
-        for f in frames[: i + 1]:
-            for robot in scene.robots[:1]:
-                if robot.name in f.positions:
-                    if f.replanned:
-                        marks["replan"].append(f.positions[robot.name])
-                    if f.failed:
-                        marks["fail"].append(f.positions[robot.name])
+        for f in frames[: i + 1]:          # marked at the first robot's hand
+            at = f.positions.get(anchor)
+            if at is not None and f.replanned:
+                marks["replan"].append(at)
+            if at is not None and f.failed:
+                marks["fail"].append(at)
         replans.set_data([p[0] for p in marks["replan"]], [p[1] for p in marks["replan"]])
         failures.set_data([p[0] for p in marks["fail"]], [p[1] for p in marks["fail"]])
         ends = frames[i].positions

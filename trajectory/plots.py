@@ -1,11 +1,13 @@
 """Pictures in the style of the paper's Figs 2 and 5 (PNG or SVG, no screen needed).
 
 Colours follow the paper: obstacles black, robot 1 blue, robot 2 red, the payload green.
-Circles with step labels mark the end-effector positions of the plan; a green line joins the
-payload's ends at every step. `plot_plan` also highlights a violation: the region the payload
+Circles with step labels mark the end-effector positions of the plan (a boxed label beside a
+circle names every step drawn there, and a step at which nothing moves is explained under the
+plot); a green line joins the payload's ends at every step. `plot_plan` also highlights a violation: the region the payload
 sweeps during the failing motion is shaded, the point of first contact is crossed, and the
 message is printed under the plot. `plot_execution` draws planned against executed
-end-effector paths, with thin green payload segments along the executed motion (Fig. 5).
+end-effector paths, with thin green payload segments along the executed motion (Fig. 5), and
+with a `RunTimeline` the run over time below (`trajectory.time_panels`).
 
 Figures are built with `matplotlib.figure.Figure` directly (Agg and SVG canvases), so plotting
 never touches pyplot's global state or a display.
@@ -109,11 +111,10 @@ def _draw_states(ax: Axes, scene: Scene, states: Sequence[StepState], *, paths: 
         for i, (x, y) in enumerate(pts):
             steps_at.setdefault((float(x), float(y)), []).append(i)
         for (x, y), steps in steps_at.items():
+            ax.annotate(str(steps[0]), (x, y), ha="center", va="center", fontsize=7.5, color=color, zorder=6)
             if len(steps) == 1:
-                ax.annotate(str(steps[0]), (x, y), ha="center", va="center", fontsize=7.5, color=color, zorder=6)
                 continue
             # several steps at one place: the circle keeps the first, a boxed label beside it names them all
-            ax.annotate(str(steps[0]), (x, y), ha="center", va="center", fontsize=7.5, color=color, zorder=6)
             ax.annotate(_steps_text(steps), (x, y), xytext=(9, 7), textcoords="offset points", ha="left",
                         va="bottom", fontsize=8, color=color, zorder=6,
                         bbox={"boxstyle": "round,pad=0.15", "facecolor": "white", "edgecolor": color,
