@@ -162,3 +162,19 @@ def test_the_command_line_defaults_are_the_api_defaults():
     for fn in (trajectory.animate.animate_run, trajectory.animate.animate_cycles):
         params = inspect.signature(fn).parameters
         assert (params["max_frames"].default, params["dpi"].default) == (DEFAULT_FRAMES, DEFAULT_DPI)
+
+
+def test_long_writes_report_progress_at_every_quarter():
+    import io
+
+    from cplus.cli.animation_options import FrameProgress
+    out = io.StringIO()
+    progress = FrameProgress("cplus run", "out/run.gif", out)
+    for k in range(1, 41):
+        progress(k, 40)
+    assert out.getvalue().splitlines() == [f"cplus run: animating out/run.gif: frame {k}/40" for k in (10, 20, 30, 40)]
+    short, quiet = io.StringIO(), io.StringIO()
+    for k in range(1, 11):
+        FrameProgress("p", "a.gif", short)(k, 10)       # a short write says nothing
+        FrameProgress("p", "a.gif", quiet, quiet=True)(k * 4, 40)
+    assert short.getvalue() == quiet.getvalue() == ""

@@ -3,6 +3,7 @@ against executed, and an online run's cycles; bad requests refused before any wo
 
 from __future__ import annotations
 
+import dataclasses
 from pathlib import Path
 
 import numpy as np
@@ -117,3 +118,10 @@ def test_an_mp4_is_written_by_ffmpeg(payload_scene: Scene, traj, tmp_path: Path)
     data = out.read_bytes()
     assert data[4:8] == b"ftyp" and len(data) > 1000          # an MP4 container
     assert [p.name for p in tmp_path.iterdir()] == ["plan.mp4"]   # nothing left beside it
+
+
+def test_a_robot_the_scene_lacks_is_refused(payload_scene: Scene, traj, tmp_path: Path) -> None:
+    other = type(traj)(traj.tick_ms, traj.step_time_s, traj.points_per_step, traj.plan_length,
+                       (dataclasses.replace(traj.robots[0], name="r7"),), traj.source)
+    with pytest.raises(TrajectoryError, match="cannot animate robot r7: it is not in the scene"):
+        animate_run(payload_scene, other, tmp_path / "a.gif")
