@@ -239,9 +239,9 @@ class _Outputs:
     err: TextIO
 
     def write(self, log: nxt_link.ExecutionLog, plot: bool = True) -> bool:
-        """Log, report and plot, in that order (the plot is the slow one: a run stopped by a
-        signal, ``plot=False``, leaves it out so that the stop stays within its 2 s); returns
-        False (after one line on stderr) if one failed."""
+        """Log, report, plot and animation, in that order (the pictures are the slow ones: a run
+        stopped by a signal, ``plot=False``, leaves them out so that the stop stays within its
+        2 s); returns False (after one line on stderr) if one failed."""
         args = self.args
         unit_mm = self.scene.grid.unit_mm if self.scene is not None else None
         report = tracking_report(self.traj, log, unit_mm)
