@@ -221,17 +221,22 @@ def _rail(robot: Robot, xs: Sequence[float]) -> list[tuple[float, float]]:
 
 
 class _ArmArtist:
-    """One arm drawn as a rail (static), a carriage, a link and a hand; ``ghost`` is the planned
-    one (dashed, faint)."""
+    """One arm drawn as a carriage, a link and a hand (its rail is drawn once); ``ghost`` is the
+    planned arm under an executed one: thin, dashed, dark grey and on top, so that it shows
+    wherever the two part."""
 
     def __init__(self, ax: Axes, robot: Robot, color: str, ghost: bool) -> None:
-        style = {"linestyle": "--", "alpha": 0.45, "linewidth": 1.6} if ghost else {"linewidth": 3.0}
         self.arm = robot.arm
-        (self.link,) = ax.plot([], [], color=color, solid_capstyle="round", zorder=6, **style)
-        (self.carriage,) = ax.plot([], [], marker="s", markersize=9 if not ghost else 7, linestyle="none",
-                                   color=color, alpha=0.45 if ghost else 1.0, zorder=6)
-        (self.hand,) = ax.plot([], [], marker="o", markersize=7, linestyle="none", markerfacecolor="white",
-                               markeredgecolor=color, markeredgewidth=2, alpha=0.45 if ghost else 1.0, zorder=7)
+        if ghost:
+            color, z, link = "0.2", 7.5, {"linestyle": (0, (3, 2)), "linewidth": 1.3, "alpha": 0.8}
+        else:
+            z, link = 6.0, {"linewidth": 3.0}
+        (self.link,) = ax.plot([], [], color=color, solid_capstyle="round", zorder=z, **link)  # type: ignore[arg-type]
+        (self.carriage,) = ax.plot([], [], marker="s", markersize=5 if ghost else 9, linestyle="none",
+                                   markerfacecolor="none" if ghost else color, markeredgecolor=color, zorder=z)
+        (self.hand,) = ax.plot([], [], marker="o", markersize=5 if ghost else 7, linestyle="none",
+                               markerfacecolor="none" if ghost else "white", markeredgecolor=color,
+                               markeredgewidth=1.2 if ghost else 2, zorder=z + 0.5)
         self.artists: list[Artist] = [self.link, self.carriage, self.hand]
 
     def show(self, s: float, theta_rad: float) -> tuple[float, float]:
@@ -342,7 +347,7 @@ def animate_run(scene: Scene, traj: Trajectory, path: str | Path, *, timeline: R
     handles.append(Line2D([], [], color=PAYLOAD_COLOR, linewidth=4, label="payload"))
     if timeline is not None:
         handles += [Line2D([], [], color="0.3", linewidth=3, label="executed"),
-                    Line2D([], [], color="0.3", linewidth=1.6, linestyle="--", alpha=0.5, label="planned")]
+                    Line2D([], [], color="0.2", linewidth=1.3, linestyle=(0, (3, 2)), alpha=0.8, label="planned")]
     ax.legend(handles=handles, loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8, frameon=False)
     kind = "planned" if timeline is None else "executed (solid) vs planned (dashed)"
     fig.suptitle(title or f"{scene.name}: {kind}", fontsize=11)
