@@ -1,7 +1,7 @@
 """Animations of a run: a two-arm plan is far easier to judge moving than as a still.
 
 `animate_run` draws the arms (rail, carriage, link, hand), the payload and the obstacles tick
-by tick: the plan alone (``timeline=None``), or planned (dashed, faint) against executed
+by tick: the plan alone (``timeline=None``), or planned (thin, dashed, dark grey) against executed
 (solid, from the encoder readings on the PC's clock, so a late brick lags), with the step and
 the time shown. `animate_cycles` replays an online run cycle by cycle: the arms and the payload
 where the log puts them when the run has a scene, otherwise the state's fluents over the
