@@ -149,6 +149,62 @@ def test_plot_needs_a_scene(traj_file, tmp_path, capsys):
     orphan.write_text(json.dumps(data))
     one_line_error(capsys, [str(orphan), "--plot", str(tmp_path / "p.png"), *FAST], 2,
                    "--plot needs the scene")
+    one_line_error(capsys, [str(orphan), "--animate", str(tmp_path / "a.gif"), *FAST], 2,
+                   "--animate needs the scene")
+
+
+@pytest.mark.slow
+def test_execute_animates_executed_over_planned_and_plots_the_run_over_time(traj_file, tmp_path, capsys):
+    from PIL import Image
+
+    from cplus.cli.execute import run_timeline
+    plot_path, gif, log_path = tmp_path / "fig5.png", tmp_path / "run.gif", tmp_path / "log.json"
+    code = execute_main([str(traj_file), "--plot", str(plot_path), "--animate", str(gif), "--frames", "6",
+                         "--dpi", "20", "--log", str(log_path), "--no-latency"])
+    err = capsys.readouterr().err
+    assert code == 0, err
+    assert f"cplus execute: wrote {gif}\n" in err
+    with Image.open(gif) as im:
+        assert im.format == "GIF" and im.n_frames == 6 and im.size[0] == 8 * 20
+    assert plot_path.read_bytes().startswith(b"\x89PNG")
+    log = ExecutionLog.loads(log_path.read_text())
+    timeline = run_timeline(log)
+    assert timeline.names == ("r1", "r2")
+    for b, tb in zip(log.bricks, timeline.bricks):
+        assert tb.tick_s == b.tick_ms / 1000 / log.time_scale and tb.start_s == b.start_s
+        assert np.array_equal(tb.setpoint_deg, np.array(b.reference_deg))
+        assert np.array_equal(tb.measured_deg, np.array(b.measured_deg, dtype=float))
+        assert [e[1] for e in tb.events] == [e.event for e in b.events]
+    sk = log.start_skew()
+    assert timeline.skew_s == (sk.estimate, sk.min, sk.max) and timeline.stopped is None
+
+
+def test_an_incomplete_log_becomes_a_timeline_with_its_stop():
+    from cplus.cli.execute import run_timeline
+    from nxt_link.execlog import Stopped
+    log = ExecutionLog((BrickLog("r1", ("A",), 50, ((0,), (5,), (9,)), ((0,), None), (), (1.0, 1.1), "run"),),
+                       stopped=Stopped(2.5, "brick r1: link lost", "r1"), time_scale=2.0)
+    timeline = run_timeline(log)
+    b = timeline.brick("r1")
+    assert b.tick_s == 0.025 and b.measured_ticks == 1 and b.reached == "run"
+    assert np.isnan(b.measured_deg[1:]).all() and timeline.stopped == (2.5, "brick r1: link lost")
+
+
+def test_animation_files_are_checked_before_anything_moves(traj_file, tmp_path, capsys, monkeypatch):
+    one_line_error(capsys, [str(traj_file), "--animate", str(tmp_path / "a.avi"), *FAST], 2,
+                   "--animate " + str(tmp_path / "a.avi") + ": use a .gif or .mp4 file name")
+    (tmp_path / "d.gif").mkdir()
+    one_line_error(capsys, [str(traj_file), "--animate", str(tmp_path / "d.gif"), *FAST], 2,
+                   f"cannot write --animate {tmp_path / 'd.gif'}: it is a directory")
+    a_file = tmp_path / "file"
+    a_file.write_text("x")
+    one_line_error(capsys, [str(traj_file), "--animate", str(a_file / "a.gif"), *FAST], 2,
+                   f"{a_file} is not a directory")
+    one_line_error(capsys, [str(traj_file), "--dpi", "5", *FAST], 2, "--dpi: must be from 10 to 600 dpi")
+    import trajectory.animate
+    monkeypatch.setattr(trajectory.animate.animation.writers, "is_available", lambda name: False)
+    one_line_error(capsys, [str(traj_file), "--animate", str(tmp_path / "a.mp4"), *FAST], 2,
+                   "an .mp4 needs ffmpeg, which is not installed")
 
 
 @pytest.fixture
@@ -289,6 +345,8 @@ def run_main(argv):
      "--brick r1 and --brick r2 are both /dev/x"),
     ([str(ROOT / "domains/payload/payload.cp"), "--brick", "r1"], "expects NAME=PORT"),
     ([str(ROOT / "domains/payload/payload.cp"), "--time-scale", "0"], "must be > 0"),
+    ([str(ROOT / "domains/payload/payload.cp"), "--animate", "x.png"], "--animate x.png: use a .gif or .mp4"),
+    ([str(ROOT / "domains/payload/payload.cp"), "--frames", "x"], "expected a whole number of frames"),
 ])
 def test_cplus_run_checks_everything_before_planning(argv, message, capsys):
     assert run_main(argv) == 2
@@ -335,6 +393,17 @@ def test_cplus_run_keeps_real_time_for_given_bricks(tmp_path):
     assert (args.time_scale, args.latency) == (1.0, True)
 
 
+def test_cplus_run_animates_only_when_asked(tmp_path):
+    run = importlib.import_module("cplus.cli.run")
+    domain = str(ROOT / "domains/payload/payload.cp")
+    out = str(tmp_path / "out")
+    for extra, animate in (([], None), (["--animate"], str(tmp_path / "out" / "run.gif")),
+                           (["--animate", str(tmp_path / "mine.gif")], str(tmp_path / "mine.gif"))):
+        args = run.build_parser().parse_args([domain, "--out", out, *extra])
+        run._validate(args)
+        assert args.animate == animate
+
+
 def test_a_trajectory_that_continues_from_elsewhere_is_streamed_in_the_encoders_frame():
     """A re-plan starts where the arms stopped; the brick's encoders count from the first start."""
     scene = tj.load_scene(str(SCENE))
@@ -357,3 +426,27 @@ def test_a_trajectory_that_continues_from_elsewhere_is_streamed_in_the_encoders_
                    for (r0, r1), (s0, s1) in zip(zip(a.rows, a.rows[1:]), zip(b.rows, b.rows[1:]))
                    for j in range(3))
         assert b.limits == f.limits
+
+
+def test_cplus_plan_animates_the_plan(tmp_path, capsys):
+    from PIL import Image
+    domain = str(ROOT / "domains/payload/payload.cp")
+    gif = tmp_path / "plan.gif"
+    assert main(["plan", domain, "--animate", str(gif), "--frames", "4", "--dpi", "20"]) == 0
+    with Image.open(gif) as im:
+        assert im.format == "GIF" and im.n_frames == 4
+    assert f"% wrote {gif}\n" in capsys.readouterr().err
+    unsafe = tmp_path / "unsafe.gif"      # the first plan meets the post: animated all the same, exit 9
+    assert main(["plan", domain, "--no-refine", "--animate", str(unsafe), "--frames", "3", "--dpi", "20"]) == 9
+    assert unsafe.is_file()
+
+
+def test_cplus_plan_checks_the_animation_first(tmp_path, capsys):
+    domain = str(ROOT / "domains/payload/payload.cp")
+    assert main(["plan", domain, "--animate", str(tmp_path / "plan.txt")]) == 2
+    err = capsys.readouterr().err
+    assert err == f"cplus plan: error: --animate {tmp_path / 'plan.txt'}: use a .gif or .mp4 file name\n"
+    lamp = str(ROOT / "domains/examples/lamp.cp")
+    assert main(["plan", lamp, "--animate", str(tmp_path / "lamp.gif")]) == 0
+    assert "--animate applies to robot tasks only" in capsys.readouterr().err
+    assert not (tmp_path / "lamp.gif").exists()

@@ -61,6 +61,17 @@ def test_the_same_seed_gives_the_same_products(quiet_run, tmp_path, capsys):
     assert other["execution.json"] != quiet_run["execution.json"]   # latency and its seed count
 
 
+def test_an_animation_is_written_when_asked(tmp_path, capsys):
+    from PIL import Image
+    out = tmp_path / "out"
+    assert main(["run", str(DOMAIN), "--out", str(out), "--step-time", "0.5", "--points-per-step", "5"]) == 0
+    assert not (out / "run.gif").exists()                       # not by default: it takes longer than the run
+    assert main(["run", str(DOMAIN), "--out", str(out), "--animate", "--frames", "5", "--dpi", "20"]) == 0
+    with Image.open(out / "run.gif") as im:
+        assert im.format == "GIF" and im.n_frames == 5
+    assert f"wrote {out / 'run.gif'}\n" in capsys.readouterr().err
+
+
 def test_a_loaded_and_slow_machine_changes_nothing(quiet_run, tmp_path, monkeypatch):
     """Four CPU-bound processes for the duration of the run, and a PC that stalls for a
     second of real time in the middle of the execution (a process descheduled): the log is

@@ -8,6 +8,7 @@ The pipeline from a plan to motion, as the planner's glue calls it::
     traj = build_trajectory(scene, states, points_per_step=10, step_time_s=1.0)
     save_json(traj, "out/trajectory.json"); save_csv(traj, "out/trajectory.csv")
     plot_plan(scene, states, violation, path="out/plan.png")
+    animate_run(scene, traj, "out/plan.gif")                # GIF, or MP4 with ffmpeg
 
 `trajectory` never imports `cplus` or `nxt_link`: plans arrive as `StepState` lists and leave
 as `cplus.trajectory/1` files. See ``docs/trajectory.md``.
@@ -34,23 +35,40 @@ from .model import TRAJECTORY_FORMAT, MotorChannel, RobotTrajectory, Trajectory
 from .precheck import BadMotion, bad_single_body_motions, failing_length_pairs
 from .scene import SCENE_FORMAT, Scene, check_reachable, load_scene, parse_scene
 from .states import StepState
+from .timeline import BrickTimeline, CycleFrame, RunTimeline
 
 if TYPE_CHECKING:
-    from .plots import plot_execution, plot_plan
+    from .animate import animate_cycles, animate_run, animation_problem
+    from .plots import execution_figure, plan_figure, plot_execution, plot_plan
+
+_PLOTS = ("plot_plan", "plot_execution", "plan_figure", "execution_figure")
+_ANIMATIONS = ("animate_run", "animate_cycles", "animation_problem")
 
 
 def __getattr__(name: str) -> Any:
-    """Import the plotting functions (and matplotlib) only when they are first used."""
-    if name in ("plot_plan", "plot_execution"):
+    """Import the plotting and animation functions (and matplotlib) only when first used."""
+    if name in _PLOTS:
         from . import plots
 
         return getattr(plots, name)
+    if name in _ANIMATIONS:
+        from . import animate
+
+        return getattr(animate, name)
     raise AttributeError(f"module 'trajectory' has no attribute {name!r}")
 
 
 __all__ = [
     "Arm",
     "BadMotion",
+    "BrickTimeline",
+    "CycleFrame",
+    "RunTimeline",
+    "animate_cycles",
+    "animate_run",
+    "animation_problem",
+    "execution_figure",
+    "plan_figure",
     "BranchChoice",
     "Cause",
     "JointLimitError",

@@ -1,11 +1,13 @@
 """Pictures in the style of the paper's Figs 2 and 5 (PNG or SVG, no screen needed).
 
 Colours follow the paper: obstacles black, robot 1 blue, robot 2 red, the payload green.
-Circles with step labels mark the end-effector positions of the plan; a green line joins the
-payload's ends at every step. `plot_plan` also highlights a violation: the region the payload
+Circles with step labels mark the end-effector positions of the plan (a boxed label beside a
+circle names every step drawn there, and a step at which nothing moves is explained under the
+plot); a green line joins the payload's ends at every step. `plot_plan` also highlights a violation: the region the payload
 sweeps during the failing motion is shaded, the point of first contact is crossed, and the
 message is printed under the plot. `plot_execution` draws planned against executed
-end-effector paths, with thin green payload segments along the executed motion (Fig. 5).
+end-effector paths, with thin green payload segments along the executed motion (Fig. 5), and
+with a `RunTimeline` the run over time below (`trajectory.time_panels`).
 
 Figures are built with `matplotlib.figure.Figure` directly (Agg and SVG canvases), so plotting
 never touches pyplot's global state or a display.
@@ -30,8 +32,11 @@ from .errors import TrajectoryError
 from .geometry import lerp
 from .scene import Scene
 from .states import StepState
+from .time_panels import add_time_panels
+from .timeline import RunTimeline
 
-__all__ = ["plot_plan", "plot_execution", "swept_region_for_display", "ROBOT_COLORS"]
+__all__ = ["plot_plan", "plot_execution", "plan_figure", "execution_figure", "still_steps", "swept_region_for_display",
+           "ROBOT_COLORS"]
 
 ROBOT_COLORS = ("tab:blue", "tab:red", "tab:purple", "tab:orange", "tab:brown", "tab:cyan")
 PAYLOAD_COLOR = "tab:green"
@@ -106,12 +111,38 @@ def _draw_states(ax: Axes, scene: Scene, states: Sequence[StepState], *, paths: 
         for i, (x, y) in enumerate(pts):
             steps_at.setdefault((float(x), float(y)), []).append(i)
         for (x, y), steps in steps_at.items():
-            text = ",".join(str(i) for i in steps) if len(steps) <= 2 else f"{steps[0]}-{steps[-1]}"
-            if len(steps) > 2 and steps != list(range(steps[0], steps[-1] + 1)):
-                text = ",".join(str(i) for i in steps)
-            ax.annotate(text, (x, y), ha="center", va="center", fontsize=6.5 if len(text) < 3 else 5,
-                        color=color, zorder=6)
+            ax.annotate(str(steps[0]), (x, y), ha="center", va="center", fontsize=7.5, color=color, zorder=6)
+            if len(steps) == 1:
+                continue
+            # several steps at one place: the circle keeps the first, a boxed label beside it names them all
+            ax.annotate(_steps_text(steps), (x, y), xytext=(9, 7), textcoords="offset points", ha="left",
+                        va="bottom", fontsize=8, color=color, zorder=6,
+                        bbox={"boxstyle": "round,pad=0.15", "facecolor": "white", "edgecolor": color,
+                              "linewidth": 0.6, "alpha": 0.9})
 
+
+def _steps_text(steps: Sequence[int]) -> str:
+    """``"steps 0,1"``, ``"steps 3-6"`` (a run), ``"steps 1,4,5"``."""
+    if len(steps) > 2 and steps == list(range(steps[0], steps[-1] + 1)):
+        return f"steps {steps[0]}-{steps[-1]}"
+    return "steps " + ",".join(str(i) for i in steps)
+
+
+def still_steps(states: Sequence[StepState]) -> list[str]:
+    """Why the plan has a step at which nothing moves, one line per such step: the next state
+    is the same place for every arm and the payload (no action at that step, or actions that
+    moved nothing).
+
+    >>> s = StepState(robots={"r1": (0, 0)}, payload={"a": (0, 0), "b": (0, 5)})
+    >>> still_steps([s, s, StepState(robots={"r1": (1, 0)}, payload={"a": (1, 0), "b": (1, 5)})])
+    ['step 0 -> 1: the same place, no action (every arm waits)']
+    """
+    out = []
+    for i, (a, b) in enumerate(zip(states, states[1:])):
+        if dict(a.robots) == dict(b.robots) and dict(a.payload) == dict(b.payload):
+            why = "no action (every arm waits)" if not a.actions else f"{', '.join(a.actions)} moves no arm"
+            out.append(f"step {i} -> {i + 1}: the same place, {why}")
+    return out
 
 def _save(fig: Figure, path: Path) -> Path:
     # SVG keeps its text as text (searchable, editable) instead of glyph outlines
@@ -120,21 +151,16 @@ def _save(fig: Figure, path: Path) -> Path:
     return path
 
 
-def plot_plan(scene: Scene, states: Sequence[StepState], violation: Violation | None = None, *,
-              path: str | Path, title: str | None = None) -> Path:
-    """Draw a plan over the scene (like the paper's Fig. 2) and save it as PNG or SVG.
-
-    With ``violation``, the motion from ``violation.step`` to the next state is highlighted:
-    the payload's swept region shaded, the first contact crossed, the message printed.
-    """
-    out = Path(path)
-    _format_of(out)
+def plan_figure(scene: Scene, states: Sequence[StepState], violation: Violation | None = None, *,
+                title: str | None = None) -> Figure:
+    """The figure of `plot_plan`, unsaved (its axes and texts can be inspected)."""
     if not states:
         raise TrajectoryError("cannot plot an empty plan")
     fig = Figure(figsize=(8, 6))
     ax = fig.add_subplot()
     _draw_scene(ax, scene)
     _draw_states(ax, scene, states, paths=True)
+    notes = still_steps(states)
     if violation is not None:
         i = violation.step
         a, b = states[min(i, len(states) - 1)], states[min(i + 1, len(states) - 1)]
@@ -152,37 +178,58 @@ def plot_plan(scene: Scene, states: Sequence[StepState], violation: Violation | 
         ax.plot([violation.point[0]], [violation.point[1]], marker="X", markersize=16, color="crimson",
                 markeredgecolor="white", zorder=7, linestyle="none",
                 label=f"first violation ({violation.kind.value})")
-        fig.text(0.5, 0.005, "\n".join(textwrap.wrap(violation.message, 110)), ha="center", va="bottom",
-                 fontsize=7.5, color="crimson")
+    lines = ["\n".join(textwrap.wrap(violation.message, 110))] if violation is not None else []
+    if lines or notes:
+        fig.text(0.5, 0.005, "\n".join(lines + notes), ha="center", va="bottom",
+                 fontsize=7.5, color="crimson" if violation is not None else "0.25")
     m = len(states) - 1
     ax.set_title(title or f"{scene.name}: plan of {m} step{'' if m == 1 else 's'}")
     ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8, frameon=False)
-    return _save(fig, out)
+    return fig
 
 
-def plot_execution(scene: Scene, planned_paths: Mapping[str, npt.ArrayLike],
-                   executed_paths: Mapping[str, npt.ArrayLike], path: str | Path, *,
-                   states: Sequence[StepState] | None = None, title: str | None = None,
-                   payload_every: int = 5) -> Path:
-    """Draw planned against executed end-effector paths (like the paper's Fig. 5).
+def plot_plan(scene: Scene, states: Sequence[StepState], violation: Violation | None = None, *,
+              path: str | Path, title: str | None = None) -> Path:
+    """Draw a plan over the scene (like the paper's Fig. 2) and save it as PNG or SVG.
 
-    ``planned_paths`` and ``executed_paths`` map robot names to arrays of shape (n, 2).
-    With ``states``, the plan's steps are drawn as labelled circles and thick payload lines.
-    Thin green payload segments join the executed positions of the two robots holding the
-    payload's ends (at the first state, or the first two robots without ``states``) every
-    ``payload_every`` samples.
+    With ``violation``, the motion from ``violation.step`` to the next state is highlighted:
+    the payload's swept region shaded, the first contact crossed, the message printed. A step
+    at which nothing moves is named under the plot with the reason (no action, or actions
+    that moved no arm), and its circle carries a boxed label with every step drawn there.
     """
     out = Path(path)
     _format_of(out)
-    fig = Figure(figsize=(8, 6))
-    ax = fig.add_subplot()
-    _draw_scene(ax, scene)
-    if states:
-        _draw_states(ax, scene, states, paths=False)
+    return _save(plan_figure(scene, states, violation, title=title), out)
+
+
+def execution_figure(scene: Scene, planned_paths: Mapping[str, npt.ArrayLike],
+                     executed_paths: Mapping[str, npt.ArrayLike], *,
+                     states: Sequence[StepState] | None = None, title: str | None = None,
+                     payload_every: int = 5, timeline: RunTimeline | None = None) -> Figure:
+    """The figure of `plot_execution`, unsaved (its axes and texts can be inspected)."""
     names = list(scene.robot_names)
     for name in [*planned_paths, *executed_paths]:
         if name not in names:
             raise TrajectoryError(f"cannot plot robot {name}: it is not in the scene")
+    if timeline is None:
+        fig = Figure(figsize=(8, 6))
+        ax = fig.add_subplot()
+    else:
+        for b in timeline.bricks:
+            if b.name not in names:
+                raise TrajectoryError(f"cannot plot brick {b.name}: it is not a robot of the scene")
+        cols = len(timeline.bricks)
+        width = max(10.0, 5.6 * cols)
+        rows_h = (6.0, 2.5, 1.9, 1.0 + 0.55 * cols)
+        fig = Figure(figsize=(width, sum(rows_h) + 1.2), layout="constrained")
+        grid = fig.add_gridspec(4, cols, height_ratios=rows_h)
+        ax = fig.add_subplot(grid[0, :])
+        colors = [_color(names.index(b.name)) for b in timeline.bricks]
+        specs = [grid[r, c] for c in range(cols) for r in (1, 2)]
+        add_time_panels(fig, specs, grid[3, :], timeline, colors)
+    _draw_scene(ax, scene)
+    if states:
+        _draw_states(ax, scene, states, paths=False)
     for k, name in enumerate(names):
         color = _color(k)
         if name in planned_paths:
@@ -208,4 +255,24 @@ def plot_execution(scene: Scene, planned_paths: Mapping[str, npt.ArrayLike],
                     alpha=0.7, zorder=3, label="payload (executed)" if j == 0 else None)
     ax.set_title(title or f"{scene.name}: planned and executed paths")
     ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8, frameon=False)
-    return _save(fig, out)
+    return fig
+
+
+def plot_execution(scene: Scene, planned_paths: Mapping[str, npt.ArrayLike],
+                   executed_paths: Mapping[str, npt.ArrayLike], path: str | Path, *,
+                   states: Sequence[StepState] | None = None, title: str | None = None,
+                   payload_every: int = 5, timeline: RunTimeline | None = None) -> Path:
+    """Draw planned against executed end-effector paths (like the paper's Fig. 5).
+
+    ``planned_paths`` and ``executed_paths`` map robot names to arrays of shape (n, 2).
+    With ``states``, the plan's steps are drawn as labelled circles and thick payload lines.
+    Thin green payload segments join the executed positions of the two robots holding the
+    payload's ends (at the first state, or the first two robots without ``states``) every
+    ``payload_every`` samples. With ``timeline`` (the run over time, `RunTimeline`), panels
+    below show per brick its motor angles and tracking error against time, and one row per
+    brick its phases, its start interval and its events (`trajectory.time_panels`).
+    """
+    out = Path(path)
+    _format_of(out)
+    return _save(execution_figure(scene, planned_paths, executed_paths, states=states, title=title,
+                                  payload_every=payload_every, timeline=timeline), out)

@@ -4,7 +4,7 @@ Without ``--brick`` each robot gets an emulated brick on a pseudo-terminal.  The
 report compares the encoder logs with the plan (:mod:`cplus.robot.execution`).
 
 Everything that can be checked is checked before a motor moves: every option, every output
-path (``--log``, ``--report``, ``--plot``), the trajectory file, the scene, the ``--brick``
+path (``--log``, ``--report``, ``--plot``, ``--animate``), the trajectory file, the scene, the ``--brick``
 ports.  A run that fails after the start still writes its log and report, marked incomplete
 with the reason and the time it stopped.
 
@@ -15,6 +15,7 @@ apart), 2 bad input, 130 SIGINT, 143 SIGTERM (the bricks stopped, the log and re
 from __future__ import annotations
 
 import argparse
+import math
 import os
 import sys
 from collections.abc import Mapping
@@ -22,8 +23,11 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TextIO
 
+import numpy as np
+
 import nxt_link
 import trajectory
+from cplus.cli.animation_options import FrameProgress, add_animation_options, animation_check
 from cplus.cli.common import (
     EXIT_INPUT,
     EXIT_LINK,
@@ -109,7 +113,9 @@ def build_parser() -> OneLineArgumentParser:
     p.add_argument("trajectory", help="trajectory JSON (cplus.trajectory/1)")
     add_execution_options(p)
     p.add_argument("--log", metavar="FILE", help="write the execution log (cplus.execlog/1)")
-    p.add_argument("--plot", metavar="FILE", help="plot executed against planned (.png or .svg)")
+    p.add_argument("--plot", metavar="FILE", help="plot executed against planned (.png or .svg), with the "
+                   "motor angles, tracking error and brick phases against time")
+    add_animation_options(p)
     p.add_argument("--report", metavar="FILE",
                    help="write the tracking report to FILE instead of standard output")
     p.add_argument("--scene", metavar="SCENE",
@@ -147,6 +153,21 @@ def add_execution_options(p: argparse.ArgumentParser, *, fast: bool = False) -> 
     p.add_argument("--seed", type=nonneg, default=0, metavar="N",
                    help="emulated bricks: the random seed of the link model and the session ids (default 0; "
                         "on simulated time the same seed gives the same log)")
+
+
+def run_timeline(log: nxt_link.ExecutionLog) -> trajectory.RunTimeline:
+    """The log as `trajectory` draws it over time: each brick's setpoints and readings per tick
+    on the PC's clock (a tick lasts ``tick_ms / time_scale`` there), its start interval, its
+    events, and the run's stop and start skew."""
+    bricks = []
+    for b in log.bricks:
+        measured = np.array([[math.nan] * len(b.ports) if r is None else r for r in b.measured_deg], dtype=float)
+        bricks.append(trajectory.BrickTimeline(
+            b.name, b.ports, b.tick_ms / 1000.0 / log.time_scale, np.array(b.reference_deg, dtype=float), measured,
+            start_s=b.start_s, events=tuple((e.t_s, e.event, e.detail) for e in b.events), reached=b.reached))
+    skew = log.start_skew()
+    return trajectory.RunTimeline(tuple(bricks), None if log.stopped is None else (log.stopped.t_s, log.stopped.reason),
+                                  None if skew is None else (skew.estimate, skew.min, skew.max))
 
 
 def output_problem(path: str) -> str | None:
@@ -218,9 +239,9 @@ class _Outputs:
     err: TextIO
 
     def write(self, log: nxt_link.ExecutionLog, plot: bool = True) -> bool:
-        """Log, report and plot, in that order (the plot is the slow one: a run stopped by a
-        signal, ``plot=False``, leaves it out so that the stop stays within its 2 s); returns
-        False (after one line on stderr) if one failed."""
+        """Log, report, plot and animation, in that order (the pictures are the slow ones: a run
+        stopped by a signal, ``plot=False``, leaves them out so that the stop stays within its
+        2 s); returns False (after one line on stderr) if one failed."""
         args = self.args
         unit_mm = self.scene.grid.unit_mm if self.scene is not None else None
         report = tracking_report(self.traj, log, unit_mm)
@@ -245,8 +266,18 @@ class _Outputs:
                     title += ", incomplete"
                 trajectory.plot_execution(self.scene, self.traj.planned_paths(),
                                           {k: v for k, v in report.executed_paths.items() if len(v)},
-                                          args.plot, title=title)
+                                          args.plot, title=title, timeline=run_timeline(log))
                 self._wrote(args.plot)
+            if args.animate and self.scene is not None and not plot:
+                print(f"cplus execute: no animation {args.animate}: the run was stopped by a signal", file=self.err)
+            elif args.animate and self.scene is not None:
+                title = f"{self.scene.name}: executed (solid) vs planned (dashed)"
+                trajectory.animate_run(self.scene, self.traj, args.animate, timeline=run_timeline(log),
+                                       title=title + ("" if log.complete else ", incomplete"),
+                                       max_frames=args.frames, dpi=args.dpi,
+                                       on_progress=FrameProgress("cplus execute", args.animate, self.err,
+                                                                 args.quiet))
+                self._wrote(args.animate)
         except trajectory.TrajectoryError as exc:
             print(f"cplus execute: {exc}", file=self.err)
             return False
@@ -270,10 +301,12 @@ def main(args: argparse.Namespace) -> int:
     except CliError as exc:
         print(exc, file=err)
         return EXIT_INPUT
-    problem = check_outputs({"--log": args.log, "--report": args.report, "--plot": args.plot},
-                            prog)
+    problem = check_outputs({"--log": args.log, "--report": args.report, "--plot": args.plot,
+                             "--animate": args.animate}, prog)
     if problem is None and args.plot and Path(args.plot).suffix.lower() not in (".png", ".svg"):
         problem = f"{prog}: error: cannot plot to {args.plot}: use a .png or .svg file name"
+    if problem is None:
+        problem = animation_check(args.animate, "--animate", prog)
     if problem is not None:
         print(problem, file=err)
         return EXIT_INPUT
@@ -283,9 +316,10 @@ def main(args: argparse.Namespace) -> int:
     except trajectory.TrajectoryError as exc:
         print(f"{prog}: {exc}", file=err)
         return EXIT_INPUT
-    if args.plot and scene is None:
-        print(f"{prog}: error: --plot needs the scene: pass --scene SCENE", file=err)
-        return EXIT_INPUT
+    for option, given in (("--plot", args.plot), ("--animate", args.animate)):
+        if given and scene is None:
+            print(f"{prog}: error: {option} needs the scene: pass --scene SCENE", file=err)
+            return EXIT_INPUT
     if scene is None:
         print(f"{prog}: warning: no scene found beside the trajectory's domain (give --scene): "
               "the motor limits come from the trajectory file's own joint limits", file=err)

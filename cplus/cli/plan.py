@@ -9,6 +9,7 @@ import argparse
 import sys
 import time
 
+from cplus.cli.animation_options import FrameProgress, add_animation_options, animation_check
 from cplus.cli.common import (
     EXIT_INPUT,
     EXIT_INTERRUPTED,
@@ -101,6 +102,7 @@ def add_robot_options(p: argparse.ArgumentParser) -> None:
     g.add_argument("--trajectory", metavar="OUT.json", help="write the joint trajectory (cplus.trajectory/1)")
     g.add_argument("--csv", metavar="OUT.csv", help="write the joint trajectory as CSV")
     g.add_argument("--plot", metavar="OUT.png", help="plot the plan (PNG or SVG)")
+    add_animation_options(g, "planned")
     g.add_argument("--points-per-step", type=positive_int, default=10, metavar="K",
                    help="trajectory samples per plan step (default 10)")
     g.add_argument("--step-time", type=positive, default=1.0, metavar="SECONDS",
@@ -108,7 +110,7 @@ def add_robot_options(p: argparse.ArgumentParser) -> None:
 
 
 ROBOT_OPTIONS = ("no_refine", "max_iterations", "nogoods", "eager", "trajectory", "csv", "plot",
-                 "points_per_step", "step_time")
+                 "points_per_step", "step_time", "animate", "frames", "dpi")
 """The options that only a robot task uses (a plain domain warns when one is given)."""
 
 
@@ -245,6 +247,10 @@ def _plan_robot_task(args: argparse.Namespace, scene_path: str) -> int:
         return EXIT_INPUT
     check_outputs(plot=args.plot, trajectory_json=args.trajectory, csv=args.csv,
                   points_per_step=args.points_per_step, step_time=args.step_time)
+    problem = animation_check(args.animate, "--animate", "cplus plan")
+    if problem is not None:
+        print(problem, file=sys.stderr)
+        return EXIT_INPUT
     warn = Warnings()
     t0 = time.perf_counter()
     task = RobotTask.load(args.file, scene_path, args.extern)
@@ -257,7 +263,8 @@ def _plan_robot_task(args: argparse.Namespace, scene_path: str) -> int:
     if args.minimize:
         from cplus.cli.optimal import robot_check
         objective = robot_check(domain, args)
-    exports = [f for f, v in (("--plot", args.plot), ("--trajectory", args.trajectory), ("--csv", args.csv)) if v]
+    exports = [f for f, v in (("--plot", args.plot), ("--trajectory", args.trajectory), ("--csv", args.csv),
+                              ("--animate", args.animate)) if v]
     if exports and len(labels) > 1:
         raise TaskError(f"{exports[0]} writes one plan, and {args.file} has queries {', '.join(labels)}: "
                         "choose one with --query")
@@ -340,7 +347,34 @@ def _plan_robot_task(args: argparse.Namespace, scene_path: str) -> int:
                 raise
             print(f"cplus plan: {exc.message}; not written: "
                   f"{', '.join(p for p in (args.trajectory, args.csv) if p)}", file=sys.stderr)
+        if args.animate:
+            code = max(code, _animate(task, result.states or result.first_states or [],
+                                      result.first_violation if unsafe else None, args))
     return code
+
+
+def _animate(task, states: list, violation, args: argparse.Namespace) -> int:
+    """``--animate FILE``: the plan's trajectory moving over the scene (an unsafe plan too,
+    with its first violation in the title: seeing it move shows where it fails)."""
+    import os
+
+    import trajectory
+    try:
+        traj = trajectory.build_trajectory(task.scene, states, points_per_step=args.points_per_step,
+                                           step_time_s=args.step_time, check=False)
+        title = f"{os.path.basename(args.file)}: plan of length {len(states) - 1}"
+        if violation is not None:
+            title += f", not collision-free ({violation.kind.value} from step {violation.step})"
+        trajectory.animate_run(task.scene, traj, args.animate, title=title, max_frames=args.frames, dpi=args.dpi,
+                               on_progress=FrameProgress("cplus plan", args.animate, sys.stderr))
+    except trajectory.TrajectoryError as exc:
+        print(f"cplus plan: error: cannot animate the plan: {exc}", file=sys.stderr)
+        return EXIT_INPUT
+    except OSError as exc:
+        print(f"cplus plan: error: cannot write {args.animate}: {exc.strerror or exc}", file=sys.stderr)
+        return EXIT_INPUT
+    print(f"% wrote {args.animate}", file=sys.stderr)
+    return EXIT_OK
 
 
 def _summary(result) -> str:

@@ -5,9 +5,14 @@ the trajectory on the bricks (emulated ones on pseudo-terminals when no ``--bric
 on simulated time with instant answers, as fast as the emulation goes and whatever the
 machine's load, unless ``--time-scale X`` asks for the wall clock, e.g. ``--time-scale 1
 --latency`` for real time),
-read the encoder logs back, report the tracking error and draw the execution.  Every product
-goes to ``--out`` and every file written is named on standard error.  Every option and path is
-checked before planning starts.
+read the encoder logs back, report the tracking error and draw the execution (``execution.png``:
+the paths, and the motors, the tracking error and the bricks' phases against time).  Every
+product goes to ``--out`` and every file written is named on standard error.  Every option and
+path is checked before planning starts.
+
+An animation of the run (``--animate``: ``OUT/run.gif``; ``--animate FILE``) is written only
+when asked: rendering it takes longer than the emulated run itself, and the pictures show
+what a review needs.
 """
 from __future__ import annotations
 
@@ -18,6 +23,7 @@ import os
 import sys
 
 from cplus.cli import execute
+from cplus.cli.animation_options import add_animation_options, animation_check
 from cplus.cli.common import (
     EXIT_INPUT,
     CliError,
@@ -54,6 +60,7 @@ def build_parser() -> OneLineArgumentParser:
                    help="duration of one plan step in the trajectory (default 1.0); step time / "
                         "points per step is the tick, a whole number of milliseconds from 10 to 10000")
     execute.add_execution_options(p, fast=True)
+    add_animation_options(p, default_file="OUT/run.gif")
     add_common(p)
     return p
 
@@ -88,6 +95,11 @@ def _validate(args: argparse.Namespace) -> tuple[str, dict[str, str]]:
     problem = execute.output_problem(os.path.join(args.out, "plan.txt"))
     if problem is not None:
         raise CliError(f"{prog}: error: cannot write into --out {args.out}: {problem}")
+    if args.animate is True:
+        args.animate = os.path.join(args.out, "run.gif")
+    problem = animation_check(args.animate, "--animate", prog)
+    if problem is not None:
+        raise CliError(problem)
     return scene_path, ports
 
 
@@ -149,9 +161,9 @@ def _main(args: argparse.Namespace) -> int:
     where = ("the bricks " + ", ".join(f"{n}={p}" for n, p in ports.items()) if ports else
              f"emulated bricks ({clock}, {'Bluetooth latency' if args.latency else 'no latency'})")
     print(f"% executing {paths['trajectory']} on {where}", file=sys.stderr)
-    for key in ("log", "execution", "report"):  # no product of an earlier run may pass for this one's
-        if os.path.isfile(paths[key]):
-            os.remove(paths[key])
+    for stale in [paths[k] for k in ("log", "execution", "report")] + ([args.animate] if args.animate else []):
+        if os.path.isfile(stale):  # no product of an earlier run may pass for this one's
+            os.remove(stale)
     argv = [paths["trajectory"], "--scene", scene_path, "--log", paths["log"], "--plot", paths["execution"],
             "--report", paths["report"], "--kp", f"{args.kp[0]}/{args.kp[1]}",
             "--tolerance", str(args.tolerance), "--max-speed", repr(args.max_speed),
@@ -159,6 +171,8 @@ def _main(args: argparse.Namespace) -> int:
             "--latency" if args.latency else "--no-latency"]
     if args.time_scale is not None:
         argv += ["--time-scale", repr(args.time_scale)]
+    if args.animate:
+        argv += ["--animate", args.animate, "--frames", str(args.frames), "--dpi", str(args.dpi)]
     for b in args.brick:
         argv += ["--brick", b]
     code = execute.main(execute.build_parser().parse_args(argv))

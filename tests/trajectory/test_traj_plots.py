@@ -1,4 +1,5 @@
-"""Pictures: real PNG and SVG files with the plan, and the violation highlighted."""
+"""Pictures: real PNG and SVG files with the plan, and the violation highlighted; the execution
+with its panels over time."""
 
 from __future__ import annotations
 
@@ -9,9 +10,21 @@ from pathlib import Path
 import numpy as np
 import pytest
 from matplotlib.image import imread
-from traj_helpers import CLEAN_PAYLOAD_PLAN, FIRST_PAYLOAD_PLAN, plan
+from traj_helpers import CLEAN_PAYLOAD_PLAN, FIRST_PAYLOAD_PLAN, carried, plan
 
-from trajectory import Scene, TrajectoryError, build_trajectory, first_violation, plot_execution, plot_plan
+from trajectory import (
+    BrickTimeline,
+    RunTimeline,
+    Scene,
+    TrajectoryError,
+    build_trajectory,
+    execution_figure,
+    first_violation,
+    plan_figure,
+    plot_execution,
+    plot_plan,
+)
+from trajectory.plots import still_steps
 
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
 
@@ -80,3 +93,98 @@ def test_bad_requests(payload_scene: Scene, tmp_path: Path) -> None:
     with pytest.raises(TrajectoryError, match="empty plan"):
         plot_plan(payload_scene, [], path=tmp_path / "e.png")
     assert not list(tmp_path.iterdir())  # nothing half-written
+
+
+def timeline_of(traj, *, late_s: float = 0.0, stop_at: int | None = None, events=()) -> RunTimeline:
+    """A run of ``traj``: each brick a little off its setpoints, r2 starting ``late_s`` later,
+    both measured up to tick ``stop_at`` (all ticks without it)."""
+    rng = np.random.default_rng(1)
+    bricks = []
+    for k, r in enumerate(traj.robots):
+        measured = r.setpoints_deg + rng.integers(-3, 4, size=r.setpoints_deg.shape)
+        start = 1.0 + (late_s if k == 1 else 0.0)
+        bricks.append(BrickTimeline(r.name, r.ports, traj.tick_ms / 1000, r.setpoints_deg,
+                                    measured[:stop_at] if stop_at is not None else measured,
+                                    start_s=(start - 0.01, start + 0.01),
+                                    events=((0.2, "link ok", ""), (0.5, "upload verified", ""), *events),
+                                    reached="done" if stop_at is None else "stopped"))
+    stopped = None if stop_at is None else (1.0 + stop_at * traj.tick_ms / 1000, "brick r2: link lost")
+    return RunTimeline(tuple(bricks), stopped, (late_s, max(0.0, late_s - 0.02), late_s + 0.02))
+
+
+def test_the_execution_picture_shows_the_run_over_time(payload_scene: Scene, tmp_path: Path) -> None:
+    states = plan(*CLEAN_PAYLOAD_PLAN)
+    traj = build_trajectory(payload_scene, states, points_per_step=5, step_time_s=0.5)
+    timeline = timeline_of(traj, late_s=0.04, events=((0.3, "timeout", "READ attempt 1"),))
+    fig = execution_figure(payload_scene, traj.planned_paths(), traj.planned_paths(), timeline=timeline)
+    titles = [ax.get_title() for ax in fig.axes]
+    for name in ("r1", "r2"):
+        assert f"{name}: motor angles (setpoint dashed, measured solid)" in titles
+        assert f"{name}: tracking error (measured - setpoint)" in titles
+    bricks = next(ax for ax in fig.axes if ax.get_title().startswith("bricks over time"))
+    assert "start skew 40 ms (between 20 and 60 ms)" in bricks.get_title()
+    texts = {t.get_text() for t in bricks.texts}
+    assert "timeout" in texts and "start 0.990-1.010 s" in texts
+    error = next(ax for ax in fig.axes if ax.get_title() == "r1: tracking error (measured - setpoint)")
+    legend = [t.get_text() for t in error.get_legend().get_texts()]
+    worst = np.abs(timeline.brick("r1").error_deg).max(axis=0)
+    assert legend[0].startswith(f"A: max {worst[0]:.0f}°")
+    # r2 started 40 ms later: its curves are shifted by that much on the common time axis
+    deg = {ax.get_title().split(":")[0]: ax for ax in fig.axes if "motor angles" in ax.get_title()}
+    t1, t2 = (deg[n].lines[1].get_xdata()[0] for n in ("r1", "r2"))
+    assert t2 - t1 == pytest.approx(0.04)
+    png = plot_execution(payload_scene, traj.planned_paths(), traj.planned_paths(), tmp_path / "exec.png",
+                         timeline=timeline)
+    assert imread(png).shape[0] > 1500     # the panels are below the paths, not squeezed into them
+    phases = [t.get_text() for t in bricks.get_legend().get_texts()]
+    assert phases == ["connect", "upload", "run (the robot's colour)"]
+
+
+def test_an_incomplete_run_marks_where_it_stopped(payload_scene: Scene) -> None:
+    traj = build_trajectory(payload_scene, plan(*CLEAN_PAYLOAD_PLAN), points_per_step=5, step_time_s=0.5)
+    timeline = timeline_of(traj, stop_at=12)
+    fig = execution_figure(payload_scene, traj.planned_paths(), {}, timeline=timeline)
+    bricks = next(ax for ax in fig.axes if ax.get_title().startswith("bricks over time"))
+    assert "stopped: brick r2: link lost" in {t.get_text() for t in bricks.texts}
+    stop = 1.0 + 12 * traj.tick_ms / 1000
+    for ax in fig.axes[1:]:   # every time panel has the stop line
+        assert any(list(line.get_xdata()) == [stop, stop] for line in ax.lines), ax.get_title()
+    assert timeline.brick("r1").measured_ticks == 12
+    assert np.isnan(timeline.brick("r1").error_deg[12:]).all()
+
+
+def test_a_brick_that_never_started_says_so(payload_scene: Scene) -> None:
+    traj = build_trajectory(payload_scene, plan(*CLEAN_PAYLOAD_PLAN), points_per_step=5, step_time_s=0.5)
+    r1, r2 = traj.robots
+    timeline = RunTimeline((BrickTimeline("r1", r1.ports, 0.1, r1.setpoints_deg, [], reached="connect"),
+                            BrickTimeline("r2", r2.ports, 0.1, r2.setpoints_deg, [], reached="connect")),
+                           (0.4, "brick r1 is running 'tetris.rxe'"))
+    fig = execution_figure(payload_scene, traj.planned_paths(), {}, timeline=timeline)
+    texts = {t.get_text() for ax in fig.axes for t in ax.texts}
+    assert "r1 never started (reached: connect)" in texts
+
+
+def test_bad_timelines_are_refused(payload_scene: Scene) -> None:
+    with pytest.raises(TrajectoryError, match="one value per motor"):
+        BrickTimeline("r1", ("A", "B"), 0.1, [[0, 0]], [[0]])
+    with pytest.raises(TrajectoryError, match="2 measured rows for 1 ticks"):
+        BrickTimeline("r1", ("A",), 0.1, [[0]], [[0], [1]])
+    with pytest.raises(TrajectoryError, match="positive time"):
+        BrickTimeline("r1", ("A",), 0.0, [[0]], [[0]])
+    with pytest.raises(TrajectoryError, match="names a brick twice"):
+        RunTimeline((BrickTimeline("r1", ("A",), 0.1, [[0]], [[0]]),) * 2)
+    with pytest.raises(TrajectoryError, match="brick r9: it is not a robot of the scene"):
+        execution_figure(payload_scene, {}, {}, timeline=RunTimeline((BrickTimeline("r9", ("A",), 0.1, [[0]], [[0]]),)))
+
+
+def test_steps_at_one_place_are_named_with_the_reason(payload_scene: Scene) -> None:
+    states = plan(*CLEAN_PAYLOAD_PLAN)     # steps 0 and 1 are the same state: nothing happens at step 0
+    fig = plan_figure(payload_scene, states)
+    ax = fig.axes[0]
+    boxed = [t for t in ax.texts if t.get_bbox_patch() is not None]
+    assert sorted(t.get_text() for t in boxed) == ["steps 0,1", "steps 0,1", "steps 8,9"]   # r1 waits at step 8
+    assert all(t.get_fontsize() >= 8 for t in boxed)
+    assert "step 0 -> 1: the same place, no action (every arm waits)" in [t.get_text() for t in fig.texts]
+    grasp = [carried((0, 0), (0, 5), ["grasp(r1)"]), carried((0, 0), (0, 5)), carried((1, 0), (1, 5))]
+    assert still_steps(grasp) == ["step 0 -> 1: the same place, grasp(r1) moves no arm"]
+    assert still_steps(plan(((0, 0), (0, 5)), ((1, 0), (1, 5)))) == []

@@ -1,0 +1,81 @@
+"""``--animate FILE`` and its knobs, shared by ``cplus plan``, ``cplus execute``, ``cplus run`` and
+``cplus replay``: the options, the check made before any work starts, and the progress lines.
+
+Nothing here imports matplotlib until an animation is asked for (``cplus plan`` stays light).
+"""
+from __future__ import annotations
+
+import argparse
+from typing import TextIO
+
+__all__ = ["DEFAULT_DPI", "DEFAULT_FRAMES", "FrameProgress", "add_animation_options", "animation_check"]
+
+#: The command line's defaults: those of :func:`trajectory.animate.animate_run` (a test holds
+#: them equal), written here so that building a parser does not import matplotlib.
+DEFAULT_FRAMES = 150
+DEFAULT_DPI = 100
+
+
+def add_animation_options(p: argparse.ArgumentParser | argparse._ArgumentGroup, what: str = "executed over planned",
+                          *, default_file: str | None = None) -> None:
+    """``--animate FILE`` and its knobs (``cplus execute``, ``cplus run``, ``cplus plan``, ``cplus replay``).
+    With ``default_file``, ``--animate`` alone stores True: the command puts its default file there."""
+    extra = {"nargs": "?", "const": True} if default_file else {}
+    also = f"; --animate alone: {default_file}" if default_file else ""
+    p.add_argument("--animate", metavar="FILE", **extra,  # type: ignore[arg-type]
+                   help=f"write an animation of the arms, the payload and the obstacles, {what} (.gif; .mp4 "
+                        f"needs ffmpeg{also})")
+    p.add_argument("--frames", type=_frames, default=DEFAULT_FRAMES, metavar="N",
+                   help=f"with --animate: at most N frames, sampled evenly (default {DEFAULT_FRAMES})")
+    p.add_argument("--dpi", type=_dpi, default=DEFAULT_DPI, metavar="N",
+                   help=f"with --animate: dots per inch of the 8 in wide frames (default {DEFAULT_DPI})")
+
+
+def _frames(text: str) -> int:
+    try:
+        n = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a whole number of frames, got {text!r}") from None
+    if not 1 <= n <= 10000:
+        raise argparse.ArgumentTypeError(f"must be from 1 to 10000 frames, got {n}")
+    return n
+
+
+def _dpi(text: str) -> int:
+    try:
+        n = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected whole dots per inch, got {text!r}") from None
+    if not 10 <= n <= 600:
+        raise argparse.ArgumentTypeError(f"must be from 10 to 600 dpi, got {n}")
+    return n
+
+
+def animation_check(path: str | None, option: str, prog: str) -> str | None:
+    """One line when ``path`` cannot take an animation (its name, ffmpeg, the place), or None."""
+    if not path:
+        return None
+    from cplus.cli.execute import output_problem
+    from trajectory.animate import animation_problem
+    problem = animation_problem(path)
+    if problem is not None:
+        return f"{prog}: error: {option} {path}: {problem}"
+    where = output_problem(path)
+    return None if where is None else f"{prog}: error: cannot write {option} {path}: {where}"
+
+
+class FrameProgress:
+    """Progress of a long animation on stderr: a line at every quarter."""
+
+    def __init__(self, prog: str, path: str, out: TextIO, quiet: bool = False) -> None:
+        self.prog, self.path, self.out, self.quiet = prog, path, out, quiet
+        self.shown = -1
+
+    def __call__(self, done: int, total: int) -> None:
+        quarter = 4 * done // max(total, 1)
+        if self.quiet or total < 20 or quarter == self.shown or quarter == 0:
+            return
+        self.shown = quarter
+        print(f"{self.prog}: animating {self.path}: frame {done}/{total}", file=self.out, flush=True)
+
+

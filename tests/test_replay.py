@@ -1,0 +1,180 @@
+"""`cplus replay LOG --animate FILE`: an online run's log animated cycle by cycle; a bad log is
+one line on stderr and exit code 2."""
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+from PIL import Image
+
+from cplus.cli import main
+from cplus.cli.replay import ONLINE_FORMAT, frames_of, read_log
+from cplus.robot.online.loop import ONLINE_FORMAT as WRITTEN_FORMAT
+
+ROOT = Path(__file__).resolve().parent.parent
+DELIVERY = ROOT / "domains" / "delivery" / "delivery.cp"
+SCENE = ROOT / "domains" / "payload" / "scene.toml"
+SMALL = ["--dpi", "20", "--quiet"]
+
+
+def n_frames(path: Path) -> int:
+    with Image.open(path) as im:
+        assert im.format == "GIF"
+        return im.n_frames
+
+
+def cycle(k: int, state: dict, **extra) -> dict:
+    return {"record": "cycle", "cycle": k, "time": 1.5 * k, "state": state, "events": [], "inferred": [],
+            "sensed": {}, "raw": {}, "plan": [["a"]], "replanned": None, "executed": ["a"], "failure": None,
+            "notes": [], "decision_ms": 1.0, "act_s": 1.0, **extra}
+
+
+def arms_log(path: Path, scene: str | None = str(SCENE)) -> Path:
+    """The log of a payload-arms run as `cplus online` writes it: two cycles, a fault and a re-plan."""
+    def at(x1, x2):
+        return {"xpos(r1)": x1, "ypos(r1)": 0, "xpos(r2)": x2, "ypos(r2)": 5, "xpay(pl1)": x1, "ypay(pl1)": 0,
+                "xpay(pl2)": x2, "ypay(pl2)": 5, "on(r1,pl1)": True}
+    start = {"record": "start", "format": ONLINE_FORMAT, "domain": "domains/payload/payload.cp", "goal": "0",
+             "executor": "emulated NXT bricks r1, r2", **({"scene": scene} if scene else {})}
+    lines = [start, cycle(0, at(0, 0), replanned={"reason": "start", "fluents": {}, "events": []},
+                          failure="robot r1 motor A: 62 degrees from its setpoints"),
+             cycle(1, at(2, 2), replanned={"reason": "fault", "fluents": {
+                 "xpos(r1)": {"predicted": 4, "observed": 2}}, "events": []}),
+             {"record": "end", "status": "goal_reached", "message": "goal '0' reached", "cycles": 2, "replans": 1,
+              "state": at(10, 10), "seconds": 4.0}]
+    path.write_text("".join(json.dumps(x) + "\n" for x in lines))
+    return path
+
+
+def one_line_error(capsys, argv: list[str], message: str) -> None:
+    assert main(["replay", *argv]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and err.startswith("cplus replay: error: ") and message in err, err
+
+
+def test_the_format_is_the_one_the_loop_writes():
+    assert ONLINE_FORMAT == WRITTEN_FORMAT
+
+
+def test_a_real_online_log_replays_cycle_by_cycle(tmp_path, capsys):
+    log = tmp_path / "run.jsonl"
+    assert main(["online", str(DELIVERY), "--simulate", "--log", str(log), "--quiet"]) == 0
+    start, cycles, end = read_log(str(log))
+    assert end is not None and end["status"] == "goal_reached"
+    frames = frames_of(cycles, end)
+    assert [f.cycle for f in frames[:-1]] == [c["cycle"] for c in cycles] and frames[-1].ended
+    assert not any(f.positions for f in frames)          # no scene: the fluents are drawn
+    assert frames[0].state["atLandmark"] == "1" and "executed (1): follow" in frames[0].lines
+    out = tmp_path / "run.gif"
+    assert main(["replay", str(log), "--animate", str(out), "--dpi", "20"]) == 0
+    assert n_frames(out) == len(cycles) + 1
+    assert f"cplus replay: wrote {out} ({len(cycles) + 1} frames)" in capsys.readouterr().err
+
+
+def test_a_servers_log_names_the_goals_that_changed():
+    record = cycle(3, {"at": "office3"}, goals=[{"id": 1, "request": "deliver(office3,office2)",
+                                               "status": "preempted", "reason": "cancelled"}])
+    (frame,) = frames_of([record], None)
+    assert "goal 1 deliver(office3,office2): preempted (cancelled)" in frame.lines
+
+
+def test_an_arms_log_draws_the_arms_where_the_states_put_them(tmp_path):
+    log = arms_log(tmp_path / "arms.jsonl")
+    _, cycles, end = read_log(str(log))
+    import trajectory
+    frames = frames_of(cycles, end, trajectory.load_scene(SCENE))
+    assert frames[1].positions == {"r1": (2.0, 0.0), "r2": (2.0, 5.0), "pl1": (2.0, 0.0), "pl2": (2.0, 5.0)}
+    assert [f.replanned for f in frames] == [False, True, False]
+    assert [f.failed for f in frames] == [True, False, False]
+    assert "RE-PLANNED (fault): 1 steps" in frames[1].lines and "  xpos(r1): predicted 4, observed 2" in frames[1].lines
+    assert frames[-1].lines[:2] == ("the run ended: goal_reached", "goal '0' reached")
+    out = tmp_path / "arms.gif"
+    assert main(["replay", str(log), "--animate", str(out), *SMALL]) == 0
+    assert n_frames(out) == 3
+    assert main(["replay", str(log), "--animate", str(tmp_path / "two.gif"), "--frames", "2", *SMALL]) == 0
+    assert n_frames(tmp_path / "two.gif") == 2
+
+
+def test_a_scene_the_log_names_must_exist_unless_given(tmp_path, capsys):
+    log = arms_log(tmp_path / "arms.jsonl", scene=str(tmp_path / "gone.toml"))
+    one_line_error(capsys, [str(log), "--animate", str(tmp_path / "a.gif")],
+                   "gone.toml: no such file (the scene the log names: give --scene FILE)")
+    assert main(["replay", str(log), "--animate", str(tmp_path / "a.gif"), "--scene", str(SCENE), *SMALL]) == 0
+    bad = tmp_path / "bad.toml"
+    bad.write_text("format = 'cplus.scene/1'\n[grid]\nx_min = 'a'\n")
+    assert main(["replay", str(log), "--animate", str(tmp_path / "b.gif"), "--scene", str(bad), *SMALL]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "bad.toml:" in err and "Traceback" not in err
+
+
+@pytest.mark.parametrize("content, message", [
+    (None, "run.jsonl: no such file"),
+    ("", "run.jsonl: the file is empty (not a cplus.online/1 log)"),
+    ("hello\n", "run.jsonl:1: not JSON: Expecting value at column 1 (not a cplus.online/1 log)"),
+    ('{"record": "start", "format": "cplus.execlog/1"}\n', "not a cplus.online/1 log"),
+    ('[1, 2]\n', 'run.jsonl:1: a record is a JSON object with a "record" field'),
+    ('{"record": "start", "format": "cplus.online/1"}\n', "run.jsonl: the log has no cycle to replay"),
+    ('{"record": "start", "format": "cplus.online/1"}\n{"record": "cycle", "cycle": 0, "ti',
+     "run.jsonl:2: the last line is cut off (the run was stopped while writing it)"),
+    ('{"record": "start", "format": "cplus.online/1"}\n{"record": "cycle"\n{"record": "end"}\n',
+     "run.jsonl:2: not JSON"),
+    ('{"record": "start", "format": "cplus.online/1"}\n{"record": "cycle", "cycle": 0}\n',
+     'run.jsonl:2: a cycle record needs "time" (seconds)'),
+    ('{"record": "start", "format": "cplus.online/1"}\n{"record": "cycle", "cycle": 0, "time": 0, "state": 3}\n',
+     'run.jsonl:2: "state" must be an object'),
+    ('{"record": "start", "format": "cplus.online/1"}\n{"record": "goal"}\n', "run.jsonl:2: unknown record 'goal'"),
+    ('{"record": "start", "format": "cplus.online/1"}\n{"record": "end"}\n{"record": "end"}\n',
+     "run.jsonl:3: a record after the end record"),
+])
+def test_bad_logs_are_one_line(tmp_path, capsys, content, message):
+    log = tmp_path / "run.jsonl"
+    if content is not None:
+        log.write_text(content)
+    one_line_error(capsys, [str(log), "--animate", str(tmp_path / "a.gif")], message)
+    assert not (tmp_path / "a.gif").exists()
+
+
+def test_binary_and_directory_inputs_are_one_line(tmp_path, capsys):
+    (tmp_path / "bin.jsonl").write_bytes(b"\xff\xfe\x00")
+    one_line_error(capsys, [str(tmp_path / "bin.jsonl"), "--animate", str(tmp_path / "a.gif")], "not UTF-8 text")
+    one_line_error(capsys, [str(tmp_path), "--animate", str(tmp_path / "a.gif")], "not a regular file")
+
+
+def test_the_animation_file_is_checked_first(tmp_path, capsys, monkeypatch):
+    log = arms_log(tmp_path / "arms.jsonl")
+    one_line_error(capsys, [str(log)], "nothing to do: give --animate FILE")
+    one_line_error(capsys, [str(log), "--animate", str(tmp_path / "a.png")], "a.png: use a .gif or .mp4 file name")
+    one_line_error(capsys, [str(log), "--animate", str(tmp_path)], "use a .gif or .mp4")
+    import trajectory.animate
+    monkeypatch.setattr(trajectory.animate.animation.writers, "is_available", lambda name: False)
+    one_line_error(capsys, [str(log), "--animate", str(tmp_path / "a.mp4")],
+                   "a.mp4: an .mp4 needs ffmpeg, which is not installed")
+    assert main(["replay", str(log), "--animate", str(tmp_path / "a.gif"), "--frames", "0"]) == 2
+    assert "--frames: must be from 1 to 10000 frames" in capsys.readouterr().err
+
+
+def test_the_command_line_defaults_are_the_api_defaults():
+    import inspect
+
+    import trajectory.animate
+    from cplus.cli.animation_options import DEFAULT_DPI, DEFAULT_FRAMES
+    for fn in (trajectory.animate.animate_run, trajectory.animate.animate_cycles):
+        params = inspect.signature(fn).parameters
+        assert (params["max_frames"].default, params["dpi"].default) == (DEFAULT_FRAMES, DEFAULT_DPI)
+
+
+def test_long_writes_report_progress_at_every_quarter():
+    import io
+
+    from cplus.cli.animation_options import FrameProgress
+    out = io.StringIO()
+    progress = FrameProgress("cplus run", "out/run.gif", out)
+    for k in range(1, 41):
+        progress(k, 40)
+    assert out.getvalue().splitlines() == [f"cplus run: animating out/run.gif: frame {k}/40" for k in (10, 20, 30, 40)]
+    short, quiet = io.StringIO(), io.StringIO()
+    for k in range(1, 11):
+        FrameProgress("p", "a.gif", short)(k, 10)       # a short write says nothing
+        FrameProgress("p", "a.gif", quiet, quiet=True)(k * 4, 40)
+    assert short.getvalue() == quiet.getvalue() == ""

@@ -1,0 +1,176 @@
+"""The panels over time under the execution picture: what a user tuning the bricks'
+P-controller looks at.
+
+Per brick, the motor angles (setpoint dashed, measured solid) and the tracking error
+(measured - setpoint) against time; for all bricks, one row each with their phases
+(connect, upload, homing, waiting for the start, run, log read), the interval in which each
+started (the start skew between bricks), the other events the log holds (timeouts, damaged
+replies, a lost link ...) and where the run stopped. Every panel uses the PC's clock, so a
+late brick shows as a shifted curve.
+
+The phases come from the brick's events:
+
+>>> b = BrickTimeline("r1", ("A",), 0.1, [[0], [5]], [[0], [4]], start_s=(1.0, 1.02),
+...                   events=[(0.2, "link ok", ""), (0.5, "upload verified", ""), (1.5, "log read", "")])
+>>> [(p, round(a, 2), round(z, 2)) for p, a, z in _phases(b)]
+[('connect', 0.0, 0.2), ('upload', 0.2, 0.5), ('run', 1.01, 1.21), ('log read', 1.21, 1.5)]
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+from matplotlib.axes import Axes
+from matplotlib.figure import Figure
+from matplotlib.gridspec import SubplotSpec
+from matplotlib.patches import Patch
+
+from .timeline import MILESTONES, BrickTimeline, RunTimeline
+
+__all__ = ["add_time_panels", "MOTOR_COLORS"]
+
+#: One colour per motor of a brick (the robot's own colour names the brick in the titles).
+MOTOR_COLORS = ("#1b9e77", "#d95f02", "#7570b3", "#e7298a", "#66a61e")
+_PHASE_COLORS = {"connect": "0.82", "upload": "#c7b36a", "homing": "#8ecae6", "wait for start": "0.62",
+                 "run": None, "log read": "#d4c2e6"}
+_MAX_EVENT_LABELS = 6
+
+
+def _first(brick: BrickTimeline, name: str) -> float | None:
+    return next((t for t, e, _ in brick.events if e == name), None)
+
+
+def _phases(brick: BrickTimeline) -> list[tuple[str, float, float]]:
+    """``(phase, start, end)`` for every phase the events (and the start interval) delimit."""
+    link, upload = _first(brick, "link ok"), _first(brick, "upload verified")
+    homing, ready, sent = _first(brick, "homing"), _first(brick, "ready"), _first(brick, "start sent")
+    read = _first(brick, "log read")
+    out: list[tuple[str, float, float]] = []
+    if link is not None:
+        out.append(("connect", 0.0, link))
+    if link is not None and upload is not None:
+        out.append(("upload", link, upload))
+    if homing is not None and ready is not None:
+        out.append(("homing", homing, ready))
+    start = brick.start_mid_s
+    if sent is not None and brick.start_s is not None:
+        out.append(("wait for start", sent, brick.start_s[0]))
+    if start is not None:
+        measured = np.flatnonzero(np.all(np.isfinite(brick.measured_deg), axis=1))
+        end = float(brick.tick_end_s[measured[-1]]) if len(measured) else start
+        out.append(("run", start, end))
+        if read is not None and read > end:
+            out.append(("log read", end, read))
+    return [(name, a, b) for name, a, b in out if b >= a]
+
+
+def _mark_stop(axes: Sequence[Axes], timeline: RunTimeline) -> None:
+    if timeline.stopped is not None:
+        for ax in axes:
+            ax.axvline(timeline.stopped[0], color="crimson", linewidth=1.2, linestyle="-", zorder=6)
+
+
+def _motor_panels(ax_deg: Axes, ax_err: Axes, brick: BrickTimeline, color: str) -> None:
+    t = brick.tick_end_s
+    err = brick.error_deg
+    for j, port in enumerate(brick.ports):
+        c = MOTOR_COLORS[j % len(MOTOR_COLORS)]
+        width = 1.4 + 1.2 * (len(brick.ports) - 1 - j)   # wider underneath: two wheels on one joint both show
+        ax_deg.plot(t, brick.setpoint_deg[:, j], color=c, linewidth=1.0, linestyle="--", alpha=0.9)
+        ax_deg.plot(t, brick.measured_deg[:, j], color=c, linewidth=width, alpha=0.85, label=f"motor {port}")
+        e = err[:, j]
+        known = e[np.isfinite(e)]
+        stats = (f": max {np.abs(known).max():.0f}°, rms {np.sqrt((known ** 2).mean()):.2f}°" if len(known)
+                 else ": not measured")
+        ax_err.plot(t, e, color=c, linewidth=1.0 + 0.7 * (len(brick.ports) - 1 - j), alpha=0.85,
+                    label=f"{port}{stats}")
+    ax_err.axhline(0.0, color="0.4", linewidth=0.7, zorder=1)
+    ax_deg.set_title(f"{brick.name}: motor angles (setpoint dashed, measured solid)", fontsize=9, color=color)
+    ax_err.set_title(f"{brick.name}: tracking error (measured - setpoint)", fontsize=9, color=color)
+    ax_deg.set_ylabel("degrees", fontsize=8)
+    ax_err.set_ylabel("degrees", fontsize=8)
+    ax_err.set_xlabel("time (s, PC clock)", fontsize=8)
+    if brick.start_mid_s is None:
+        ax_deg.text(0.5, 0.5, f"{brick.name} never started (reached: {brick.reached})", transform=ax_deg.transAxes,
+                    ha="center", va="center", fontsize=9, color="crimson")
+    for ax, cols in ((ax_deg, len(brick.ports)), (ax_err, 1)):
+        ax.legend(fontsize=7, loc="best", ncol=cols, frameon=True, framealpha=0.85, edgecolor="none")
+    for ax in (ax_deg, ax_err):
+        ax.tick_params(labelsize=7)
+        ax.grid(True, linewidth=0.4, alpha=0.5)
+
+
+def _skew_text(timeline: RunTimeline) -> str:
+    if timeline.skew_s is None:
+        return ""
+    est, lo, hi = timeline.skew_s
+    return f"; start skew {est * 1000:.0f} ms (between {lo * 1000:.0f} and {hi * 1000:.0f} ms)"
+
+
+def _bricks_panel(ax: Axes, timeline: RunTimeline, colors: Sequence[str]) -> None:
+    n = len(timeline.bricks)
+    used: set[str] = set()
+    for row, (brick, color) in enumerate(zip(timeline.bricks, colors)):
+        y = n - 1 - row
+        for phase, a, b in _phases(brick):
+            fill = color if phase == "run" else _PHASE_COLORS[phase]
+            ax.broken_barh([(a, max(b - a, 1e-3))], (y - 0.3, 0.6), facecolors=fill, edgecolors="none",
+                           alpha=0.85 if phase == "run" else 1.0, zorder=2)
+            used.add(phase)
+        if brick.start_s is not None:
+            lo, hi = brick.start_s
+            ax.plot([lo, lo, hi, hi], [y + 0.42, y + 0.36, y + 0.36, y + 0.42], color="black", linewidth=1.0,
+                    zorder=4)
+            ax.annotate(f"start {lo:.3f}-{hi:.3f} s", (hi, y + 0.36), xytext=(3, 2), textcoords="offset points",
+                        fontsize=7, va="bottom", zorder=5)
+        others = [(t, e) for t, e, _ in brick.events if e not in MILESTONES]
+        if others:
+            ts = [t for t, _ in others]
+            ax.plot(ts, [y - 0.36] * len(ts), linestyle="none", marker="v", markersize=5, color="crimson", zorder=5)
+            shown = others[:_MAX_EVENT_LABELS]
+            for k, (t, e) in enumerate(shown):
+                ax.annotate(e, (t, y - 0.36), xytext=(2, -9 - 7 * (k % 2)), textcoords="offset points",
+                            fontsize=6.5, color="crimson", zorder=5)
+            if len(others) > len(shown):
+                ax.annotate(f"+{len(others) - len(shown)} more events", (shown[-1][0], y - 0.36), xytext=(40, -9),
+                            textcoords="offset points", fontsize=6.5, color="crimson")
+    if timeline.stopped is not None:
+        t, reason = timeline.stopped
+        ax.annotate(f"stopped: {reason}", (t, n - 0.5), xytext=(-4, 2), textcoords="offset points", ha="right",
+                    va="bottom", fontsize=7, color="crimson", annotation_clip=False)
+    ax.set_yticks(range(n), [b.name for b in reversed(timeline.bricks)], fontsize=8)
+    ax.set_ylim(-0.8, n - 0.2)
+    lo, hi = timeline.span_s()
+    ax.set_xlim(lo, hi + 0.02 * (hi - lo) + 1e-3)
+    ax.set_xlabel("time (s, PC clock, from the start of the execution)", fontsize=8)
+    ax.tick_params(axis="x", labelsize=7)
+    ax.set_title("bricks over time: phases, start intervals, events" + _skew_text(timeline), fontsize=9)
+    handles = [Patch(facecolor=_PHASE_COLORS[p] or "0.3", label=p if _PHASE_COLORS[p] else f"{p} (the robot's colour)")
+               for p in _PHASE_COLORS if p in used]
+    if handles:
+        ax.legend(handles=handles, fontsize=7, loc="upper left", bbox_to_anchor=(1.005, 1.0), frameon=False)
+    ax.grid(True, axis="x", linewidth=0.4, alpha=0.5)
+
+
+def add_time_panels(fig: Figure, specs: Sequence[SubplotSpec], bricks_spec: SubplotSpec, timeline: RunTimeline,
+                    colors: Sequence[str]) -> list[Axes]:
+    """Draw the panels: ``specs`` holds two cells (angles, error) per brick, in order; returns
+    every axes made (the time panels share their time axis)."""
+    axes: list[Axes] = []
+    first: Axes | None = None
+    for k, brick in enumerate(timeline.bricks):
+        ax_deg = fig.add_subplot(specs[2 * k], sharex=first)
+        first = first or ax_deg
+        ax_err = fig.add_subplot(specs[2 * k + 1], sharex=first)
+        _motor_panels(ax_deg, ax_err, brick, colors[k])
+        axes += [ax_deg, ax_err]
+    span = timeline.run_span_s()
+    if first is not None and span is not None:
+        a, b = span
+        first.set_xlim(a - 0.02 * (b - a), b + 0.02 * (b - a))
+    ax = fig.add_subplot(bricks_spec)
+    _bricks_panel(ax, timeline, colors)
+    axes.append(ax)
+    _mark_stop(axes, timeline)
+    return axes
