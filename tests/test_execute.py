@@ -404,6 +404,15 @@ def test_cplus_run_animates_only_when_asked(tmp_path):
         assert args.animate == animate
 
 
+def test_cplus_run_animate_before_the_domain_file_says_where_it_goes(capsys):
+    """`--animate` alone before the domain takes the domain as its FILE: one line says so."""
+    from cplus.cli import main
+    code = main(["run", "--animate", str(ROOT / "domains/payload/payload.cp")])
+    err = capsys.readouterr().err
+    assert code == 2 and len(err.splitlines()) == 1
+    assert "--animate took" in err and "put --animate after the domain file, or write --animate=FILE" in err
+
+
 def test_a_trajectory_that_continues_from_elsewhere_is_streamed_in_the_encoders_frame():
     """A re-plan starts where the arms stopped; the brick's encoders count from the first start."""
     scene = tj.load_scene(str(SCENE))

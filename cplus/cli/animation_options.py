@@ -20,7 +20,7 @@ def add_animation_options(p: argparse.ArgumentParser | argparse._ArgumentGroup, 
                           *, default_file: str | None = None) -> None:
     """``--animate FILE`` and its knobs (``cplus execute``, ``cplus run``, ``cplus plan``, ``cplus replay``).
     With ``default_file``, ``--animate`` alone stores True: the command puts its default file there."""
-    extra = {"nargs": "?", "const": True} if default_file else {}
+    extra = {"nargs": "?", "const": True, "action": _OptionalFile} if default_file else {}
     also = f"; --animate alone: {default_file}" if default_file else ""
     p.add_argument("--animate", metavar="FILE", **extra,  # type: ignore[arg-type]
                    help=f"write an animation of the arms, the payload and the obstacles, {what} (.gif; .mp4 "
@@ -29,6 +29,17 @@ def add_animation_options(p: argparse.ArgumentParser | argparse._ArgumentGroup, 
                    help=f"with --animate: at most N frames, sampled evenly (default {DEFAULT_FRAMES})")
     p.add_argument("--dpi", type=_dpi, default=DEFAULT_DPI, metavar="N",
                    help=f"with --animate: dots per inch of the 8 in wide frames (default {DEFAULT_DPI})")
+
+
+class _OptionalFile(argparse.Action):
+    """``--animate [FILE]`` before the domain file takes the domain as its FILE (argparse cannot
+    tell them apart): say so, instead of argparse's "the following arguments are required"."""
+
+    def __call__(self, parser, namespace, values, option_string=None) -> None:
+        if isinstance(values, str) and values.lower().endswith(".cp"):
+            parser.error(f"{option_string} took {values!r} as its FILE: put {option_string} after the domain "
+                         f"file, or write {option_string}=FILE")
+        setattr(namespace, self.dest, values)
 
 
 def _frames(text: str) -> int:
