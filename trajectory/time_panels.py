@@ -5,7 +5,8 @@ Per brick, the motor angles (setpoint dashed, measured solid) and the tracking e
 (measured - setpoint) against time; for all bricks, one row each with their phases
 (connect, upload, homing, waiting for the start, run, log read), the interval in which each
 started (the start skew between bricks), the other events the log holds (timeouts, damaged
-replies, a lost link ...) and where the run stopped. Every panel uses the PC's clock, so a
+replies, a lost link ...) and where the run stopped. Where a motor was not following (a
+stall: its error beyond the online monitor's threshold) its error panel is shaded and named. Every panel uses the PC's clock, so a
 late brick shows as a shifted curve.
 
 The phases come from the brick's events:
@@ -26,7 +27,7 @@ from matplotlib.figure import Figure
 from matplotlib.gridspec import SubplotSpec
 from matplotlib.patches import Patch
 
-from .timeline import MILESTONES, BrickTimeline, RunTimeline
+from .timeline import MILESTONES, STALL_ERROR_DEG, BrickTimeline, RunTimeline
 
 __all__ = ["add_time_panels", "MOTOR_COLORS"]
 
@@ -86,6 +87,13 @@ def _motor_panels(ax_deg: Axes, ax_err: Axes, brick: BrickTimeline, color: str) 
         ax_err.plot(t, e, color=c, linewidth=1.0 + 0.7 * (len(brick.ports) - 1 - j), alpha=0.85,
                     label=f"{port}{stats}")
     ax_err.axhline(0.0, color="0.4", linewidth=0.7, zorder=1)
+    spans = brick.stall_spans()
+    for k, (port, a, z) in enumerate(spans):      # where a motor was not following: shaded, named
+        ax_err.axvspan(a, z, color="crimson", alpha=0.12, zorder=0,
+                       label=f"not following (|error| > {STALL_ERROR_DEG:.0f}°)" if k == 0 else None)
+        ax_err.annotate(f"{port} not following", xy=(a, 1.0), xycoords=("data", "axes fraction"),
+                        xytext=(3, -12), textcoords="offset points", fontsize=7, color="crimson",
+                        bbox={"fc": "white", "ec": "none", "alpha": 0.8, "pad": 1})
     ax_deg.set_title(f"{brick.name}: motor angles (setpoint dashed, measured solid)", fontsize=9, color=color)
     ax_err.set_title(f"{brick.name}: tracking error (measured - setpoint)", fontsize=9, color=color)
     ax_deg.set_ylabel("degrees", fontsize=8)

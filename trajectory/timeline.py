@@ -23,13 +23,19 @@ import numpy.typing as npt
 
 from .errors import TrajectoryError
 
-__all__ = ["BrickTimeline", "CycleFrame", "RunTimeline", "MILESTONES"]
+__all__ = ["BrickTimeline", "CycleFrame", "RunTimeline", "MILESTONES", "STALL_ERROR_DEG"]
 
 #: Events that mark a brick's phases (drawn as the phase bars, not as separate marks).
 MILESTONES = ("program started", "link ok", "upload verified", "homing", "ready", "start sent",
               "start acked", "log read")
 
 FloatArray = npt.NDArray[np.float64]
+
+#: A tracking error beyond this many degrees is a motor that is not following (stalled,
+#: caught, held): the threshold the online payload monitor re-plans at
+#: (``cplus.robot.online.payload_monitor.TRACKING_THRESHOLD_DEG``; a test holds them equal),
+#: so that the picture of a run marks what the monitor would have acted on.
+STALL_ERROR_DEG = 30.0
 
 
 def _rows(name: str, what: str, values: npt.ArrayLike, width: int) -> FloatArray:
@@ -88,6 +94,26 @@ class BrickTimeline:
     def error_deg(self) -> FloatArray:
         """measured - setpoint per tick and motor (NaN where nothing was measured)."""
         return self.measured_deg - self.setpoint_deg
+
+    def stall_spans(self, threshold_deg: float = STALL_ERROR_DEG) -> list[tuple[str, float, float]]:
+        """``(port, from_s, to_s)`` for every run of ticks in which a motor's error is beyond
+        ``threshold_deg``: where it was not following (from the end of the tick before the
+        first such tick to the end of the last).
+
+        >>> b = BrickTimeline("r1", ("A", "B"), 0.1, [[0, 0], [40, 5], [80, 9], [90, 9]],
+        ...                   [[0, 0], [2, 5], [3, 9], [88, 9]], start_s=(1.0, 1.0))
+        >>> [(p, round(a, 2), round(z, 2)) for p, a, z in b.stall_spans()]
+        [('A', 1.1, 1.3)]
+        """
+        out: list[tuple[str, float, float]] = []
+        t = self.tick_end_s
+        err = np.abs(self.error_deg)
+        for j, port in enumerate(self.ports):
+            over = np.concatenate(([False], np.nan_to_num(err[:, j]) > threshold_deg, [False]))
+            edges = np.flatnonzero(over[1:] != over[:-1])
+            for a, z in zip(edges[::2], edges[1::2]):      # ticks a .. z-1 are over
+                out.append((port, float(t[a] - self.tick_s), float(t[z - 1])))
+        return [s for s in out if math.isfinite(s[1])]
 
     @property
     def measured_ticks(self) -> int:

@@ -188,3 +188,31 @@ def test_steps_at_one_place_are_named_with_the_reason(payload_scene: Scene) -> N
     grasp = [carried((0, 0), (0, 5), ["grasp(r1)"]), carried((0, 0), (0, 5)), carried((1, 0), (1, 5))]
     assert still_steps(grasp) == ["step 0 -> 1: the same place, grasp(r1) moves no arm"]
     assert still_steps(plan(((0, 0), (0, 5)), ((1, 0), (1, 5)))) == []
+
+
+def test_a_motor_that_stops_following_is_shaded_and_named(payload_scene: Scene) -> None:
+    """A stalled motor (held still while its setpoint moves on) is marked where its error is
+    beyond the online monitor's threshold, and only there."""
+    from cplus.robot.online.payload_monitor import TRACKING_THRESHOLD_DEG
+    from trajectory.timeline import STALL_ERROR_DEG
+    assert STALL_ERROR_DEG == TRACKING_THRESHOLD_DEG
+    traj = build_trajectory(payload_scene, plan(*CLEAN_PAYLOAD_PLAN), points_per_step=5, step_time_s=0.5)
+    clean = timeline_of(traj)
+    r1, r2 = clean.bricks
+    held = r1.measured_deg.copy()
+    a = int(np.argmax(np.abs(np.diff(r1.setpoint_deg[:, 0])) > 0))   # A's first move
+    held[a:, 0] = held[a, 0]                                          # A stops there for good
+    stalled = BrickTimeline(r1.name, r1.ports, r1.tick_s, r1.setpoint_deg, held, start_s=r1.start_s,
+                            events=r1.events)
+    spans = stalled.stall_spans()
+    assert spans and {p for p, _, _ in spans} == {"A"}
+    first = int(np.argmax(np.abs(held[:, 0] - r1.setpoint_deg[:, 0]) > STALL_ERROR_DEG))
+    assert spans[0][1] == pytest.approx(stalled.tick_end_s[first] - r1.tick_s)
+    assert r2.stall_spans() == [] and r1.stall_spans() == []
+    fig = execution_figure(payload_scene, traj.planned_paths(), traj.planned_paths(),
+                           timeline=RunTimeline((stalled, r2), None, clean.skew_s))
+    err = {ax.get_title(): ax for ax in fig.axes}
+    r1_err, r2_err = (err[f"{n}: tracking error (measured - setpoint)"] for n in ("r1", "r2"))
+    assert "A not following" in {t.get_text() for t in r1_err.texts}
+    assert any(t.get_text().startswith("not following (|error| > 30°)") for t in r1_err.get_legend().get_texts())
+    assert not any("not following" in t.get_text() for t in r2_err.texts)
