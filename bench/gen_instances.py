@@ -92,21 +92,25 @@ def _tower_state(blocks: list[str], rng: random.Random) -> dict[str, str]:
 
 
 def blocks_world(seed: int) -> Instance:
-    """n blocks (15..40), random towers, goal: the state after a random walk of single moves."""
+    """n blocks (15..40), random towers, goal: the state after a random walk of single moves (mostly a chain)."""
     rng = random.Random(seed)
     n = rng.randint(15, 40)
     names = [f"b{i}" for i in range(1, n + 1)]
     start = _tower_state(names, rng)
-    k = rng.randint(3, 7 if n <= 25 else 5)
+    k = rng.randint(4, 10 if n <= 25 else 8)
     loc = dict(start)
     moved = 0
+    last = None
     while moved < k or loc == start:
         moved += 1
         clear = [b for b in names if b not in loc.values()]
-        b = rng.choice(clear)
-        targets = ["table"] * 3 + [c for c in clear if c != b]
-        dest = rng.choice([t for t in targets if t != loc[b]] or ["table"])
-        loc[b] = dest
+        b = rng.choice([c for c in clear if c != last] or clear)
+        if last is not None and last != b and rng.random() < 0.75:
+            dest = last          # a chain: each move waits for the one before, so plans are not all one step
+        else:
+            targets = ["table"] * 3 + [c for c in clear if c != b]
+            dest = rng.choice([t for t in targets if t != loc[b]] or ["table"])
+        loc[b], last = dest, b
     k = moved
 
     def state(s: dict[str, str]) -> str:
