@@ -97,7 +97,7 @@ def blocks_world(seed: int) -> Instance:
     n = rng.randint(15, 40)
     names = [f"b{i}" for i in range(1, n + 1)]
     start = _tower_state(names, rng)
-    k = rng.randint(4, 10 if n <= 25 else 8)
+    k = rng.randint(4, 10) if n <= 25 else rng.randint(3, 5) if n <= 32 else rng.randint(3, 4)  # the peer: < 10 s
     loc = dict(start)
     moved = 0
     last = None
