@@ -15,9 +15,9 @@ if [ $# -ne 2 ]; then
 fi
 here="$(cd "$(dirname "$0")" && pwd)"
 src="$(cd "$1" && pwd)"
-mkdir -p "$2"
-prefix="$(cd "$2" && pwd)"
+prefix="$(realpath -m "$2")"
 case "$prefix/" in "$(cd "$here/.." && pwd)/"*) echo "$0: install the peer outside this repository" >&2; exit 2;; esac
+mkdir -p "$prefix"
 
 # the upstream README's steps: its boost macro wants the installed Boost's version
 boost_cv_lib_version="$(dpkg -s libboost-dev 2>/dev/null | sed -n 's/^Version: \([0-9]*\)\.\([0-9]*\).*/\1_\2/p')"

@@ -8,11 +8,15 @@ spacecraft of the additive-fluents paper (random bounds, jets and forces), the f
 from a random legal position) and a car on a road as a discretised hybrid automaton (random
 road length, speed step, clock and school zone: integer arithmetic in ``where`` clauses).
 
-**Why every instance has a plan.**  Each generator simulates its domain's laws in Python and
-takes a random walk of ``k`` legal steps from the initial state; the goal is (part of) the state
-the walk ends in and the query's range is ``0..k``.  The walk itself is a plan of length ``k``, so
-a shortest plan exists inside the range; planners must agree on its length, which may be
-shorter than ``k``.  The files are written with ``&`` as the conjunction (the peer's translator
+**Why every instance has a plan.**  Each generator simulates its domain's laws in Python.  The
+blocks world, the spacecraft and the car take a random walk of ``k`` legal steps from the
+initial state (the blocks mostly in a chain, each move onto the block moved before, so that
+the steps cannot all happen at once); the goal is (part of) the state the walk ends in and
+the query's range is ``0..k``: the walk itself is a plan, so a shortest plan exists inside the
+range, perhaps shorter than ``k``.  The ferryman and Hanoi have small state spaces: a
+breadth-first search from the start gives every state's distance, and the goal is a random
+state in the farther half; the query's range ends at its distance, which is then the known
+shortest length (``Instance.length``).  Planners must agree on the length.  The files are written with ``&`` as the conjunction (the peer's translator
 rejects CCALC's `` , ``) and without Cplus2ASP-only blocks, so both planners read them as is.
 
 Everything is a function of the seed: ``draw(seed, count)`` gives the same instances on every
