@@ -75,7 +75,8 @@ def find_peer(given: str | None) -> str | None:
         if candidate:
             found = shutil.which(candidate)
             if found is None:
-                raise SystemExit(f"bench_peer: {candidate}: no such program; {PEER_HOWTO}")
+                print(f"bench_peer: {candidate}: no such program; {PEER_HOWTO}", file=sys.stderr)
+                raise SystemExit(2)
             return found
     return shutil.which("cplus2asp4")
 
