@@ -94,6 +94,12 @@ def cplus_env() -> dict[str, str]:
     return env
 
 
+def default_cplus() -> list[str]:
+    """The ``cplus`` command installed beside this interpreter, as a user types it (else ``-m cplus``)."""
+    script = Path(sys.executable).parent / "cplus"
+    return [str(script)] if script.is_file() else [sys.executable, "-m", "cplus"]
+
+
 def timed(cmd: list[str], env: dict[str, str], cwd: str, timeout: float) -> tuple[float, float, str, int]:
     """Wall and processor seconds of one run (with every process it waited for), its output and exit code."""
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
@@ -140,7 +146,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--peer-bin", default=None, help="the peer's cplus2asp4 (default $CPLUS_PEER, then PATH)")
     ap.add_argument("--no-peer", action="store_true", help="run cplus alone")
     ap.add_argument("--cplus", default=None,
-                    help="the cplus command (default: this interpreter's `-m cplus`)")
+                    help="the cplus command (default: the `cplus` beside this interpreter)")
     ap.add_argument("--keep", type=Path, default=None, help="write the instances into this folder and keep them")
     ap.add_argument("--timeout", type=float, default=120.0, help="seconds per run before it counts as failed")
     args = ap.parse_args(argv)
@@ -154,7 +160,7 @@ def main(argv: list[str] | None = None) -> int:
     except ValueError as e:
         print(f"bench_peer: {e}", file=sys.stderr)
         return 2
-    cplus = args.cplus.split() if args.cplus else [sys.executable, "-m", "cplus"]
+    cplus = args.cplus.split() if args.cplus else default_cplus()
     folder = args.keep or Path(tempfile.mkdtemp(prefix="cplus-bench-peer-"))
     folder.mkdir(parents=True, exist_ok=True)
     print(f"seed {seed} (--seed {seed} draws these again); {len(instances)} instances; {args.runs} runs each, "
