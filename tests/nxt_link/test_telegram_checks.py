@@ -28,14 +28,17 @@ OK, EMPTY, FILE_FAILED, ILLEGAL, NO_PROGRAM, INVALID_QUEUE = 0x00, 0x40, 0xBD, 0
     (tg.SetOutputState(0xFE, 0, 0, 0, 0, 0, 0), {ILLEGAL}),
     (tg.GetInputValues(3), {OK}),
     (tg.GetInputValues(4), {ILLEGAL}),
+    (tg.GetInputValues(5), {ILLEGAL}),
     (tg.SetInputMode(3, 0, 0), {OK}),
     (tg.SetInputMode(4, 0, 0), {ILLEGAL}),
     (tg.MessageWrite(19, bytes(58)), {OK, NO_PROGRAM}),
+    (tg.MessageWrite(0, b"hi"), {OK, NO_PROGRAM}),
     (tg.MessageWrite(20, bytes(58)), {INVALID_QUEUE}),
     (tg.MessageWrite(1, bytes(59)), {ILLEGAL}),
     (tg.MessageWrite(20, bytes(59)), {ILLEGAL}),  # the size is checked before the queue
     (tg.MessageRead(19), {OK, EMPTY, NO_PROGRAM}),
     (tg.MessageRead(20), {NO_PROGRAM, INVALID_QUEUE}),
+    (tg.MessageRead(21), {NO_PROGRAM, INVALID_QUEUE}),
     (tg.GetBatteryLevel(), {OK}),
     (tg.KeepAlive(), {OK}),
     (tg.PlayTone(440, 10), {OK}),
@@ -89,6 +92,8 @@ def test_the_echoed_port_must_be_the_one_asked():
     tg.check_reply(tg.GetOutputState(2), _output_state(port=2))
     assert _refused(tg.GetOutputState(2), _output_state(port=1)) == (
         "GET_OUTPUT_STATE reply for port 1, asked 2")
+    assert _refused(tg.GetOutputState(1), _output_state(port=2)) == (
+        "GET_OUTPUT_STATE reply for port 2, asked 1")
     tg.check_reply(tg.GetInputValues(3), _input_values(port=3))
     assert _refused(tg.GetInputValues(3), _input_values(port=0)) == (
         "GET_INPUT_VALUES reply for port 0, asked 3")
