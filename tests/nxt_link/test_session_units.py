@@ -158,3 +158,208 @@ def test_a_brick_running_another_program_is_taken_over_only_when_asked(rig):
     assert s.open(replace_program=True).session == 7
     assert rig.emulators["r1"].firmware.program_name == sp.PROGRAM_NAME
     assert sess.PORT_NUMBERS == {"A": 0, "B": 1, "C": 2} and sess.WINDOW == 4
+
+
+# -- recovery, with the brick's own messages dropped or rewritten on the way ---------------------
+
+
+def drop_writes(brick, *, when):
+    """Lose the PC's mailbox writes for which ``when(request)`` holds (each at most once)."""
+    write = brick.message_write
+    dropped: list[sp.Request] = []
+
+    def lossy(inbox, message, *, reply=True):
+        req = sp.decode_request(message)
+        if when(req) and req not in dropped:
+            dropped.append(req)
+            return None
+        return write(inbox, message, reply=reply)
+    brick.message_write = lossy
+    return dropped
+
+
+def test_a_gap_before_anything_was_acknowledged_goes_back_at_once(rig):
+    """CONFIG lost: the brick answers the first SETPOINTS with GAP, and the client sends
+    everything again from CONFIG at once, not after an empty mailbox or a timeout says so."""
+    s, events = new_session(rig)
+    s.open()
+    dropped = drop_writes(s.brick, when=lambda r: isinstance(r, sp.Config))
+    start = rig.clock.now()
+    s.upload()
+    assert len(dropped) == 1 and s.retransmissions == 1
+    assert rig.clock.now() - start < TIMING.empty_after_s  # before an empty mailbox would tell
+    assert rig.emulators["r1"].program.reference_rows() == list(ROWS)
+
+
+def test_a_lost_last_message_is_sent_again_after_the_timeout(rig):
+    s, events = new_session(rig)
+    s.open()
+    dropped = drop_writes(s.brick, when=lambda r: isinstance(r, sp.Setpoints) and r.first_row == 24)
+    s.upload()
+    assert len(dropped) == 1 and s.retransmissions == 1
+    assert events[-1][1].endswith(", 1 retransmission(s)")
+
+
+def test_the_start_window_is_the_acknowledged_copy_s_bounds(rig):
+    s, events = new_session(rig)
+    s.open()
+    s.upload()
+    s.prepare()
+    s.wait_ready()
+    t = rig.clock.now()
+    s.post_go(t + 0.5)
+    latest = s.confirm_go()
+    acked = rig.clock.now()
+    # started at T (+ the copy's one-way delay, at most until the ack), give or take a 1 ms tick
+    assert acked < t + 0.5  # acknowledged before the start time
+    assert s.start_window == pytest.approx((t + 0.5 - 0.001, t + 0.5 + (acked - t) + 0.001), abs=1e-9)
+    assert latest == s.start_window[1]
+    assert s.start_window[0] <= rig.emulators["r1"].program.t0 / 1000 <= s.start_window[1]
+
+
+def test_a_lost_go_is_sent_again_as_one_copy(rig):
+    s, events = new_session(rig)
+    s.open()
+    s.upload()
+    s.prepare()
+    s.wait_ready()
+    drop_writes(s.brick, when=lambda r: isinstance(r, sp.Go) and r.delay_ms == 500)
+    copies = []
+    write = s.brick.message_write
+
+    def counting(inbox, message, *, reply=True):
+        if isinstance(sp.decode_request(message), sp.Go):
+            copies.append(rig.clock.now())
+        return write(inbox, message, reply=reply)
+    s.brick.message_write = counting
+    t = rig.clock.now()
+    s.post_go(t + 0.5, copies=1)
+    s.confirm_go()
+    sent = [d for e, d in events if e == "start sent"]
+    assert sent[0] == "GO seq 6, start in 500 ms" and len(sent) >= 2
+    assert all(not d.endswith("copies)") for d in sent)
+    assert len(copies) == len(sent) and s.retransmissions == len(sent) - 1
+    # before the start time a copy goes out every GO_RESEND_S, not every query interval
+    assert copies[1] - copies[0] <= sess.GO_RESEND_S + 2 * TIMING.poll_gap_s < TIMING.query_interval_s
+
+
+def test_progress_reports_narrow_the_start_window(rig):
+    """``logged`` rows at a moment in [sent, answered]: t0 in (sent - (logged + 1) tick - slack,
+    answered - logged tick]; with 50 ms ticks and a 20 ms slack (two control steps)."""
+    s, events = new_session(rig)
+    s._go_window = (10.0, 10.2)
+    s.start_window = s._go_window
+    s._narrow_start(10.2, 10.21, 0)             # nothing logged yet: only the lower bound moves
+    assert s.start_window == pytest.approx((10.13, 10.2))
+    s.start_window = s._go_window
+    s._narrow_start(10.2, 10.21, 1)
+    assert s.start_window == pytest.approx((10.08, 10.16))
+    s.start_window = s._go_window
+    s._narrow_start(11.6, 11.61, 30)            # all logged: only the upper bound moves
+    assert s.start_window == pytest.approx((10.0, 10.11))
+    assert events == []
+
+
+def test_progress_reports_that_contradict_the_clock_fall_back_to_the_start_signal(rig):
+    s, events = new_session(rig)
+    s._go_window = (10.0, 10.2)
+    s.start_window = (10.05, 10.15)
+    s._narrow_start(10.5, 10.51, 1)             # t0 > 10.38 but <= 10.15: cannot be
+    assert s.start_window == (10.0, 10.2)
+    assert events == [("start window", "progress reports disagree with the clock; using the start signal's bound")]
+    events.clear()
+    s._narrow_start(100.0, 100.01, 1)          # contradicts the start signal itself: kept, no event
+    assert s.start_window == (10.0, 10.2) and events == []
+    s._go_window = None
+    s._narrow_start(10.2, 10.21, 1)             # before GO was acknowledged: nothing to narrow
+    assert s.start_window == (10.0, 10.2)
+
+
+def test_a_busy_session_id_is_given_up_for_the_next(rig):
+    """A HELLO with the brick's current session id finds it busy: the client takes the next id,
+    wrapping from 65535 to 1."""
+    s, _ = new_session(rig, session_id=0xFFFF)
+    s.open()
+    s.upload()
+    again = BrickSession(s.brick, ("A", "C"), 50, ROWS, ((-500, 500), (-400, 400)), timing=TIMING,
+                         session_id=0xFFFF)
+    assert again.open().session == 1 and again.session == 1
+    third = BrickSession(s.brick, ("A", "C"), 50, ROWS, ((-500, 500), (-400, 400)), timing=TIMING,
+                         session_id=1)
+    assert third.open().session == 1  # the brick's session 1 is still idle: no need to move
+
+
+def test_a_brick_sending_more_log_rows_than_asked_gets_only_those_kept(rig):
+    s, _ = new_session(rig)
+    s.open()
+    s.upload()
+    s.prepare()
+    s.wait_ready()
+    s.post_go(rig.clock.now() + 0.1)
+    s.confirm_go()
+    while s.poll_progress().state != State.DONE:
+        rig.clock.sleep(0.25)
+    read = s.brick.message_read
+
+    def generous(remote, local=0, remove=True):
+        raw = read(remote, local, remove)
+        resp = sp.decode_response(raw)
+        if isinstance(resp, sp.LogData):
+            raw = sp.encode_response(sp.LogData(resp.session, resp.seq, resp.state, resp.first_row,
+                                                resp.values + (99, 99)))
+        return raw
+    s.brick.message_read = generous
+    assert len(s.read_log(rows=7)) == 7 and sorted(s.log_rows) == list(range(7))
+
+
+def test_every_mailbox_read_asks_for_local_inbox_0(rig):
+    echoed = set()
+
+    def watch(_index, data):
+        if len(data) > 5 and data[3] == 0x13:
+            echoed.add(data[5])
+        return data
+    brick = rig.add("r1", damage=watch)
+    s = BrickSession(brick, ("A",), 50, ((0,), (1,)), ((-5, 5),), timing=TIMING, session_id=3)
+    s.open()
+    s.upload()
+    s.prepare()
+    s.wait_ready()
+    s.post_go(rig.clock.now() + 0.1)
+    s.confirm_go()
+    assert echoed == {0}
+
+
+def test_settings_are_values():
+    for cls in (ControllerSettings, SessionTiming):
+        assert cls.__dataclass_params__.frozen and "__slots__" in vars(cls)
+
+
+def test_before_the_start_time_go_is_sent_again_every_go_resend_s(rig):
+    """GO lost and the mailbox reads timing out (so no empty mailbox tells): the next copy
+    still goes out after GO_RESEND_S, not only after the query interval."""
+    lose_reads = []
+
+    def damage(_index, data):
+        return b"" if lose_reads and data[3:4] == b"\x13" else data
+    brick = rig.add("r1", damage=damage)
+    s = BrickSession(brick, ("A",), 50, ((0,), (1,)), ((-5, 5),), timing=TIMING, session_id=3)
+    s.open()
+    s.upload()
+    s.prepare()
+    s.wait_ready()
+    drop_writes(brick, when=lambda r: isinstance(r, sp.Go) and r.delay_ms == 1000)
+    copies = []
+    write = brick.message_write
+
+    def counting(inbox, message, *, reply=True):
+        if isinstance(sp.decode_request(message), sp.Go):
+            copies.append(rig.clock.now())
+            if len(copies) == 2:
+                lose_reads.clear()
+        return write(inbox, message, reply=reply)
+    brick.message_write = counting
+    lose_reads.append(True)
+    s.post_go(rig.clock.now() + 1.0, copies=1)
+    s.confirm_go()
+    assert sess.GO_RESEND_S < copies[1] - copies[0] < TIMING.query_interval_s
