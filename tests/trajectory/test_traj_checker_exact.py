@@ -27,6 +27,12 @@ PLANS = {
     "joint": plan(((1, -0.9), (1, 4)), ((1, 1), (1, 4))),
     "unreach3": plan(((1, 1), (1, 4)), ((1, 3), (1, 4)), ((1, 3.5), (1, 4))),
     "unreach3same": plan(((1, 1), (1, 4)), ((1, 3), (1, 4)), ((1, 3), (1, 4))),
+    "length4": plan(((1, 1), (1, 4)), ((1, 1), (1, 1.0123))),    # a length printed to 4 decimals
+    "s_both": plan(((12.5, 1), (1, 4)), ((12.5, 1), (1, 4))),     # s out of limits on both branches
+    # from a point no branch holds, the branches are those of the next point, (-3, 1): -1 only
+    "reset": plan(((1, 1), (1, 4)), ((1, 3), (1, 4)), ((-3, 1), (1, 4)), ((8, 1), (1, 4))),
+    "oddstep": [carried((1, 1), (1, 4)), carried((1, 1), (1, 4)),
+                StepState({"r1": (1, 1), "r2": (1, 4)}, {"pl1": (1, 1), "pl2": (1, 3)}, {"pl1": "r1", "pl2": "r2"})],
     "lastdetached": [carried((1, 1), (1, 4)),
                      StepState({"r1": (1, 1), "r2": (1, 4)}, {"pl1": (1, 1), "pl2": (1, 3)},
                                {"pl1": "r1", "pl2": "r2"})],
@@ -101,6 +107,59 @@ EXPECTED = {
         (1, K.PAYLOAD_LENGTH, 0.0, (1.0, 3.5), 'payload', None,
          "the payload's squared length leaves [8, 10] while carried from (1, 3)-(1, 4) to (1, 3)-(1, 4) (step 1 -> 2): from u = 0, reaching 1 (length 1) at u = 0",
          Cause(('pl1', 'pl2'), 1, 1)),
+    ],
+    'length4': [
+        (0, K.PAYLOAD_LENGTH, 0.057426, (1.0, 2.414214), 'payload', None,
+         "the payload's squared length leaves [8, 10] while carried from (1, 1)-(1, 4) to (1, 1)-(1, 1.012) (step 0 -> 1): from u = 0.0574, reaching 0.0002 (length 0.0123) at u = 1",
+         Cause(('pl1', 'pl2'), 1, 1)),
+        (0, K.OUT_OF_REACH, 0.669411, (1.0, 2.0), 'r2', None,
+         "robot r2 leaves its reach moving (1, 4) -> (1, 1.012) (step 0 -> 1): every branch at u = 0.6694, (1, 2): the point leaves the arm's reach 3 from the rail (3.494 at u = 0.8347)",
+         Cause(('r2',), 1, 1)),
+    ],
+    's_both': [
+        (0, K.JOINT_LIMIT, 0.0, (12.5, 1.0), 'r1', None,
+         'robot r1 cannot hold its end-effector at (12.5, 1) (step 0): branch +1: s = 10.26 is outside the limits [-4, 10]; branch -1: s = 14.74 is outside the limits [-4, 10]',
+         Cause(('r1',), 0, 0)),
+        (0, K.PAYLOAD_LENGTH, 0.0, (6.75, 2.5), 'payload', None,
+         "the payload's squared length leaves [8, 10] while carried from (12.5, 1)-(1, 4) to (12.5, 1)-(1, 4) (step 0 -> 1): from u = 0, reaching 141.2 (length 11.88) at u = 1",
+         Cause(('pl1', 'pl2'), 0, 0)),
+    ],
+    'reset': [
+        (0, K.PAYLOAD_LENGTH, 0.085786, (1.0, 2.585786), 'payload', None,
+         "the payload's squared length leaves [8, 10] while carried from (1, 1)-(1, 4) to (1, 3)-(1, 4) (step 0 -> 1): from u = 0.0858, reaching 1 (length 1) at u = 1",
+         Cause(('pl1', 'pl2'), 1, 1)),
+        (0, K.OUT_OF_REACH, 0.5, (1.0, 2.0), 'r1', None,
+         "robot r1 leaves its reach moving (1, 1) -> (1, 3) (step 0 -> 1): every branch at u = 0.5, (1, 2): the point leaves the arm's reach 3 from the rail (3.5 at u = 0.75)",
+         Cause(('r1',), 1, 1)),
+        (1, K.OUT_OF_REACH, 0.0, (1.0, 3.0), 'r1', None,
+         "robot r1 cannot hold its end-effector at (1, 3) (step 1): 4 from the rail, beyond the arm's 3",
+         Cause(('r1',), 1, 1)),
+        (1, K.PAYLOAD_LENGTH, 0.0, (1.0, 3.5), 'payload', None,
+         "the payload's squared length leaves [8, 10] while carried from (1, 3)-(1, 4) to (-3, 1)-(1, 4) (step 1 -> 2): from u = 0, reaching 1 (length 1) at u = 0",
+         Cause(('pl1', 'pl2'), 1, 1)),
+        (2, K.PAYLOAD_LENGTH, 0.0, (-1.0, 2.5), 'payload', None,
+         "the payload's squared length leaves [8, 10] while carried from (-3, 1)-(1, 4) to (8, 1)-(1, 4) (step 2 -> 3): from u = 0, reaching 58 (length 7.616) at u = 1",
+         Cause(('pl1', 'pl2'), 2, 2)),
+        (2, K.EFFECTOR_COLLISION, 0.454545, (2.0, 1.0), 'r1', 'post',
+         "robot r1's end-effector, moving (-3, 1) -> (8, 1) (step 2 -> 3), hits obstacle 'post' at (2, 1)",
+         Cause(('r1',), 2, 3)),
+        (2, K.PAYLOAD_COLLISION, 0.454545, (2.0, 1.0), 'payload', 'post',
+         "the payload, carried from (-3, 1)-(1, 4) to (8, 1)-(1, 4) (step 2 -> 3), hits obstacle 'post' at (2, 1) between the states, at u = 0.4545",
+         Cause(('pl1', 'pl2'), 2, 3)),
+        (2, K.JOINT_LIMIT, 0.978539, (7.763932, 1.0), 'r1', None,
+         'robot r1 cannot stay within its joint limits moving (-3, 1) -> (8, 1) (step 2 -> 3): branch -1 at u = 0.9785, (7.764, 1): s leaves its limits [-4, 10] (10.12 at u = 0.9893)',
+         Cause(('r1',), 2, 3)),
+    ],
+    'oddstep': [
+        (1, K.DETACHED, 0.0, (1.0, 4.0), 'pl2', None,
+         'payload end pl2 is held by r2 at step 1 but does not follow it to step 2: r2 moves to (1, 4), pl2 goes to (1, 3)',
+         Cause(('r1', 'r2', 'pl1', 'pl2'), 1, 2, holds=True)),
+        (1, K.PAYLOAD_LENGTH, 0.171573, (1.0, 2.414214), 'payload', None,
+         "the payload's squared length leaves [8, 10] while carried from (1, 1)-(1, 4) to (1, 1)-(1, 3) (step 1 -> 2): from u = 0.1716, reaching 4 (length 2) at u = 1",
+         Cause(('pl1', 'pl2'), 2, 2)),
+        (1, K.DETACHED, 1.0, (1.0, 3.0), 'pl2', None,
+         'step 2: payload end pl2 is said to be held by r2, but pl2 is at (1, 3) and r2 at (1, 4)',
+         Cause(('r1', 'r2', 'pl1', 'pl2'), 1, 2, holds=True)),
     ],
     'lastdetached': [
         (0, K.DETACHED, 0.0, (1.0, 4.0), 'pl2', None,
@@ -188,3 +247,43 @@ def test_the_cause_of_a_single_state_is_that_state(wall_scene):
     states = [carried((2, 0), (2, 3))]
     assert [cause_of(wall_scene, states, v) for v in all_violations(wall_scene, states)] == [
         Cause(("r1",), 0, 0), Cause(("pl1", "pl2"), 0, 0)]
+
+
+def _robot(name: str, rail_y: float, limits: str) -> str:
+    return (f'[robots.{name}]\nrail_origin = [0, {rail_y}]\nrail_dir = [1, 0]\narm_length = 3\n'
+            f's_limits = [-4, 10]\ntheta_limits_deg = {limits}\n'
+            f'bindings = {{ x = "xpos({name})", y = "ypos({name})" }}\n'
+            'motors = [ { port = "A", joint = "s", deg_per_unit = 90 },\n'
+            '           { port = "B", joint = "theta", deg_per_unit = 5 } ]\n')
+
+
+def test_a_cause_is_that_of_its_own_subject():
+    """r1 stands in the post at step 0; r2 runs into a beam on the way: r2's cause is its
+    motion, not r1's state."""
+    text = EXAMPLE_SCENE.replace('[[obstacles]]\nname = "post"',
+                                 '[[obstacles]]\nname = "beam"\npoints = [[4, 3], [5, 3], [5, 3.5], [4, 3.5], [4, 3]]\n'
+                                 '[[obstacles]]\nname = "post"')
+    scene = parse_scene(text, "beam.toml")
+    states = [StepState({"r1": (2, 0), "r2": (3, 3.2)}, {"pl1": (2, 0), "pl2": (3, 3.2)}, {}),
+              StepState({"r1": (2, 0), "r2": (6, 3.2)}, {"pl1": (2, 0), "pl2": (3, 3.2)}, {})]
+    hits = {v.subject: v for v in all_violations(scene, states) if v.kind is K.EFFECTOR_COLLISION}
+    assert sorted(hits) == ["r1", "r2"] and hits["r2"].u == pytest.approx(1 / 3)
+    assert cause_of(scene, states, hits["r1"]) == Cause(("r1",), 0, 0)
+    assert cause_of(scene, states, hits["r2"]) == Cause(("r2",), 0, 1)
+
+
+def test_an_end_that_jumps_names_the_first_robot_it_lands_on():
+    i = EXAMPLE_SCENE.index("[payload]")
+    text = EXAMPLE_SCENE[:i] + _robot("r3", 5, "[-175, -5]") + _robot("r4", 5, "[-175, -5]") + EXAMPLE_SCENE[i:]
+    scene = parse_scene(text, "four.toml")
+    a = StepState({"r1": (1, 1), "r2": (1, 4), "r3": (4, 4), "r4": (5, 4)}, {"pl1": (1, 1), "pl2": (1, 4)},
+                  {"pl1": "r1", "pl2": "r2"})
+    b = StepState({"r1": (1, 1), "r2": (2, 4), "r3": (4, 4), "r4": (4, 4)}, {"pl1": (1, 1), "pl2": (4, 4)},
+                  {"pl1": "r1", "pl2": "r2"})
+    v = next(v for v in all_violations(scene, [a, b]) if v.kind is K.DETACHED)
+    assert v.message == ("payload end pl2 is held by r2 at step 0 but does not follow it to step 1: r2 moves "
+                         "to (2, 4), pl2 goes to (4, 4), to r3")
+
+
+def test_causes_are_values():
+    assert Cause.__dataclass_params__.frozen and "__slots__" in vars(Cause)
