@@ -8,6 +8,7 @@ import math
 import pytest
 
 from trajectory import Arm, BranchChoice, JointState, TrajectoryError, UnreachableError, ik_solutions, inverse
+from trajectory.geometry import EPS
 from trajectory.kinematics import SegmentExit, choices_at, point_problem, segment_exit, surviving_choices
 
 ARM = Arm((0.0, -1.0), (1.0, 0.0), 3.0, (-4.0, 10.0), (math.radians(5), math.radians(175)))
@@ -139,3 +140,23 @@ def test_surviving_choices_keep_their_order_and_say_why_the_others_died():
     assert dead[0][1].u == pytest.approx((10 - math.sqrt(5) - 4) / 5)
     alive, dead = surviving_choices(ARM, (BranchChoice(-1), BranchChoice(1)), (4, 1), (5, 1))
     assert alive == (BranchChoice(-1), BranchChoice(1)) and dead == ()
+
+
+def test_a_hair_beyond_full_reach_is_full_reach():
+    """Within the reach tolerance l^2 - across^2 may come out a little negative: it counts as 0
+    (no square root of a negative number)."""
+    for dy in (1e-9, 5e-9):
+        assert point_problem(ARM, 4, 2 + dy, 1) is None and point_problem(ARM, 4, 2 + dy, -1) is None
+        assert choices_at(ARM, 4, 2 + dy) == (BranchChoice(1), BranchChoice(-1))
+
+
+def test_limits_that_end_or_begin_exactly_at_full_reach():
+    """At full reach both branches point at 90 degrees. The limits count within EPS: an upper
+    limit EPS below 90 degrees, or a lower one EPS above, still holds the arm there, standing
+    or moving."""
+    below = Arm((0.0, 0.0), (1.0, 0.0), 3.0, (-10.0, 10.0), (0.0, 0.5 * math.pi - EPS))
+    assert choices_at(below, 1, 3) == (BranchChoice(1), BranchChoice(-1))
+    above = Arm((0.0, 0.0), (1.0, 0.0), 3.0, (-10.0, 10.0), (0.5 * math.pi + EPS, 0.5 * math.pi + 1.0))
+    assert choices_at(above, 1, 3) == (BranchChoice(1), BranchChoice(-1))
+    for choice in choices_at(above, 1, 3):
+        assert segment_exit(above, (1.0, 3.0), (1.0, 3.0), choice) is None
