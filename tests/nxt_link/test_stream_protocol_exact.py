@@ -75,6 +75,8 @@ def test_seal_and_unseal_at_their_limits():
     assert len(sp.seal(bytes(56))) == 58
     with pytest.raises(TelegramError, match="^message of 59 bytes exceeds 58$"):
         sp.seal(bytes(57))
+    with pytest.raises(TelegramError, match="^message of 60 bytes exceeds 58$"):
+        sp.seal(bytes(58))
     assert sp.unseal(sp.seal(b"\x07")) == b"\x07"
     with pytest.raises(TelegramError, match="^message too short$"):
         sp.unseal(sp.seal(b"")[:2])
