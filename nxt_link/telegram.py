@@ -607,10 +607,10 @@ def encode_reply(reply: Reply) -> bytes:
     Raises:
         TelegramError: a field does not fit.
     """
-    head = bytes((CommandType.REPLY, int(reply.opcode), reply.status & 0xFF))
     layout = _REPLY_LAYOUTS.get(type(reply))
     if layout is None:
         raise TelegramError(f"not a reply: {reply!r}")
+    head = bytes((CommandType.REPLY, int(reply.opcode), reply.status & 0xFF))
     try:
         return head + layout.pack(reply)
     except struct.error as exc:
