@@ -181,6 +181,9 @@ def main(argv: list[str] | None = None) -> int:
     timeout = args.timeout or float(cfg.get("timeout", 300))
     write_config(module, tests, cfg, timeout, config)
     os.environ["PYTHONPATH"] = str(ROOT)  # the tests, and what they start, import this tree
+    # cosmic-ray's commands and the test command's `python` are this interpreter's (a venv not
+    # activated, only named, runs them too)
+    os.environ["PATH"] = os.pathsep.join([os.path.dirname(sys.executable), os.environ.get("PATH", "")])
     os.environ["HYPOTHESIS_STORAGE_DIRECTORY"] = str(STATE / "hypothesis")  # mutants' examples stay here
     try:
         run("cosmic-ray", "init", str(config), str(session), "--force")
