@@ -119,8 +119,8 @@ def quadratic_roots(q: Quadratic, tol: float) -> list[float] | None:
             roots = [-b / (2.0 * a)]
         else:
             sq = math.sqrt(disc)
-            qq = -0.5 * (b + math.copysign(sq, b))
-            roots = [qq / a] if qq == 0.0 else [qq / a, c / qq]
+            qq = -0.5 * (b + math.copysign(sq, b))      # |qq| >= sq / 2 > 0: never zero
+            roots = [qq / a, c / qq]
     slack = 1e-12
     return sorted(min(1.0, max(0.0, r)) for r in roots if -slack <= r <= 1.0 + slack)
 
@@ -138,7 +138,7 @@ def first_failing_interval(
     """
     points = sorted({0.0, 1.0, *(min(1.0, max(0.0, b)) for b in breakpoints)})
     for left, right in zip(points, points[1:]):
-        if right > left and fails(0.5 * (left + right)):
+        if fails(0.5 * (left + right)):     # a sorted set: right > left
             return left, 0.5 * (left + right)
     return None
 
