@@ -29,7 +29,7 @@ __all__ = ["Layout", "Template", "build_templates"]
 
 
 class Template(Record):
-    _fields = ("clauses", "top", "name", "extra", "_flat", "_literals", "_shifted")
+    _fields = ("clauses", "top", "name", "extra", "_literals", "_shifted")
 
     clauses: list[list[int]]
     top: int                      # highest template id used
@@ -38,7 +38,6 @@ class Template(Record):
     """Templates over slot 0 that come with this one, each placed at the given slot of every
     instance (the part that is the same at every step is built once and placed at step 0
     by the initial template, at the next step by the transition)."""
-    _flat: tuple | None
     _literals: int | None
     _shifted: list | None
 
@@ -48,14 +47,12 @@ class Template(Record):
             top: int,
             name: str,
             extra: list[tuple[Template, int]] | None = None,
-            _flat: tuple | None = None,
             _literals: int | None = None,
             _shifted: list | None = None) -> None:
         self.clauses = clauses
         self.top = top
         self.name = name
         self.extra = [] if extra is None else extra
-        self._flat = _flat
         self._literals = _literals
         self._shifted = _shifted
 
@@ -75,16 +72,6 @@ class Template(Record):
             top = self.top
             self._shifted = [[x + top for x in c] for c in self.clauses]
         return self._shifted
-
-    def flat(self) -> tuple:
-        """All literals in one numpy array, and the end offset of each clause (cached)."""
-        if self._flat is None:
-            from itertools import accumulate, chain
-
-            import numpy as np
-            ends = list(accumulate(len(c) for c in self.clauses))
-            self._flat = (np.fromiter(chain.from_iterable(self.clauses), dtype=np.int64, count=ends[-1]), ends)
-        return self._flat
 
 
 class _Memo(dict):
