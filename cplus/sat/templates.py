@@ -29,7 +29,7 @@ __all__ = ["Layout", "Template", "build_templates"]
 
 
 class Template(Record):
-    _fields = ("clauses", "top", "name", "extra", "_literals", "_shifted")
+    _fields = ("clauses", "top", "name", "extra", "_literals")
 
     clauses: list[list[int]]
     top: int                      # highest template id used
@@ -39,7 +39,6 @@ class Template(Record):
     instance (the part that is the same at every step is built once and placed at step 0
     by the initial template, at the next step by the transition)."""
     _literals: int | None
-    _shifted: list | None
 
     def __init__(
             self,
@@ -47,31 +46,22 @@ class Template(Record):
             top: int,
             name: str,
             extra: list[tuple[Template, int]] | None = None,
-            _literals: int | None = None,
-            _shifted: list | None = None) -> None:
+            _literals: int | None = None) -> None:
         self.clauses = clauses
         self.top = top
         self.name = name
         self.extra = [] if extra is None else extra
         self._literals = _literals
-        self._shifted = _shifted
 
     def size(self, base: int) -> tuple[int, int, int]:
         """(clauses, literals, auxiliary variables) of one instance, extras included."""
         if self._literals is None:
-            self._literals = sum(len(c) for c in self.clauses)
+            self._literals = sum(map(len, self.clauses))
         n, lits, aux = len(self.clauses), self._literals, self.top - base
         for part, _ in self.extra:
             pn, pl, pa = part.size(base)
             n, lits, aux = n + pn, lits + pl, aux + pa
         return n, lits, aux
-
-    def shifted(self) -> list[list[int]]:
-        """The clauses with every literal x as x + top, an index into a signed table (cached)."""
-        if self._shifted is None:
-            top = self.top
-            self._shifted = [[x + top for x in c] for c in self.clauses]
-        return self._shifted
 
 
 class _Memo(dict):
