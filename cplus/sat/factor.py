@@ -74,7 +74,6 @@ def plan(bodies: dict[int, list[tuple[int, ...]]], key_of: Callable[[int], Hasha
     head); ``key_of(lit)``: the constant (with its slot) whose value the literal states, or
     None for a literal that cannot be factored out.  A rule is counted at the cost of the
     ordinary completion: its clause and the definition of its conjunction."""
-    keyed = [(h, b, list(map(key_of, b))) for h, bs in bodies.items() for b in bs]
     count: dict[Hashable, int] = {}          # occurrences by constant, in the order first met
     values: dict[Hashable, set[int]] = {}
     for x, n in Counter(chain.from_iterable(b for bs in bodies.values() for b in bs)).items():
@@ -87,25 +86,25 @@ def plan(bodies: dict[int, list[tuple[int, ...]]], key_of: Callable[[int], Hasha
     # the constant in most bodies, and among those the one with the most values: the rest
     # then varies least (the position, not the speed, in ``pos' = pos + spd * dur``)
     key = max(count, key=lambda k: (count[k], len(values[k])))
-    best = _plan_for(keyed, key)
+    of_key = dict.fromkeys(values[key], True).get     # a literal of that constant?
+    once: list[tuple[int, tuple[int, ...], int]] = []   # (head, body, where the constant is) if there once
+    for h, bs in bodies.items():
+        for b in bs:
+            flags = list(map(of_key, b))
+            if flags.count(True) == 1:
+                once.append((h, b, flags.index(True)))
+    best = _plan_for(once)
     if best is None:
         return None
-    _, groups, key = best
-    replaced = {(h, b) for h, b, keys in keyed if keys.count(key) == 1}
-    return groups, replaced
+    return best, {(h, b) for h, b, _ in once}
 
 
-def _plan_for(keyed: list, key: Hashable):
-    """(cost, groups, key) when ``key`` is factored out, or None if it does not pay.  A body
-    with two literals of that constant is left as it is."""
+def _plan_for(once: list[tuple[int, tuple[int, ...], int]]) -> list[Group] | None:
+    """The groups when the constant at ``i`` of each ``(head, body, i)`` is factored out (a
+    body with two literals of that constant is not among them), or None if it does not pay."""
     relation: dict[tuple[int, ...], set[tuple[int, int]]] = {}
     old = 0
-    for h, b, keys in keyed:
-        if key not in keys:
-            continue
-        i = keys.index(key)
-        if key in keys[i + 1:]:
-            continue
+    for h, b, i in once:
         rest = b[:i] + b[i + 1:]     # the laws' ground rules list their atoms in one order
         pairs = relation.get(rest)
         if pairs is None:
@@ -120,5 +119,4 @@ def _plan_for(keyed: list, key: Hashable):
     new += sum(4 * len(pairs) for pairs in by_pairs)
     if new > _GAIN * old:
         return None
-    groups = [(rests, sorted(pairs)) for pairs, rests in by_pairs.items()]
-    return new, groups, key
+    return [(rests, sorted(pairs)) for pairs, rests in by_pairs.items()]

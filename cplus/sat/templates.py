@@ -12,6 +12,7 @@ offsets, so a longer horizon only appends clauses.
 """
 from __future__ import annotations
 
+import operator
 from collections.abc import Callable, Sequence
 from itertools import chain
 
@@ -190,9 +191,18 @@ def build_templates(theory: GroundTheory, dead: set[int] | frozenset[int] = froz
     return layout, _rigid(layout), _initial(layout, static), _transition(layout, static)
 
 
-def _needs_dead(dead_codes: frozenset[int], body: PF) -> bool:
-    """Whether a body (over template codes) has a positive top-level atom that is dead
-    (``dead_codes``: :attr:`Layout.dead_codes`)."""
+def _needs_dead(dead: frozenset[int], body: PF) -> bool:
+    """Whether a body (over template codes) has a positive top-level atom that is dead."""
+    items = body[1] if type(body) is tuple and body[0] == "&" else (body,)
+    for g in items:
+        if type(g) is int and g > 0 and (g - 1) // 3 in dead:
+            return True
+    return False
+
+
+def _needs_dead_code(dead_codes: frozenset[int], body: PF) -> bool:
+    """:func:`_needs_dead` by the codes of the dead atoms (:attr:`Layout.dead_codes`): one
+    set operation per body."""
     if type(body) is tuple and body[0] == "&":
         return not dead_codes.isdisjoint(body[1])
     return body in dead_codes
@@ -228,7 +238,7 @@ def _heads(theory: GroundTheory, layout: Layout, rules: list[tuple[int, PF]], sh
     dead = layout.dead_codes
     memo = layout.shifted_tids if shift else layout.tids
     for code, body in rules:
-        if dead and (code in dead or _needs_dead(dead, body)):
+        if dead and (code in dead or _needs_dead_code(dead, body)):
             continue
         if only is not None or but:
             aid = ((code if code > 0 else -code) - 1) // 3
@@ -427,7 +437,7 @@ def _constraints(b: _Builder, bodies: list[PF], shift: bool = False) -> None:
     seen: set = set()
     flats: list[tuple[int, ...]] = []
     for body in bodies:
-        if dead and _needs_dead(dead, body):
+        if dead and _needs_dead_code(dead, body):
             continue
         flat = type(body) is tuple and body[0] == "&"
         key = frozenset(body[1]) if flat else body   # type: ignore[index]
@@ -440,7 +450,7 @@ def _constraints(b: _Builder, bodies: list[PF], shift: bool = False) -> None:
         b.cb.add(neg(_renamed(memo, body)))
     rest = factor_products(flats, _constant_key(layout), add_clause, b._new)
     for items in factor_intervals(rest, _atom_key(layout), _integer_values(layout), add_clause, b._new):
-        add_clause([-t for t in items])
+        add_clause(list(map(operator.neg, items)))
 
 
 def _rigid(layout: Layout) -> Template:
