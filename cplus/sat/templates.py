@@ -244,7 +244,8 @@ def _heads(theory: GroundTheory, layout: Layout, rules: list[tuple[int, PF]], sh
             aid = ((code if code > 0 else -code) - 1) // 3
             if (only is not None and aid not in only) or aid in but:
                 continue
-        out.setdefault(memo[code], []).append(_renamed(memo, body))
+        out.setdefault(memo[code], []).append(
+            (body[0], tuple(map(memo.__getitem__, body[1]))) if type(body) is tuple else memo[body])  # _renamed
     return out
 
 
