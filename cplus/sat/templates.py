@@ -545,7 +545,10 @@ def _additive(b: _Builder, s) -> None:
             for w, lw in cvals:
                 v = u + w
                 if lo - rest_max <= v <= hi - rest_min:
-                    parts.setdefault(v, []).append(mk_and((lu, lw)))
+                    # mk_and((lu, lw)) for the usual literals, without its general loop
+                    both = lw if lu is True else ("&", (lu, lw)) if type(lu) is int and lu != lw and lu != -lw \
+                        else mk_and((lu, lw))
+                    parts.setdefault(v, []).append(both)
         current = {}
         for v, ps in parts.items():
             if len(ps) == 1:
