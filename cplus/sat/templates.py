@@ -103,8 +103,8 @@ class Layout:
         self.N = len(self.step_atoms)
         self.dead: frozenset[int] = frozenset()
         self.tables: dict = {}        # decision diagrams built for these templates (tables.encode_table)
-        # memos by template literal (see _Memo): the formula over template ids of a code or a
-        # nested formula, ((constant, slot), value) of a literal that may be in a cube (_cube),
+        # memos by template literal (see _Memo): the template id of a code (True and False stay),
+        # ((constant, slot), value) of a literal that may be in a cube (_cube),
         # the same by constant id (_atom_key) and its (constant id, slot) alone (_constant_key)
         self.tids = _Memo(self._tid_of)
         self.tid: Callable[[int], int] = self.tids.__getitem__
@@ -115,15 +115,11 @@ class Layout:
         self.atom_keys = _Memo(lambda lit: _keyed(self.cube_atoms[lit]))
         self.constant_keys = _Memo(lambda lit: None if (a := self.atom_keys[lit]) is None else a[0])
 
-    def _tid_of(self, f: PF) -> PF:
-        if type(f) is int:
-            return self._tid(f)
-        return f if type(f) is bool else _renamed(self.tids, f)
+    def _tid_of(self, f: int | bool) -> int | bool:
+        return self._tid(f) if type(f) is int else f
 
-    def _shifted_tid_of(self, f: PF) -> PF:
-        if type(f) is int:
-            return self.tids[_shift_code(f)]
-        return f if type(f) is bool else _renamed(self.shifted_tids, f)
+    def _shifted_tid_of(self, f: int | bool) -> int | bool:
+        return self.tids[_shift_code(f)] if type(f) is int else f
 
     def set_dead(self, dead: set[int] | frozenset[int]) -> None:
         """Atoms false at every step (see :func:`build_templates`)."""
@@ -163,13 +159,16 @@ def _to_tids(layout: Layout, f: PF) -> PF:
 
 
 def _renamed(memo: _Memo, f: PF) -> PF:
-    """``f`` renamed through a memo of :class:`Layout` (the hot path of template building:
-    bodies are mostly flat conjunctions of literals, renamed in one ``map``; nested formulas
-    are memoized too).  Codes start at 4 (atom ids at 1), so ``True == 1`` and ``False == 0``
-    never meet a code's entry."""
-    if type(f) is tuple:
-        return (f[0], tuple(map(memo.__getitem__, f[1])))
-    return memo[f]
+    """``f`` renamed through a memo of :class:`Layout`, which holds literals only (the hot
+    path of template building; a plain loop is faster here than ``map`` after a check that
+    every item is a literal, and hashing nested formulas for a memo costs more than it saves).
+    Codes start at 4 (atom ids at 1), so ``True == 1`` and ``False == 0`` never meet a code's entry."""
+    if type(f) is not tuple:
+        return memo[f]
+    out = []
+    for g in f[1]:
+        out.append(_renamed(memo, g) if type(g) is tuple else memo[g])
+    return (f[0], tuple(out))
 
 
 def _shift_code(code: int) -> int:
@@ -244,8 +243,7 @@ def _heads(theory: GroundTheory, layout: Layout, rules: list[tuple[int, PF]], sh
             aid = ((code if code > 0 else -code) - 1) // 3
             if (only is not None and aid not in only) or aid in but:
                 continue
-        out.setdefault(memo[code], []).append(
-            (body[0], tuple(map(memo.__getitem__, body[1]))) if type(body) is tuple else memo[body])  # _renamed
+        out.setdefault(memo[code], []).append(_renamed(memo, body))
     return out
 
 
