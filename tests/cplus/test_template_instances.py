@@ -94,3 +94,18 @@ def test_add_clauses_takes_any_iterables_and_counts_them(clauses):
         assert many.solve() == one.solve()
         if one.solve():
             assert all(any(many.value(abs(x)) == (x > 0) for x in c) for c in clauses)
+
+
+def test_building_templates_leaves_the_garbage_collector_as_it_was():
+    import gc
+    domain = Domain.from_text(SOURCE)
+    theory = domain.theory_for(domain.query("0"))
+    assert gc.isenabled()
+    build_templates(theory)
+    assert gc.isenabled()
+    gc.disable()
+    try:
+        build_templates(theory)
+        assert not gc.isenabled()
+    finally:
+        gc.enable()
