@@ -19,7 +19,7 @@ externals, time stamps) returns None and goes the ordinary way.
 from __future__ import annotations
 
 import sys
-from itertools import product
+from itertools import product, repeat
 
 from cplus import ir
 from cplus.ground.compile import binding_levels
@@ -303,7 +303,7 @@ class _Law:
         elif len(cols) == 1:
             bodies = cols[0].tolist()
         else:
-            bodies = [("&", t) for t in zip(*(c.tolist() for c in cols))]
+            bodies = list(zip(repeat("&"), zip(*(c.tolist() for c in cols))))   # ("&", literals), built in C
         if self.head is None:
             return [], bodies
         heads = head_ids.reshape(-1)[cells]  # type: ignore[union-attr]

@@ -22,7 +22,9 @@ measurable (1,900 fewer clauses a step); car-300 gained 3% at best.
 """
 from __future__ import annotations
 
+from collections import Counter
 from collections.abc import Callable, Hashable, Sequence
+from itertools import chain
 
 from cplus.ground.pf import PF, mk_and, mk_or
 
@@ -46,7 +48,7 @@ def rewrite(heads: dict[int, Sequence[PF]], key_of: Callable[[int], Hashable | N
         for body in bodies:
             if type(body) is tuple and body[0] == "&":
                 items = body[1]
-                if h not in items and -h not in items and all(type(g) is int for g in items):
+                if h not in items and -h not in items and tuple not in map(type, items):   # literals only
                     flat.setdefault(h, []).append(items)
     if sum(map(len, flat.values())) < _FROM:
         return heads
@@ -72,38 +74,37 @@ def plan(bodies: dict[int, list[tuple[int, ...]]], key_of: Callable[[int], Hasha
     head); ``key_of(lit)``: the constant (with its slot) whose value the literal states, or
     None for a literal that cannot be factored out.  A rule is counted at the cost of the
     ordinary completion: its clause and the definition of its conjunction."""
-    keyed = [(h, b, [key_of(x) for x in b]) for h, bs in bodies.items() for b in bs]
-    count: dict[Hashable, int] = {}
+    count: dict[Hashable, int] = {}          # occurrences by constant, in the order first met
     values: dict[Hashable, set[int]] = {}
-    for _, b, keys in keyed:
-        for x, key in zip(b, keys):
-            if key is not None:
-                count[key] = count.get(key, 0) + 1
-                values.setdefault(key, set()).add(x)
+    for x, n in Counter(chain.from_iterable(b for bs in bodies.values() for b in bs)).items():
+        key = key_of(x)
+        if key is not None:
+            count[key] = count.get(key, 0) + n
+            values.setdefault(key, set()).add(x)
     if not count:
         return None
     # the constant in most bodies, and among those the one with the most values: the rest
     # then varies least (the position, not the speed, in ``pos' = pos + spd * dur``)
     key = max(count, key=lambda k: (count[k], len(values[k])))
-    best = _plan_for(keyed, key)
+    of_key = dict.fromkeys(values[key], True).get     # a literal of that constant?
+    once: list[tuple[int, tuple[int, ...], int]] = []   # (head, body, where the constant is) if there once
+    for h, bs in bodies.items():
+        for b in bs:
+            flags = list(map(of_key, b))
+            if flags.count(True) == 1:
+                once.append((h, b, flags.index(True)))
+    best = _plan_for(once)
     if best is None:
         return None
-    _, groups, key = best
-    replaced = {(h, b) for h, b, keys in keyed if keys.count(key) == 1}
-    return groups, replaced
+    return best, {(h, b) for h, b, _ in once}
 
 
-def _plan_for(keyed: list, key: Hashable):
-    """(cost, groups, key) when ``key`` is factored out, or None if it does not pay.  A body
-    with two literals of that constant is left as it is."""
+def _plan_for(once: list[tuple[int, tuple[int, ...], int]]) -> list[Group] | None:
+    """The groups when the constant at ``i`` of each ``(head, body, i)`` is factored out (a
+    body with two literals of that constant is not among them), or None if it does not pay."""
     relation: dict[tuple[int, ...], set[tuple[int, int]]] = {}
     old = 0
-    for h, b, keys in keyed:
-        if key not in keys:
-            continue
-        i = keys.index(key)
-        if key in keys[i + 1:]:
-            continue
+    for h, b, i in once:
         rest = b[:i] + b[i + 1:]     # the laws' ground rules list their atoms in one order
         pairs = relation.get(rest)
         if pairs is None:
@@ -118,5 +119,4 @@ def _plan_for(keyed: list, key: Hashable):
     new += sum(4 * len(pairs) for pairs in by_pairs)
     if new > _GAIN * old:
         return None
-    groups = [(rests, sorted(pairs)) for pairs, rests in by_pairs.items()]
-    return new, groups, key
+    return [(rests, sorted(pairs)) for pairs, rests in by_pairs.items()]

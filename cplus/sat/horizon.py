@@ -10,9 +10,10 @@ next and across refinement iterations.
 """
 from __future__ import annotations
 
-import sys
+import operator
 import time
 from collections.abc import Callable, Iterator
+from itertools import repeat
 
 from cplus import ir
 from cplus.errors import GroundingError, Location
@@ -29,8 +30,6 @@ from cplus.sat.solver import DEFAULT_SOLVER, SatSolver
 from cplus.sat.templates import Layout, Template, build_templates
 
 __all__ = ["Horizon", "QuerySession", "HorizonStats"]
-
-_VECTORIZE_FROM = 20000   # clauses; below this numpy's set-up costs more than it saves (and its import always)
 
 
 class HorizonStats(Record):
@@ -123,20 +122,12 @@ class Horizon:
         for part, slot in tpl.extra:
             b = b1 if slot == 1 else b0
             self._instantiate(part, b, b)
-        if len(tpl.clauses) < _VECTORIZE_FROM or "numpy" not in sys.modules:
-            # literal x of the template is entry x + top of a signed table: one C-level lookup
-            # per literal, and the solver reads the map object itself (no list per clause)
-            top = tpl.top
-            table = [-off[top - i] for i in range(top)] + off
-            get = table.__getitem__
-            self.solver.add_clauses(map(get, c) for c in tpl.shifted())
-            return
-        # large templates once numpy is loaded anyway: rename every literal at once
-        import numpy as np
-        flat, ends = tpl.flat()
-        mapped = (np.asarray(off, dtype=np.int64)[np.abs(flat)] * np.sign(flat)).tolist()
-        starts = [0] + ends[:-1]
-        self.solver.add_clauses(mapped[a:b] for a, b in zip(starts, ends))
+        # literal x of the template is entry x of a signed table (-x counts from its end): one
+        # C-level lookup per literal, a map object per clause that the solver reads itself, and
+        # no Python frame per clause (bw-20-random's 10 steps: 0.13 s instead of 0.17 with a
+        # generator; numpy's renaming of every literal at once plus a slice per clause was no faster)
+        off.extend(map(operator.neg, off[:0:-1]))
+        self.solver.add_clauses(map(map, repeat(off.__getitem__), tpl.clauses))
 
     def extend_to(self, m: int, loc: Location | None = None) -> None:
         """Add transitions until the horizon is m (refused at once, located at ``loc``, when

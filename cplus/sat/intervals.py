@@ -29,6 +29,7 @@ arms' straight moves past obstacles (2,352 clauses a step) become 1,350.
 from __future__ import annotations
 
 from collections.abc import Callable, Hashable, Sequence
+from itertools import chain
 from typing import Any
 
 __all__ = ["factor_intervals", "MIN_ROWS", "GAIN"]
@@ -51,24 +52,28 @@ def factor_intervals(bodies: Sequence[tuple[int, ...]],
     are all integers, else nothing (the constant is never taken out).
     """
     known: dict[Hashable, dict[object, int]] = {}
-    by_key: dict[Hashable, dict[tuple[int, ...], list[object]]] = {}
-    rest: list[tuple[int, ...]] = []
-    for body in bodies:
-        best = None
-        for i, g in enumerate(body if len(body) > 1 else ()):
-            atom = atom_of(g) if g > 0 else None
-            if atom is None:
-                continue
+    score: dict[int, int] = {}      # literal -> values of its constant when it may be taken out, else 0
+    for g in set(chain.from_iterable(bodies)):
+        atom = atom_of(g) if g > 0 else None
+        n = 0
+        if atom is not None:
             values = known.get(atom[0])
             if values is None:
                 values = known[atom[0]] = values_of(atom[0])
-            n = len(values)
-            if n > 2 and atom[1] in values and (best is None or n > best[0]):
-                best = (n, i, atom)
-        if best is None:
+            if len(values) > 2 and atom[1] in values:
+                n = len(values)
+        score[g] = n
+    at = score.__getitem__
+    by_key: dict[Hashable, dict[tuple[int, ...], list[object]]] = {}
+    rest: list[tuple[int, ...]] = []
+    for body in bodies:
+        scores = tuple(map(at, body)) if len(body) > 1 else (0,)
+        best = max(scores)
+        if not best:
             rest.append(body)
             continue
-        _, i, (key, value) = best
+        i = scores.index(best)      # the first of the constants with the most values
+        key, value = atom_of(body[i])  # type: ignore[misc]
         by_key.setdefault(key, {}).setdefault(body[:i] + body[i + 1:], []).append(value)
     for key, groups in by_key.items():
         rows = sum(map(len, groups.values()))

@@ -17,7 +17,9 @@ reports as "interrupted" with exit code 130.
 """
 from __future__ import annotations
 
+import collections
 import functools
+import itertools
 import threading
 
 from cplus.errors import CPlusError
@@ -188,13 +190,11 @@ class SatSolver:
         self.count += 1
 
     def add_clauses(self, clauses) -> None:
-        """Add many clauses (any iterable of integer lists)."""
-        raw = self._raw
-        n = 0
-        for c in clauses:
-            raw(c)
-            n += 1
-        self.count += n
+        """Add many clauses (any iterable of iterables of integers), without a Python-level
+        step per clause: the count comes from a counter zipped after the calls."""
+        counted = itertools.count()
+        collections.deque(zip(map(self._raw, clauses), counted), maxlen=0)
+        self.count += next(counted)
 
     def _answer(self, call, assumptions, *budget) -> bool | None:
         """One call of the backend (``solve``, or one with a budget), Ctrl-C as KeyboardInterrupt

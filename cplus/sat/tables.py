@@ -57,9 +57,10 @@ def encode_table(domains: list[tuple], value_lits: list[dict], head_lits: list[i
     built: tuple | None | bool = cache.get(key, False) if cache is not None else False
     if built is False:
         index = [{w: i for i, w in enumerate(d)} for d in domains]
-        large = cells > _SMALL and ("numpy" in sys.modules or cells > _COLD)
-        built = (_build_large if large else _build_small)(shape, index, [(h, dict(c)) for h, c in strong],
-                                                          [(h, dict(c)) for h, c in weak])
+        if cells > _SMALL and ("numpy" in sys.modules or cells > _COLD):
+            built = _build_large(shape, index, strong, weak)
+        else:
+            built = _build_small(shape, index, [(h, dict(c)) for h, c in strong], [(h, dict(c)) for h, c in weak])
         if cache is not None:
             cache[key] = built
     if built is None:
@@ -124,14 +125,18 @@ def _build_small(shape: tuple, index: list[dict], strong: list, weak: list):
 
 
 def _build_large(shape: tuple, index: list[dict], strong: list, weak: list):
-    """The same with numpy arrays (views for cubes, hashed rows for sub-tables)."""
+    """The same with numpy arrays (views for cubes, hashed rows for sub-tables); the cubes
+    as given to :func:`encode_table`."""
     import numpy as np
     table = np.full(shape, NONE, dtype=np.int32)
     n = len(shape)
     full = [(h, cube) for h, cube in strong if len(cube) == n]
     if full:        # rows that fix every body constant: all at once
-        cells = np.ravel_multi_index(np.array([[index[k][c[k]] for h, c in full] for k in range(n)]), shape)
-        hs = np.array([h for h, _ in full], dtype=np.int32)
+        stride = [int(np.prod(shape[k + 1:], dtype=np.int64)) for k in range(n)]
+        offset = {(k, w): i * stride[k] for k in range(n) for w, i in index[k].items()}   # a cell is their sum
+        at = offset.__getitem__
+        cells = np.fromiter((sum(map(at, c)) for _, c in full), dtype=np.int64, count=len(full))
+        hs = np.fromiter((h for h, _ in full), dtype=np.int32, count=len(full))
         by_cell = np.lexsort((hs, cells))
         sc, sh = cells[by_cell], hs[by_cell]
         clash = sc[1:][(sc[1:] == sc[:-1]) & (sh[1:] != sh[:-1])]
@@ -140,13 +145,13 @@ def _build_large(shape: tuple, index: list[dict], strong: list, weak: list):
     for h, cube in strong:
         if len(cube) == n:
             continue
-        region = table[_where(cube, index, len(shape))]       # a view: written in place
+        region = table[_where(dict(cube), index, len(shape))]       # a view: written in place
         region[(region != h) & (region != NONE)] = CONFLICT
         region[region == NONE] = h
     if weak:
         soft = np.full(shape, NONE, dtype=np.int32)
         for h, cube in weak:
-            region = soft[_where(cube, index, len(shape))]
+            region = soft[_where(dict(cube), index, len(shape))]
             if ((region != NONE) & (region != h)).any():
                 return None
             region[...] = h

@@ -12,13 +12,15 @@ offsets, so a longer horizon only appends clauses.
 """
 from __future__ import annotations
 
+import gc as _gc
+import operator
 from collections.abc import Callable, Sequence
 from itertools import chain
 
-from cplus.ground.pf import PF, map_lits, mk_and
+from cplus.ground.pf import PF, mk_and
 from cplus.ground.theory import GroundTheory, initially_free
 from cplus.record import Record
-from cplus.sat.cnf import CONFLICT, ClauseBuilder, _without, compact
+from cplus.sat.cnf import CONFLICT, ClauseBuilder, compact
 from cplus.sat.factor import rewrite
 from cplus.sat.intervals import factor_intervals
 from cplus.sat.products import factor_products
@@ -29,7 +31,7 @@ __all__ = ["Layout", "Template", "build_templates"]
 
 
 class Template(Record):
-    _fields = ("clauses", "top", "name", "extra", "_flat", "_literals", "_shifted")
+    _fields = ("clauses", "top", "name", "extra", "_literals")
 
     clauses: list[list[int]]
     top: int                      # highest template id used
@@ -38,9 +40,7 @@ class Template(Record):
     """Templates over slot 0 that come with this one, each placed at the given slot of every
     instance (the part that is the same at every step is built once and placed at step 0
     by the initial template, at the next step by the transition)."""
-    _flat: tuple | None
     _literals: int | None
-    _shifted: list | None
 
     def __init__(
             self,
@@ -48,43 +48,37 @@ class Template(Record):
             top: int,
             name: str,
             extra: list[tuple[Template, int]] | None = None,
-            _flat: tuple | None = None,
-            _literals: int | None = None,
-            _shifted: list | None = None) -> None:
+            _literals: int | None = None) -> None:
         self.clauses = clauses
         self.top = top
         self.name = name
         self.extra = [] if extra is None else extra
-        self._flat = _flat
         self._literals = _literals
-        self._shifted = _shifted
 
     def size(self, base: int) -> tuple[int, int, int]:
         """(clauses, literals, auxiliary variables) of one instance, extras included."""
         if self._literals is None:
-            self._literals = sum(len(c) for c in self.clauses)
+            self._literals = sum(map(len, self.clauses))
         n, lits, aux = len(self.clauses), self._literals, self.top - base
         for part, _ in self.extra:
             pn, pl, pa = part.size(base)
             n, lits, aux = n + pn, lits + pl, aux + pa
         return n, lits, aux
 
-    def shifted(self) -> list[list[int]]:
-        """The clauses with every literal x as x + top, an index into a signed table (cached)."""
-        if self._shifted is None:
-            top = self.top
-            self._shifted = [[x + top for x in c] for c in self.clauses]
-        return self._shifted
 
-    def flat(self) -> tuple:
-        """All literals in one numpy array, and the end offset of each clause (cached)."""
-        if self._flat is None:
-            from itertools import accumulate, chain
+class _Memo(dict):
+    """A dict that computes a missing entry with ``fn`` and keeps it: lookups through its
+    ``__getitem__`` (and ``map`` over it) stay in C once an entry is there, which is what the
+    hot loops of template building need (a literal is met once per rule that mentions it)."""
+    __slots__ = ("fn",)
 
-            import numpy as np
-            ends = list(accumulate(len(c) for c in self.clauses))
-            self._flat = (np.fromiter(chain.from_iterable(self.clauses), dtype=np.int64, count=ends[-1]), ends)
-        return self._flat
+    def __init__(self, fn: Callable) -> None:
+        super().__init__()
+        self.fn = fn
+
+    def __missing__(self, key):
+        value = self[key] = self.fn(key)
+        return value
 
 
 class Layout:
@@ -109,17 +103,29 @@ class Layout:
         self.R = len(self.rigid_atoms)
         self.N = len(self.step_atoms)
         self.dead: frozenset[int] = frozenset()
-        self._tids: dict[int, int] = {}
         self.tables: dict = {}        # decision diagrams built for these templates (tables.encode_table)
-        self.cube_atoms: dict = {}    # template literal -> ((constant, slot), value), see _cube
-        self.atom_keys: dict = {}     # the same by constant id, see _atom_key
+        # memos by template literal (see _Memo): the template id of a code (True and False stay),
+        # ((constant, slot), value) of a literal that may be in a cube (_cube),
+        # the same by constant id (_atom_key) and its (constant id, slot) alone (_constant_key)
+        self.tids = _Memo(self._tid_of)
+        self.tid: Callable[[int], int] = self.tids.__getitem__
+        self.shifted_tids = _Memo(self._shifted_tid_of)   # the same after _shift_static
+        self.dead_codes: frozenset[int] = frozenset()      # template codes of dead atoms, see dead
+        self.cube_atoms = _Memo(lambda lit: _cube_atom(self, lit) if type(lit) is int else None)
+        self.cube_keys = _Memo(lambda lit: self.cube_atoms[lit][0])
+        self.atom_keys = _Memo(lambda lit: _keyed(self.cube_atoms[lit]))
+        self.constant_keys = _Memo(lambda lit: None if (a := self.atom_keys[lit]) is None else a[0])
 
-    def tid(self, code: int) -> int:
-        """Template id of a template literal code (see :func:`template_lit`)."""
-        t = self._tids.get(code)
-        if t is None:
-            t = self._tids[code] = self._tid(code)
-        return t
+    def _tid_of(self, f: int | bool) -> int | bool:
+        return self._tid(f) if type(f) is int else f
+
+    def _shifted_tid_of(self, f: int | bool) -> int | bool:
+        return self.tids[_shift_code(f)] if type(f) is int else f
+
+    def set_dead(self, dead: set[int] | frozenset[int]) -> None:
+        """Atoms false at every step (see :func:`build_templates`)."""
+        self.dead = frozenset(dead)
+        self.dead_codes = frozenset(3 * a + s for a in dead for s in (1, 2, 3))
 
     def _tid(self, code: int) -> int:
         a = code if code > 0 else -code
@@ -149,40 +155,50 @@ class Layout:
 
 
 def _to_tids(layout: Layout, f: PF) -> PF:
-    """A formula over template literal codes, renamed to template ids (the hot path of
-    template building: bodies are mostly flat conjunctions of literals)."""
-    if type(f) is int:
-        return layout.tid(f)
-    if type(f) is bool:
-        return f
-    get, tid = layout._tids.get, layout.tid
-    op, items = f  # type: ignore[misc]
-    out: list[PF] = []
-    for g in items:
-        if type(g) is int:
-            t = get(g)
-            out.append(t if t is not None else tid(g))
-        else:
-            out.append(_to_tids(layout, g))
-    return (op, tuple(out))
+    """A formula over template literal codes, renamed to template ids."""
+    return _renamed(layout.tids, f)
 
 
-def _shift_static(f: PF) -> PF:
-    """Move the slot-0 literals of a static body to slot 1."""
-    def shift(code: int) -> int:
-        return code + 1 if (code - 1) % 3 == 0 else code
-    return map_lits(f, shift)
+def _renamed(memo: _Memo, f: PF) -> PF:
+    """``f`` renamed through a memo of :class:`Layout`, which holds literals only (the hot
+    path of template building; a plain loop is faster here than ``map`` after a check that
+    every item is a literal, and hashing nested formulas for a memo costs more than it saves).
+    Codes start at 4 (atom ids at 1), so ``True == 1`` and ``False == 0`` never meet a code's entry."""
+    if type(f) is not tuple:
+        return memo[f]
+    out = []
+    for g in f[1]:
+        out.append(_renamed(memo, g) if type(g) is tuple else memo[g])
+    return (f[0], tuple(out))
+
+
+def _shift_code(code: int) -> int:
+    """A template literal code with slot 0 moved to slot 1 (static laws in the transition)."""
+    a = code if code > 0 else -code
+    if (a - 1) % 3 == 0:
+        a += 1
+    return a if code > 0 else -a
 
 
 def build_templates(theory: GroundTheory, dead: set[int] | frozenset[int] = frozenset()
                     ) -> tuple[Layout, Template, Template, Template]:
     """The three templates; ``dead`` atoms (fluent values no history can take, see
     :mod:`cplus.sat.reach`) are false at every step, and every rule, constraint and table
-    row that needs one of them is left out."""
-    layout = Layout(theory)
-    layout.dead = frozenset(dead)
-    static = _static(layout)
-    return layout, _rigid(layout), _initial(layout, static), _transition(layout, static)
+    row that needs one of them is left out.
+
+    The cyclic garbage collector is paused meanwhile: building allocates hundreds of
+    thousands of tuples and lists that reference counting frees, and the collector's passes
+    over them and over the ground theory took a sixth of ferryman-30-4's template time."""
+    collecting = _gc.isenabled()
+    _gc.disable()
+    try:
+        layout = Layout(theory)
+        layout.set_dead(dead)
+        static = _static(layout)
+        return layout, _rigid(layout), _initial(layout, static), _transition(layout, static)
+    finally:
+        if collecting:
+            _gc.enable()
 
 
 def _needs_dead(dead: frozenset[int], body: PF) -> bool:
@@ -192,6 +208,14 @@ def _needs_dead(dead: frozenset[int], body: PF) -> bool:
         if type(g) is int and g > 0 and (g - 1) // 3 in dead:
             return True
     return False
+
+
+def _needs_dead_code(dead_codes: frozenset[int], body: PF) -> bool:
+    """:func:`_needs_dead` by the codes of the dead atoms (:attr:`Layout.dead_codes`): one
+    set operation per body."""
+    if type(body) is tuple and body[0] == "&":
+        return not dead_codes.isdisjoint(body[1])
+    return body in dead_codes
 
 
 class _Builder:
@@ -221,17 +245,16 @@ def _heads(theory: GroundTheory, layout: Layout, rules: list[tuple[int, PF]], sh
     """The bodies of the rules by head (template ids), for the heads of atoms in ``only``
     (every atom when None) and not in ``but``."""
     out: dict[int, list[PF]] = {}
-    dead = layout.dead
+    dead = layout.dead_codes
+    memo = layout.shifted_tids if shift else layout.tids
     for code, body in rules:
-        if dead and ((code > 0 and (code - 1) // 3 in dead) or _needs_dead(dead, body)):
+        if dead and (code in dead or _needs_dead_code(dead, body)):
             continue
         if only is not None or but:
             aid = ((code if code > 0 else -code) - 1) // 3
             if (only is not None and aid not in only) or aid in but:
                 continue
-        if shift:
-            code, body = _shift_static(code), _shift_static(body)  # type: ignore[assignment]
-        out.setdefault(layout.tid(code), []).append(_to_tids(layout, body))
+        out.setdefault(memo[code], []).append(_renamed(memo, body))
     return out
 
 
@@ -266,27 +289,18 @@ def _constant_key(layout: Layout) -> Callable[[int], tuple | None]:
     """``key_of(lit)``: the (constant, slot) whose value the template literal ``lit`` states;
     None for a negated value or an auxiliary variable (:func:`_atom_key` without the value).
     Constants are given by their ids, so that keys sort."""
-    atom_of = _atom_key(layout)
-
-    def key_of(lit: int) -> tuple | None:
-        atom = atom_of(lit)
-        return None if atom is None else atom[0]
-    return key_of
+    return layout.constant_keys.__getitem__
 
 
 def _atom_key(layout: Layout) -> Callable[[int], tuple | None]:
     """``atom_of(lit)``: ``((constant id, slot), value)`` of a template literal stating a
     constant's value, else None (:func:`_cube_atom`, memoized on the layout)."""
-    memo = layout.atom_keys
+    return layout.atom_keys.__getitem__
 
-    def atom_of(lit: int) -> tuple | None:
-        try:
-            return memo[lit]
-        except KeyError:
-            atom = _cube_atom(layout, lit)
-            out = memo[lit] = None if atom is None else ((atom[0][0].id, atom[0][1]), atom[1])
-            return out
-    return atom_of
+
+def _keyed(atom: tuple | None) -> tuple | None:
+    """A cube atom ``((constant, slot), value)`` with the constant by its id."""
+    return None if atom is None else ((atom[0][0].id, atom[0][1]), atom[1])
 
 
 def _integer_values(layout: Layout) -> Callable[[tuple], dict]:
@@ -318,35 +332,41 @@ def _table_completion(b: _Builder, gc: GroundConst, slot: int, heads: dict) -> b
     for aid, _ in lits:
         t = layout.tid_atom(abs(aid), slot)
         head_tids.append(t if aid > 0 else -t)
-    strong: list[tuple[int, tuple]] = []
+    rows: list[tuple[int, tuple]] = []      # (head index, the literals of a body)
     for hi, h in enumerate(head_tids):
         for body in heads.get(h, ()):
-            if body is False:
-                continue
-            if _without(body, h) is not None:
-                # self-supporting rules (inertia) as weak table rows give the same models but
-                # propagate badly backwards from a goal (hanoi-6-3 solved 12x slower): the
-                # ordinary completion keeps them
-                return False
-            cube = () if body is True else _cube(layout, body, gc, slot)
-            if cube is None:
-                return False
-            strong.append((hi, cube))
-    if not strong:
+            if type(body) is tuple:
+                if body[0] != "&" or h in body[1]:
+                    # self-supporting rules (inertia) as weak table rows give the same models but
+                    # propagate badly backwards from a goal (hanoi-6-3 solved 12x slower): the
+                    # ordinary completion keeps them
+                    return False
+                rows.append((hi, body[1]))
+            elif body is True:
+                rows.append((hi, ()))
+            elif body is not False:
+                if body == h:
+                    return False
+                rows.append((hi, (body,)))
+    if not rows:
         return False
-    used = set(chain.from_iterable(c for _, c in strong))       # ((constant, slot), value) pairs
-    order = sorted({k for k, _ in used}, key=lambda k: (k[0].id, k[1]))
+    used = set(chain.from_iterable(items for _, items in rows))
+    if not _cubes(layout, used, rows, gc, slot):
+        return False
+    atom_of = layout.cube_atoms
+    order = sorted({atom_of[lit][0] for lit in used}, key=lambda k: (k[0].id, k[1]))
     size = 1
     for key in order:
         size *= len(_live_values(layout, key[0]))
         if size > TABLE_LIMIT:
             return False
     pos = {k: i for i, k in enumerate(order)}
-    placed = {atom: (pos[atom[0]], atom[1]) for atom in used}
+    placed = {lit: (pos[atom_of[lit][0]], atom_of[lit][1]) for lit in used}
+    strong = [(hi, tuple(map(placed.__getitem__, items))) for hi, items in rows]
     cb = b.cb
     domains = [_live_values(layout, k[0]) for k in order]
     if not encode_table(domains, [_value_lits(layout, k) for k in order], head_tids,
-                        [(h, tuple(map(placed.__getitem__, c))) for h, c in strong], [],
+                        strong, [],
                         _nonempty(cb), b._new, cb.at_most_one, layout.tables):  # type: ignore[arg-type]
         return False
     if not gc.boolean:
@@ -388,27 +408,17 @@ def _value_lits(layout: Layout, key: tuple) -> dict:
     return {v: layout.tid_atom(atoms.lit(other, v), s) for v in other.domain}
 
 
-def _cube(layout: Layout, body: PF, gc: GroundConst, slot: int) -> tuple | None:
-    """``((constant, slot), value)`` pairs when ``body`` is a conjunction of atoms of
-    constants other than gc@slot, each at most once; None otherwise."""
-    items = body[1] if type(body) is tuple and body[0] == "&" else (body,)
+def _cubes(layout: Layout, used: set, rows: list[tuple[int, tuple]], gc: GroundConst, slot: int) -> bool:
+    """Whether every body is a *cube*: a conjunction of atoms ``d=w`` (``used``: their
+    literals) of constants other than gc@slot, each constant at most once per body."""
     atom_of = layout.cube_atoms
-    cube = []
-    seen = set()
-    for lit in items:
-        atom = atom_of.get(lit) if type(lit) is int else None
-        if atom is None:
-            if type(lit) is not int or lit in atom_of:
-                return None
-            atom = atom_of[lit] = _cube_atom(layout, lit)
-            if atom is None:
-                return None
-        key = atom[0]
-        if (key[0] is gc and key[1] == slot) or key in seen:
-            return None
-        seen.add(key)
-        cube.append(atom)
-    return tuple(cube)
+    own = (gc, slot)
+    for lit in used:
+        atom = atom_of[lit]
+        if atom is None or atom[0] == own:
+            return False
+    key_of = layout.cube_keys.__getitem__
+    return all(len(set(map(key_of, items))) == len(items) for _, items in rows)
 
 
 def _cube_atom(layout: Layout, lit: int) -> tuple | None:
@@ -431,27 +441,26 @@ def _constraints(b: _Builder, bodies: list[PF], shift: bool = False) -> None:
     (``nonexecutable move(D)=L & move(D1)=L1 where D \\= D1``) grounds each pair twice."""
     from cplus.ground.pf import neg
     layout = b.layout
-    dead = layout.dead
-    get, tid, add_clause = layout._tids.get, layout.tid, b.cb.add_clause
+    dead = layout.dead_codes
+    memo = layout.shifted_tids if shift else layout.tids
+    add_clause = b.cb.add_clause
     seen: set = set()
     flats: list[tuple[int, ...]] = []
     for body in bodies:
-        if dead and _needs_dead(dead, body):
+        if dead and _needs_dead_code(dead, body):
             continue
         flat = type(body) is tuple and body[0] == "&"
         key = frozenset(body[1]) if flat else body   # type: ignore[index]
         if key in seen:
             continue
         seen.add(key)
-        if shift:
-            body = _shift_static(body)
-        elif flat and all(type(g) is int for g in body[1]):  # type: ignore[index]  # one clause
-            flats.append(tuple(get(g) or tid(g) for g in body[1]))  # type: ignore[index]
+        if flat and not shift and tuple not in map(type, body[1]):  # type: ignore[index]  # literals only: one clause
+            flats.append(tuple(map(memo.__getitem__, body[1])))  # type: ignore[index]
             continue
-        b.cb.add(neg(_to_tids(layout, body)))
+        b.cb.add(neg(_renamed(memo, body)))
     rest = factor_products(flats, _constant_key(layout), add_clause, b._new)
     for items in factor_intervals(rest, _atom_key(layout), _integer_values(layout), add_clause, b._new):
-        add_clause([-t for t in items])
+        add_clause(list(map(operator.neg, items)))
 
 
 def _rigid(layout: Layout) -> Template:
@@ -545,7 +554,10 @@ def _additive(b: _Builder, s) -> None:
             for w, lw in cvals:
                 v = u + w
                 if lo - rest_max <= v <= hi - rest_min:
-                    parts.setdefault(v, []).append(mk_and((lu, lw)))
+                    # mk_and((lu, lw)) for the usual literals, without its general loop
+                    both = lw if lu is True else ("&", (lu, lw)) if type(lu) is int and lu != lw and lu != -lw \
+                        else mk_and((lu, lw))
+                    parts.setdefault(v, []).append(both)
         current = {}
         for v, ps in parts.items():
             if len(ps) == 1:
