@@ -302,3 +302,40 @@ def test_plan_and_act_values():
     assert p.length == 0 and p.texts() == [] and p.partial
     a = Act(None, "true", {}, "x")  # type: ignore[arg-type]
     assert a.text == "x"
+
+
+class _Clock:
+    """A stand-in for the module's ``time``: each reading a quarter second after the last."""
+
+    def __init__(self) -> None:
+        self.now = 100.0
+
+    def perf_counter(self) -> float:
+        self.now += 0.25
+        return self.now
+
+
+def test_each_answer_says_how_long_it_took(on, monkeypatch):
+    monkeypatch.setattr(estimation, "time", _Clock())
+    s0 = on.initial_state().state
+    level = gc(on, "level")
+    answers = [on.initial_state(), on.initial_state({level: 9}), on.complete(dict(s0)), on.complete({level: 9}),
+               on.estimate(s0, []), on.estimate(s0, [], sensed={level: 9})]
+    assert [a.seconds for a in answers] == [0.25] * len(answers)
+
+
+class _Solver:
+    """A solver whose only conflict is observation 1: the others are explainable, alone or together."""
+
+    def core(self) -> list[int]:
+        return [1, 2, 3]
+
+    def solve(self, assumptions) -> bool:
+        return 1 not in assumptions
+
+
+def test_the_unexplained_observations_are_a_minimal_set(on):
+    class H:
+        solver = _Solver()
+    obs = {1: "event a", 2: "event b", 3: "sensed c", 4: "sensed d"}
+    assert on._unexplained(H(), [1, 2, 3], obs, []) == ["event a"]
