@@ -122,14 +122,14 @@ def reference_completion(head: int, bodies, free: bool, a: dict[int, bool]) -> b
         elif type(b) is tuple and b[0] == "&" and head in b[1]:
             rest = mk_and(g for g in b[1] if g != head)
         else:
-            if holds(b, a) and not a[head]:
+            if holds(b, a) and not holds(head, a):
                 return False
             alternatives.append(b)
             continue
         alternatives.append(rest)
     if free:
         return True
-    return not a[head] or any(holds(alt, a) for alt in alternatives)
+    return not holds(head, a) or any(holds(alt, a) for alt in alternatives)
 
 
 bodies_of = st.lists(st.one_of(formulas, st.just(1), st.just(-1),
@@ -139,9 +139,8 @@ bodies_of = st.lists(st.one_of(formulas, st.just(1), st.just(-1),
 
 
 @settings(max_examples=100, deadline=None)
-@given(bodies_of, st.booleans())
-def test_completion_is_the_literal_completion(bodies, free):
-    head = 1
+@given(bodies_of, st.booleans(), st.sampled_from([1, 2, -2]))
+def test_completion_is_the_literal_completion(bodies, free, head):
     cb, top = builder()
     cb.complete(head, bodies, free)
     for bits, exts in extensions(cb.clauses, ATOMS, top[0]).items():
@@ -293,6 +292,23 @@ def test_propagation_examples(engine):
         assert compact([[3], [-3]], 2, 3) == (CONFLICT, 3)
         assert compact([[1], [-1, 2, 3], [1, 4]], 1, 4) == ([[1], [2, 3]], 3) or \
             sorted(compact([[1], [-1, 2, 3], [1, 4]], 1, 4)[0]) == [[1], [2, 3]]
+
+
+def test_numpy_propagates_the_large_clause_sets(monkeypatch):
+    """From _NUMPY_FROM clauses on (numpy loaded, or from _NUMPY_COLD on), and only then."""
+    used = []
+    python, vector = cnf._simplify_python, cnf._simplify_numpy
+    monkeypatch.setattr(cnf, "_simplify_python", lambda *a, **k: used.append("python") or python(*a, **k))
+    monkeypatch.setattr(cnf, "_simplify_numpy", lambda *a, **k: used.append("numpy") or vector(*a, **k))
+    monkeypatch.setattr(cnf, "_NUMPY_FROM", 4)
+    monkeypatch.setattr(cnf, "_NUMPY_COLD", 4)
+    three, four, five = [[1], [-1, 2], [2, 3]], [[1], [-1, 2], [2, 3], [3, 4]], [[1], [-1, 2], [2, 3], [3, 4], [4, 5]]
+    for f in (simplify_units, lambda c: compact(c, 5, 5)):
+        used.clear()
+        f(three)
+        f(four)
+        f(five)
+        assert used == ["python", "numpy", "numpy"]
 
 
 def test_a_long_chain_of_units_is_followed_to_its_end():
