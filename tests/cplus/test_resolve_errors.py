@@ -125,10 +125,12 @@ ERRORS = [
     (H + " caused q unless q & q.", "3:18", "'unless' takes an abnormality atom ab(args)"),
     (H + " caused q unless X.", "3:18", "'unless' takes an abnormality atom ab(args)"),
     (H + " caused q unless c.", "3:18", "'c' in 'unless' must be Boolean"),
+    (H + " caused q unless Xy.", "3:18", "'unless' takes an abnormality atom ab(args)"),
     (H + " caused q unless ab(N+1).", "3:18", "the arguments of an undeclared abnormality must be variables or objects"),
     # --- frame laws
     (H + " inertial q & -p(a).", "3:15", "'inertial' takes constants, e.g. 'inertial c(X)'"),
     (H + " exogenous q, 3.", "3:15", "'exogenous' takes constants, e.g. 'exogenous c(X)'"),
+    (H + " inertial abs(X).", "3:15", "arithmetic on variable X of sort 's', which has no integers"),
     (H + " inertial p(k).", "3:11", "the arguments of 'p' in 'inertial' may not mention constants"),
     (H + " exogenous q after p(a).", "3:2", "'exogenous c' takes no 'after' part"),
     (H + " inertial go(a).", "3:11", "'inertial' applies to fluents; 'go' is a exogenousAction"),
@@ -202,6 +204,9 @@ ERRORS = [
     (H + ":- query maxstep :: 1; maxstep :: 2.", "3:24", "a query has at most one maxstep"),
     (H + ":- query maxstep :: -1..2.", "3:10", "malformed maxstep -1..2: need 0 =< min =< max"),
     (H + ":- query maxstep :: 3..2.", "3:10", "malformed maxstep 3..2: need 0 =< min =< max"),
+    (H + ":- query maxstep :: aa.", "3:21", "unknown name 'aa'"),              # 'any' is that word only
+    (H + ":- macros r -> 1..3. :- query maxstep :: r..5.", "3:16", "a range 'lo..hi' may only occur in declarations "
+     "(objects, the sorts of constants and variables, macros used there) and in 'maxstep ::'"),
     (H + ":- query maxstep :: any; invariant: q; invariant: q.", "3:40", "a query has at most one invariant"),
     (H + ":- nmquery label :: 1; caused 0: q ++ q.", "3:24",
      "the head of an nmquery rule is a literal ('t: c=v', 't: p', 't: -p'), a conjunction of them, or false: "
@@ -279,6 +284,8 @@ def test_a_query_without_maxstep_is_at_maxstep_0():
     assert (q.label, q.lo, q.hi) == ("g", 0, 0)
     (q,) = load_text(H + ":- query maxstep :: 2..4.").queries
     assert (q.label, q.lo, q.hi) == ("0", 2, 4)
+    (q,) = load_text(H + ":- macros r -> 1..3. :- query maxstep :: r.").queries
+    assert (q.lo, q.hi) == (1, 3)
 
 
 def test_show_and_hide_patterns():
@@ -364,6 +371,16 @@ def test_range_sorts_up_to_the_limit(monkeypatch):
     assert load_text(":- constants c :: inertialFluent(3..3).").signature.lookup("c", 0) is not None
 
 
+def test_nesting_below_the_limit_is_measured_level_by_level():
+    base = ":- constants c :: inertialFluent(0..9). :- macros m(#1) -> #1 + 0.\n"
+    assert warnings(base + "caused c = max(1, 1+(1+(1+(1+(1+(1+(1+(1+0)))))))).") == []
+
+
+def test_af_value_is_0_to_max_additive():
+    prog = load_text(":- maxAdditive :: 2. :- constants c :: inertialFluent(afValue).")
+    assert list(prog.signature.objects_of(prog.signature.lookup("c", 0).domain)) == [0, 1, 2]
+
+
 def test_integers_up_to_the_limit():
     top = H + "caused q if c = 9223372036854775806 + 1 - 9223372036854775807."
     assert warnings(top) == []
@@ -395,6 +412,10 @@ def test_macro_expansion_up_to_the_limits(monkeypatch):
     assert warnings(deep + "caused c = max(1, max(1, 1)).") == []       # 7 nodes
     assert error(deep + "caused c = max(1, max(1, max(1, 1))).") == (
         "t.cp:2:8: error: expanding the macros here gives an expression of 9 nodes; the limit is 8")
+    two = ":- constants c :: inertialFluent(0..9). :- macros m2(#1, #2) -> #1 + 0.\n"   # each parameter its size
+    assert warnings(two + "caused c = m2(1, max(1, max(1, max(1, 1)))).") == []
+    assert error(two + "caused c = m2(max(1, max(1, max(1, 1))), 0).") == (
+        "t.cp:2:8: error: expanding the macros here gives an expression of 11 nodes; the limit is 8")
     monkeypatch.setattr(macros, "MAX_EXPANSION", 50_000)
     monkeypatch.setattr(macros, "MAX_EXPANDED", 20)
     many = base + "caused c = m(1).\ncaused c = m(1).\ncaused c = m(1).\n"     # 5 nodes each
@@ -510,6 +531,9 @@ def laws(text: str) -> list[str]:
                                          "static caused: q=true | (p(a)=true & -sab(a)=true) | - | -"]),
     ("caused r unless rab.", ["rigid default: -rab=true | -rab=true | - | -",
                               "rigid caused: r=true | -rab=true | - | -"]),
+    ("caused q if -(N+1) = 2 - 5.", ["static caused: q=true | +(neg(N),1)=-3 | - | -"]),   # CCALC's minus
+    ("caused q unless abC.", ["static default: -abC=true | -abC=true | - | -",
+                              "static caused: q=true | -abC=true | - | -"]),
     ("caused q unless p(a).", ["static caused: q=true | -p(a)=true | - | -"]),
     ("inertial q unless ab(a).", ["dynamic inertial: - | true | -ab(a)=true | - [inertial q]"]),
     ("exogenous q unless sab2.", ["static default: -sab2=true | -sab2=true | - | -",
