@@ -339,3 +339,20 @@ def test_the_unexplained_observations_are_a_minimal_set(on):
         solver = _Solver()
     obs = {1: "event a", 2: "event b", 3: "sensed c", 4: "sensed d"}
     assert on._unexplained(H(), [1, 2, 3], obs, []) == ["event a"]
+
+
+def test_plans_and_estimates_with_every_kind_of_fluent():
+    """A statically determined and a simple fluent travel in the plan's states; an estimate looks
+    one step ahead only (a state with no successor is still a state)."""
+    d = Domain.from_text(":- constants lit, jammed :: inertialFluent; dark :: sdFluent; seen :: simpleFluent;\n"
+                         "  flip :: exogenousAction.\n"
+                         "flip causes lit. caused dark if -lit. default -dark. default -seen.\n"
+                         "constraint false after lit & jammed.\n"
+                         ":- query label :: g; maxstep :: 0..2; 0: -lit & jammed & -seen; maxstep: lit.")
+    m = OnlineModel(d, "g", Roles.of(d))
+    plan = m.plan(m.initial_state().state)
+    assert plan.texts() == [["flip"]]
+    assert [s.text() for s in plan.states] == [{"lit": False, "jammed": True, "dark": True, "seen": False},
+                                               {"lit": True, "jammed": True, "dark": False, "seen": False}]
+    est = m.estimate(plan.states[0], plan.steps[0])
+    assert est.unique and est.state == plan.states[1]
