@@ -37,6 +37,8 @@ class _Laws(_Formulas):
         if where is not None and ir.constants_in(where):
             raise ResolveError("a 'where' condition may not mention constants", law.loc)
         kind = law.kind
+        if after is not None and kind in ("causes", "may_cause", "nonexecutable"):
+            raise ResolveError(f"'{kind.replace('_', ' ')}' takes no 'after' part", law.loc)
         if kind == "increments":
             self._increment_law(law, scope, if_, where)
             return
@@ -46,8 +48,8 @@ class _Laws(_Formulas):
             self._add(law, head, ir.conj((head, if_)), after, where, "default")
         elif kind == "causes":
             assert action is not None
-            if self._mentions_actions(head):
-                self._add(law, head, ir.conj((action, if_)), None, where, "causes", force="action")
+            if self._mentions_actions(head):   # 'a causes b', b an action: caused b if a
+                self._add(law, head, ir.conj((action, if_)), None, where, "causes")
             else:
                 self._add(law, head, ir.TRUE, ir.conj((action, if_)), where, "causes")
         elif kind == "may_cause":
@@ -93,14 +95,14 @@ class _Laws(_Formulas):
         return any(_is_action(c) for c in ir.constants_in(f))
 
     def _add(self, law: ast.Law, head: ir.Formula | None, body: ir.Formula, after: ir.Formula | None,
-             where: ir.Formula | None, origin: str, force: str | None = None) -> None:
+             where: ir.Formula | None, origin: str) -> None:
         if head is not None:
             head = ir.conj(_truth_of(lit) for lit in ir.conjuncts(head)) if head != ir.TRUE else head
         if head is not None and head == ir.TRUE:
             return
         if head == ir.FALSE:
             head = None
-        cls = force or self._classify(law, head, body, after)
+        cls = self._classify(law, head, body, after)
         if law.unless is not None:
             body, after = self._unless(law, cls, body, after, origin)
         if head is not None:

@@ -324,10 +324,10 @@ class _Theory:
                 lit = ("eq", h, obj(v))
                 if f == "exogenous":
                     self._basic(law, lit, conj(lit, g), None)
-                elif f == "inertial":
-                    self._basic(law, lit, lit, conj(lit, g))
-                else:
-                    self._basic(law, None, conj(neg(("eq", h, obj(v))), g), lit)
+                elif f == "inertial":     # caused c=v if c=v after c=v & G & H
+                    self._basic(law, lit, lit, conj(conj(lit, g), a or TRUE))
+                else:                     # caused false if -(c=v) & G after c=v & H
+                    self._basic(law, None, conj(neg(("eq", h, obj(v))), g), conj(lit, a or TRUE))
             return
         if f in ("caused", "fact"):
             self._basic(law, h, g, a)

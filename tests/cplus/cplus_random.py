@@ -6,8 +6,9 @@ determined and additive fluents, Boolean, numeric and symbolic values with ``non
 constants written both ways, exogenous and plain actions, a non-Boolean action, an
 attribute, declared and auto-declared abnormalities, additive actions), laws of every
 form (caused/if/after, facts, causes with fluent and action heads, may cause,
-nonexecutable, default, possibly caused, exogenous, inertial, rigid, constraint with and
-without after, always, never, increments/decrements, unless, where) with formulas using
+nonexecutable, default (also with after), possibly caused, exogenous, inertial with if and
+after, rigid with if and after, constraint, always and never with and without after,
+increments/decrements, unless on every kind of law including the frame laws, where) with formulas using
 every connective, quantifiers, comparisons and arithmetic between constants and nested
 constants, sometimes ``noconcurrency``, and a query with stamped items.  Sizes are small
 enough for the brute-force oracle.
@@ -162,7 +163,8 @@ class _Gen:
                  "action_caused", "action_causes", "exogenous", "conj_head", "false_head"]
         if dyn_heads:
             forms += ["dynamic", "causes", "may_cause", "default_after", "possibly", "constraint_after",
-                      "inertial", "inertial_if", "inertial_if", "rigid_law", "conj_dynamic"]
+                      "inertial", "inertial_if", "inertial_if", "inertial_after", "rigid_law", "conj_dynamic",
+                      "always_after", "never_after"]
             if any(c.name == "v" for c in dyn_heads):
                 forms.append("arith_head")
         if rigid:
@@ -200,6 +202,10 @@ class _Gen:
             law = Law(self.pick(["never", "impossible"]), self.formula(F))
         elif form == "always":
             law, cls = Law("always", self.formula(E)), "dynamic"
+        elif form == "always_after":     # always F after H: F's actions at the step H is read at
+            law, cls = Law("always", self.formula(E), after=self.formula(F)), "dynamic"
+        elif form == "never_after":      # never F after H: caused false if F after H
+            law, cls = Law(self.pick(["never", "impossible"]), self.formula(F), after=self.formula(E)), "dynamic"
         elif form == "nonexecutable":
             law, cls = Law("nonexecutable", action=self.action_formula(),
                            cond=self.formula(F) if self.chance(0.6) else None), "dynamic"
@@ -229,11 +235,16 @@ class _Gen:
             simple = [c for c in dyn_heads if c.kind == "simpleFluent"]   # (an inertial one is already)
             law, cls = Law("inertial", self.term(self.pick(simple or dyn_heads)),
                            cond=self.formula(F if self.chance(0.6) else E)), "frame"
+        elif form == "inertial_after":   # inertial c if G after H: G at the new state, H at the old
+            law, cls = Law("inertial", self.term(self.pick(dyn_heads)),
+                           cond=self.formula(F) if self.chance(0.5) else None, after=self.formula(E)), "frame"
         elif form == "conj_dynamic":     # caused F1 & F2 after H
             law, cls = Law("caused", conj(self.literal(dyn_heads, head=True), self.literal(dyn_heads, head=True)),
                            after=self.formula(E)), "dynamic"
-        elif form == "rigid_law":
-            law, cls = Law("rigid", self.term(self.pick(dyn_heads))), "frame"
+        elif form == "rigid_law":        # rigid c [if G] [after H]
+            law, cls = Law("rigid", self.term(self.pick(dyn_heads)),
+                           cond=self.formula(F) if self.chance(0.4) else None,
+                           after=self.formula(E) if self.chance(0.3) else None), "frame"
         elif form == "arith_head":     # caused v=N+1 after v=N & A: N=2 leaves the domain (C.7)
             law = Law("caused", ("eq", cst("v"), ("+", ("v", "N"), obj(1))),
                       after=conj(("eq", cst("v"), ("v", "N")), self.action_formula()),
@@ -270,14 +281,24 @@ class _Gen:
                 law = replace(law, where=("cmp", self.pick(["\\=", "@<"]), ("v", "X"), ("v", "Y")))
             elif "X" in free:
                 law = replace(law, where=("cmp", self.pick(["=", "\\="]), ("v", "X"), obj("k2")))
-        if cls != "frame" and law.head != TRUE and self.chance(0.3):   # (caused true: no law at all)
-            name = f"ab{self.ab_count}"
-            self.ab_count += 1
-            args = (("v", "X"),) if "X" in free and self.chance(0.5) else ()
-            law = replace(law, unless=("c", name, args))
-            if self.chance(0.6):       # something sometimes causes the abnormality
-                self.cause_ab(name, args, cls)
+        if cls == "frame" and self.chance(0.2):      # exogenous/inertial/rigid c ... unless ab
+            cls = self.frame_class(law)
+        elif cls == "frame" or law.head == TRUE or not self.chance(0.3):   # (caused true: no law at all)
+            return law
+        name = f"ab{self.ab_count}"
+        self.ab_count += 1
+        args = (("v", "X"),) if "X" in free and self.chance(0.5) else ()
+        law = replace(law, unless=("c", name, args))
+        if self.chance(0.6):       # something sometimes causes the abnormality
+            self.cause_ab(name, args, cls)
         return law
+
+    def frame_class(self, law: Law) -> str:
+        """The class of the basic laws a frame law stands for (which kind its abnormality is)."""
+        if law.form != "exogenous":
+            return "dynamic"
+        kind = next(c.kind for c in self.consts if c.name == law.head[1])  # type: ignore[index]
+        return {"action": "action", "rigid": "rigid"}.get(kind, "static")
 
     def cause_ab(self, name: str, args: tuple, cls: str) -> None:
         head = ("eq", ("c", name, args), obj("true"))
@@ -297,7 +318,8 @@ class _Gen:
     def support(self) -> None:
         """Laws that give most domains models: defaults for what needs a cause (not the
         plain inertia that would hide an `inertial c if G`)."""
-        conditional = {law.head[1] for law in self.laws if law.form == "inertial" and law.cond is not None}
+        conditional = {law.head[1] for law in self.laws
+                       if law.form == "inertial" and (law.cond is not None or law.after is not None)}
         for c in self.consts:
             every = cst(c.name, *([("v", "X" if c.arg == "s" else "Z")] if c.arg else []))
             lit = ("eq", every, obj("true" if c.boolean else self.pick(c.values)))

@@ -284,6 +284,10 @@ class OnlineModel:
         v = h.var(abs(a), t)
         return v if a > 0 else -v
 
+    def _happened(self, h: Horizon, gc: GroundConst) -> int:
+        """The literal that an event happened at step 0: ``e`` (a non-Boolean one: ``e`` is not ``none``)."""
+        return self._lit(h, gc, "true", 0) if gc.boolean else -self._lit(h, gc, "none", 0)
+
     def _state_lits(self, h: Horizon, state: Mapping[GroundConst, object], t: int) -> list[int]:
         return [self._lit(h, gc, v, t) for gc, v in state.items()]
 
@@ -347,18 +351,18 @@ class OnlineModel:
         done = {a.gc: a for a in acts}
         for gc in self.roles.agent:
             a = done.get(gc)
-            fixed.append(self._lit(h, gc, a.value if a else ("false" if gc.boolean else "none"), 0))
+            fixed.append(self._lit(h, gc, a.value if a else _absent(gc), 0))
             if a is not None:
                 fixed.extend(self._lit(h, ag, v, 0) for ag, v in a.attributes.items())
         obs: dict[int, str] = {}
         seen = {self.by_text[e] if isinstance(e, str) else e for e in events}
         for gc in self.roles.observed:
             if gc in seen:
-                obs[self._lit(h, gc, "true", 0)] = f"event {gc.text}"
+                obs[self._happened(h, gc)] = f"event {gc.text}"
             else:
-                fixed.append(self._lit(h, gc, "false", 0))
+                fixed.append(self._lit(h, gc, _absent(gc), 0))
         for gc in seen - self.roles.observed:
-            obs[self._lit(h, gc, "true", 0)] = f"event {gc.text}"
+            obs[self._happened(h, gc)] = f"event {gc.text}"
         for gc, v in (sensed or {}).items():
             if self.atoms.lit(gc, v) == 0:
                 return Estimate(EstimateStatus.NONE, unexplained=[f"sensed {_atom(gc, v)}, not a value of {gc.text}"],
@@ -464,8 +468,7 @@ class OnlineModel:
         s = h.solver
         out = []
         for gc in sorted(self.roles.inferred, key=lambda g: g.id):
-            lit = self._lit(h, gc, "true", 0)
-            if not s.solve(assumptions + [-lit]):
+            if not s.solve(assumptions + [-self._happened(h, gc)]):
                 out.append(gc)
         return out
 
@@ -482,6 +485,11 @@ def action_text(gc: GroundConst, value: object, attrs: Mapping[GroundConst, obje
         name = ag.decl.name + (f"({','.join(render_value(a) for a in rest)})" if rest else "")
         parts.append(f"{name}={render_value(v)}")  # type: ignore[arg-type]
     return f"{gc.decl.name}({','.join(parts)})"
+
+
+def _absent(gc: GroundConst) -> str:
+    """The value of an action constant at a step it is not done."""
+    return "false" if gc.boolean else "none"
 
 
 def _atom(gc: GroundConst, value: object) -> str:
