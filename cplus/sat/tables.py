@@ -77,15 +77,23 @@ _COLD = 30000      # ... and above this even when it must be imported for it
 
 def _build_small(shape: tuple, index: list[dict], strong: list, weak: list):
     """(cells in the chosen axis order, the order, node ids per level) with lists."""
-    from itertools import product
     n = len(shape)
     strides = [1] * n
     for k in range(n - 2, -1, -1):
         strides[k] = strides[k + 1] * shape[k + 1]
 
+    def offsets(axes: list) -> list[int]:
+        """The flat offsets of the cells ``product(*axes)`` names, in that order: built one
+        axis at a time (the last varies fastest), with no Python step per cell and axis."""
+        out = [0]
+        for k, values in axes:
+            st = strides[k]
+            steps = [v * st for v in values]
+            out = [o + d for o in out for d in steps]
+        return out
+
     def cells_of(cube: dict) -> list[int]:
-        axes = [(index[k][cube[k]],) if k in cube else range(shape[k]) for k in range(n)]
-        return [sum(i * st for i, st in zip(ix, strides)) for ix in product(*axes)]
+        return offsets([(k, (index[k][cube[k]],) if k in cube else range(shape[k])) for k in range(n)])
     table = [NONE] * (strides[0] * shape[0])
     for h, cube in strong:
         for c in cells_of(cube):
@@ -100,8 +108,7 @@ def _build_small(shape: tuple, index: list[dict], strong: list, weak: list):
     table = [NONE if v == CONFLICT else (soft[i] if v == NONE else v) for i, v in enumerate(table)]
 
     def transposed(perm: list[int]) -> list[int]:
-        return [table[sum(i * strides[k] for i, k in zip(ix, perm))]
-                for ix in product(*(range(shape[k]) for k in perm))]
+        return [table[c] for c in offsets([(k, range(shape[k])) for k in perm])]
 
     def distinct(flat: list[int], rows: int) -> list[int]:
         width = len(flat) // rows

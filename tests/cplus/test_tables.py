@@ -111,3 +111,39 @@ def test_the_planner_counts_the_same_histories_with_and_without_tables(monkeypat
     without = Domain.from_text(SPACECRAFT_LIKE).solve(solutions=0)
     assert len(with_tables.histories) == len(without.histories) > 1
     assert {h.key() for h in with_tables.histories} == {h.key() for h in without.histories}
+
+
+@st.composite
+def _tables(draw):
+    shape = tuple(draw(st.lists(st.integers(1, 4), min_size=1, max_size=4)))
+    domains = [tuple(f"v{i}" for i in range(s)) for s in shape]
+
+    def cube():
+        ks = draw(st.lists(st.integers(0, len(shape) - 1), unique=True, max_size=len(shape)))
+        return tuple((k, domains[k][draw(st.integers(0, shape[k] - 1))]) for k in sorted(ks))
+    heads = draw(st.integers(1, 3))
+    strong = [(draw(st.integers(0, heads - 1)), cube()) for _ in range(draw(st.integers(0, 6)))]
+    weak = [(draw(st.integers(0, heads - 1)), cube()) for _ in range(draw(st.integers(0, 3)))]
+    return shape, domains, strong, weak
+
+
+@settings(max_examples=300)
+@given(_tables())
+def test_the_list_and_the_array_builders_make_the_same_table(t):
+    """Small tables are built with lists, large ones with numpy: the same cells, order and
+    levels for any cubes (or the same refusal)."""
+    from cplus.sat.tables import _build_large, _build_small
+    shape, domains, strong, weak = t
+    index = [{w: i for i, w in enumerate(d)} for d in domains]
+    small = _build_small(shape, index, [(h, dict(c)) for h, c in strong], [(h, dict(c)) for h, c in weak])
+    large = _build_large(shape, index, strong, weak)
+    if small is None or large is None:
+        assert small is None and large is None
+        return
+    assert [list(map(int, x)) if not isinstance(x, int) else x for x in small[0]] == list(map(int, large[0]))
+    assert list(small[1]) == list(large[1])
+    # the node ids of a level name the same partition of its rows (numbered apart)
+    def canonical(level):
+        ids: dict = {}
+        return [ids.setdefault(int(x), len(ids)) for x in level]
+    assert [canonical(lv) for lv in small[2]] == [canonical(lv) for lv in large[2]]
