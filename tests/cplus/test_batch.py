@@ -320,7 +320,9 @@ def ray_cluster():
     temp = tempfile.mkdtemp(prefix="r", dir="/tmp")      # short: Ray's socket paths live under it
     port = _free_port()
     token = secrets.token_hex(32)
-    env = dict(os.environ, RAY_AUTH_MODE="token", RAY_AUTH_TOKEN=token, RAY_USAGE_STATS_ENABLED="0",
+    # PYTHONUNBUFFERED: `ray start` writes to a pipe here, which Python would buffer, holding back
+    # the line awaited below
+    env = dict(os.environ, RAY_AUTH_MODE="token", RAY_AUTH_TOKEN=token, RAY_USAGE_STATS_ENABLED="0", PYTHONUNBUFFERED="1",
                PYTHONPATH=os.pathsep.join(p for p in (str(ROOT), os.environ.get("PYTHONPATH")) if p))
     env.pop("RAY_ADDRESS", None)
     head = subprocess.Popen([sys.executable, "-m", "ray.scripts.scripts", "start", "--head", "--block",
