@@ -66,7 +66,7 @@ def animation_check(path: str | None, option: str, prog: str) -> str | None:
     """One line when ``path`` cannot take an animation (its name, ffmpeg, the place), or None."""
     if not path:
         return None
-    from cplus.cli.execute import output_problem
+    from cplus.cli.common import output_problem
     from trajectory.animate import animation_problem
     problem = animation_problem(path)
     if problem is not None:

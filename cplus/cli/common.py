@@ -34,7 +34,7 @@ import math
 import os
 import sys
 
-__all__ = ["EXIT_OK", "EXIT_NO_PLAN", "EXIT_LINK", "EXIT_INPUT", "EXIT_LIMIT", "EXIT_NO_SAFE_PLAN",
+__all__ = ["output_problem", "EXIT_OK", "EXIT_NO_PLAN", "EXIT_LINK", "EXIT_INPUT", "EXIT_LIMIT", "EXIT_NO_SAFE_PLAN",
            "EXIT_GAVE_UP", "EXIT_NO_PLAN_PROVED", "EXIT_INVARIANT_WRONG", "EXIT_NOT_PROVED", "EXIT_CONTRADICTED",
            "EXIT_AMBIGUOUS", "EXIT_ROBOT_LOST", "EXIT_UNSAFE", "EXIT_INTERRUPTED", "CliError", "OneLineArgumentParser",
            "nonneg", "number", "positive", "positive_int", "externals",
@@ -246,3 +246,24 @@ def robot_exit_code(status) -> int:
     return {RefineStatus.FOUND: EXIT_OK, RefineStatus.UNSAFE: EXIT_UNSAFE, RefineStatus.NO_PLAN: EXIT_NO_PLAN,
             RefineStatus.HORIZON_LIMIT: EXIT_LIMIT, RefineStatus.NO_SAFE_PLAN: EXIT_NO_SAFE_PLAN,
             RefineStatus.GAVE_UP: EXIT_GAVE_UP}[status]
+
+
+def output_problem(path: str) -> str | None:
+    """Why ``path`` cannot be written (or its directory created), or None.
+
+    Checked before the work starts, so an unwritable output is found before the robots move.
+    Nothing is created.
+    """
+    p = os.path.abspath(path)
+    if os.path.isdir(p):
+        return "it is a directory"
+    if os.path.exists(p):
+        return None if os.access(p, os.W_OK) else "permission denied"
+    parent = os.path.dirname(p)
+    while not os.path.exists(parent):
+        parent = os.path.dirname(parent)
+    if not os.path.isdir(parent):
+        return f"{parent} is not a directory"
+    if not os.access(parent, os.W_OK | os.X_OK):
+        return f"permission denied in {parent}"
+    return None

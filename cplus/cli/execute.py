@@ -36,6 +36,7 @@ from cplus.cli.common import (
     OneLineArgumentParser,
     distinct_bricks,
     nonneg,
+    output_problem,
     parse_bricks,
     positive,
 )
@@ -50,7 +51,7 @@ from cplus.robot.execution import (
 )
 from nxt_link.errors import ExecutionFailed, ExecutionInterrupted, LinkError, SetpointError
 
-__all__ = ["build_parser", "main", "output_problem"]
+__all__ = ["build_parser", "main"]
 
 
 class _ProgressPrinter:
@@ -168,27 +169,6 @@ def run_timeline(log: nxt_link.ExecutionLog) -> trajectory.RunTimeline:
     skew = log.start_skew()
     return trajectory.RunTimeline(tuple(bricks), None if log.stopped is None else (log.stopped.t_s, log.stopped.reason),
                                   None if skew is None else (skew.estimate, skew.min, skew.max))
-
-
-def output_problem(path: str) -> str | None:
-    """Why ``path`` cannot be written (or its directory created), or None.
-
-    Checked before the work starts, so an unwritable output is found before the robots move.
-    Nothing is created.
-    """
-    p = os.path.abspath(path)
-    if os.path.isdir(p):
-        return "it is a directory"
-    if os.path.exists(p):
-        return None if os.access(p, os.W_OK) else "permission denied"
-    parent = os.path.dirname(p)
-    while not os.path.exists(parent):
-        parent = os.path.dirname(parent)
-    if not os.path.isdir(parent):
-        return f"{parent} is not a directory"
-    if not os.access(parent, os.W_OK | os.X_OK):
-        return f"permission denied in {parent}"
-    return None
 
 
 def check_outputs(paths: Mapping[str, str | None], prog: str) -> str | None:

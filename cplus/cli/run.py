@@ -32,6 +32,7 @@ from cplus.cli.common import (
     distinct_bricks,
     horizon_progress,
     nonneg,
+    output_problem,
     parse_bricks,
     query,
     robot_exit_code,
@@ -92,7 +93,7 @@ def _validate(args: argparse.Namespace) -> tuple[str, dict[str, str]]:
         args.time_scale = 1.0
     if os.path.exists(args.out) and not os.path.isdir(args.out):
         raise CliError(f"{prog}: error: --out {args.out} is not a directory")
-    problem = execute.output_problem(os.path.join(args.out, "plan.txt"))
+    problem = output_problem(os.path.join(args.out, "plan.txt"))
     if problem is not None:
         raise CliError(f"{prog}: error: cannot write into --out {args.out}: {problem}")
     if args.animate is True:
@@ -126,7 +127,7 @@ def _main(args: argparse.Namespace) -> int:
         ("csv", "trajectory.csv"), ("log", "execution.json"), ("execution", "execution.png"),
         ("report", "report.txt"))}
     for path in paths.values():
-        problem = execute.output_problem(path)
+        problem = output_problem(path)
         if problem is not None:
             print(f"cplus run: error: cannot write {path}: {problem}", file=sys.stderr)
             return EXIT_INPUT
