@@ -270,7 +270,7 @@ def _behaviours(args: argparse.Namespace, robot: str, ports: dict[str, str]) -> 
     from cplus.robot.online.estimation import OnlineModel
     from cplus.robot.online.events import LineEvents, ScriptedEvents, check_events, parse_events
     from cplus.robot.online.loop import EventSource, OnlineLoop
-    from nxt_link.clock import MONOTONIC, SimulationStalled
+    from nxt_link.clock import MONOTONIC
     err = sys.stderr
     domain = Domain.load(args.domain)
     label = _domain_and_goal(args, domain)
@@ -314,20 +314,8 @@ def _behaviours(args: argparse.Namespace, robot: str, ports: dict[str, str]) -> 
     observers: list = ([] if args.quiet else [Progress(err)]) + log.observer({"binding": robot})
     loop = OnlineLoop(model, executor, sources, observers, max_cycles=args.max_cycles,
                       clock=getattr(executor, "clock", MONOTONIC))   # emulated bricks: their simulated clock
-    with Shutdown("cplus online") as shutdown:
-        shutdown.on_stop(loop.stop)
-        _forced_stop(shutdown, lambda: [b.brick for b in getattr(executor, "bricks", {}).values()], observers)
-        try:
-            result = loop.run()
-        except SimulationStalled as exc:
-            print(f"cplus online: error: {exc}", file=err)
-            return EXIT_ROBOT_LOST
-        except KeyboardInterrupt as exc:
-            print(f"cplus online: {reason_of(exc)} (the robot was told to stop)", file=err)
-            return exit_code_of(exc)
-        finally:
-            log.close(args.quiet)
-    return shutdown.exit_code if result.status.value == "stopped" else exit_code(result.status)
+    return _supervised(loop.run, "the robot was", lambda: [b.brick for b in getattr(executor, "bricks", {}).values()],
+                       observers, log, args.quiet, err, on_stop=loop.stop)
 
 
 def action_time(args: argparse.Namespace) -> float:
@@ -351,7 +339,6 @@ def _arms(args: argparse.Namespace, scene: str, ports: dict[str, str]) -> int:
     from cplus.cli.common import CliError
     from cplus.robot.offline.task import RobotTask
     from cplus.robot.online.payload_monitor import ArmsExecutor, run_arms
-    from nxt_link.clock import SimulationStalled
     err = sys.stderr
     task = RobotTask.load(args.domain, scene)
     label = _domain_and_goal(args, task.domain)
@@ -379,19 +366,30 @@ def _arms(args: argparse.Namespace, scene: str, ports: dict[str, str]) -> int:
         return EXIT_INPUT
     executor = ArmsExecutor(robots, ports or None, stalls, time_scale=args.time_scale, latency=not args.no_latency)
     observers: list = ([] if args.quiet else [Progress(err)]) + log.observer({"scene": scene})
+    return _supervised(lambda: run_arms(task, label, executor, observers=observers,
+                                        threshold_deg=args.tracking_threshold, max_faults=args.max_faults,
+                                        max_horizon=args.max_horizon),
+                       "the bricks were", lambda: list(executor.bricks.values()), observers, log, args.quiet, err)
+
+
+def _supervised(run, who: str, bricks, observers, log, quiet: bool, err, on_stop=None) -> int:
+    """Run the loop under the shutdown watchdog (SIGINT/SIGTERM: an orderly stop, then motors
+    off if it is late) and turn how it ended into the exit code; the log is closed however."""
+    from nxt_link.clock import SimulationStalled
     with Shutdown("cplus online") as shutdown:
-        _forced_stop(shutdown, lambda: list(executor.bricks.values()), observers)
+        if on_stop is not None:
+            shutdown.on_stop(on_stop)
+        _forced_stop(shutdown, bricks, observers)
         try:
-            result = run_arms(task, label, executor, observers=observers, threshold_deg=args.tracking_threshold,
-                              max_faults=args.max_faults, max_horizon=args.max_horizon)
+            result = run()
         except SimulationStalled as exc:
             print(f"cplus online: error: {exc}", file=err)
             return EXIT_ROBOT_LOST
         except KeyboardInterrupt as exc:
-            print(f"cplus online: {reason_of(exc)} (the bricks were told to stop)", file=err)
+            print(f"cplus online: {reason_of(exc)} ({who} told to stop)", file=err)
             return exit_code_of(exc)
         finally:
-            log.close(args.quiet)
+            log.close(quiet)
     return shutdown.exit_code if result.status.value == "stopped" else exit_code(result.status)
 
 
