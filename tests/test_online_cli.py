@@ -76,11 +76,11 @@ def test_typed_events_give_the_simulated_robot_time_to_type(delivery, capsys, mo
     """The README's `--simulate --events -` example: actions of 1 s unless --action-time says
     otherwise (of 0 s the run would end before anyone typed), and the README's table says so."""
     import io
-    readme = " ".join((ROOT / "README.md").read_text().split())
+    readme = " ".join(" ".join(p.read_text(encoding="utf-8") for p in [ROOT / "README.md", *sorted((ROOT / "docs").glob("*.md"))]).split())
     assert "actions taking S seconds (default 0; 1 with `--events -`, so that there is time to type an event)" \
         in readme
-    assert "cplus online domains/delivery/delivery.cp --simulate --events -  # no brick: type \"press\"" \
-        in (ROOT / "README.md").read_text()
+    assert "cplus online domains/delivery/delivery.cp --simulate --events -    # no brick; type \"press\"" \
+        in (ROOT / "docs" / "online.md").read_text()
     monkeypatch.setattr("sys.stdin", io.StringIO(""))
     code, _, err = run([str(delivery), "--simulate", "--events", "-", "--max-cycles", "0"], capsys)
     assert code == 3 and "on simulated robot (atLandmark; 1 s per action)" in err

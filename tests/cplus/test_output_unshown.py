@@ -53,6 +53,6 @@ def test_the_payload_plan_says_why_its_first_step_exists():
 
 
 def test_the_readme_says_so():
-    readme = " ".join((ROOT / "README.md").read_text().split())
+    readme = " ".join(" ".join(p.read_text(encoding="utf-8") for p in [ROOT / "README.md", *sorted((ROOT / "docs").glob("*.md"))]).split())
     assert "a comment line says what changed (`% step 0 -> 1 changes only what the show statements leave out: " \
            "canCarry`, or `changes nothing`)" in readme

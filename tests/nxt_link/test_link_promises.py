@@ -9,7 +9,7 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parents[2]
-README = " ".join((ROOT / "README.md").read_text(encoding="utf-8").split())  # lines joined
+README = " ".join(" ".join(p.read_text(encoding="utf-8") for p in [ROOT / "README.md", *sorted((ROOT / "docs").glob("*.md"))]).split())  # the README and docs/, lines joined
 
 
 def says(pattern: str) -> re.Match[str]:
