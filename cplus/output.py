@@ -231,11 +231,18 @@ def unshown_changes(display: Display, before: dict[GroundConst, object], actions
         [display.atom_text(gc, after[gc]) for gc in sorted(changed, key=display.key)]
 
 
-def format_result(display: Display, failed: Iterable[int], histories: list[History], numbered: bool) -> str:
+def format_result(display: Display, failed: Iterable[int], histories: list[History], numbered: bool | None = None,
+                  heading: str = "Solution") -> str:
+    """CCALC's text of a query's answer: ``No solution with maxstep m.`` for each length tried
+    in vain, then the histories, each headed ``Solution k:`` (``heading``: ``State`` for the
+    shell's ``sat.``) when ``numbered``; None: when there are several, as CCALC's
+    ``show_models`` numbers only a list of two or more."""
+    if numbered is None:
+        numbered = len(histories) > 1
     parts = [f"\nNo solution with maxstep {m}.\n\n" for m in failed]
     for k, h in enumerate(histories, start=1):
         if numbered:
-            parts.append(f"Solution {k}:\n")
+            parts.append(f"{heading} {k}:\n")
         parts.append(format_history(display, h))
     return "".join(parts)
 

@@ -246,6 +246,9 @@ class Program(Record):
         self.files = [] if files is None else files
         self.nmqueries = [] if nmqueries is None else nmqueries
         self.facts = [] if facts is None else facts
+        self.scope: tuple[dict, dict] | None = None
+        """The macros and variables in force at the end of the file (what the shell's
+        ``show SPEC.`` reads its patterns with, :func:`cplus.resolve.show.resolve_show`)."""
 
     def query(self, label: str) -> QuerySpec | None:
         for q in self.queries:

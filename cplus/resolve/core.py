@@ -132,6 +132,7 @@ class _Core:
         self._ccalc_differences()
         self.sig.finalize()
         self._check_patterns()  # type: ignore[attr-defined]
+        self.program.scope = (self.macros, self.variables)
         _Validator(self.sig).run(self.program)
 
 

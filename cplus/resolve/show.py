@@ -14,6 +14,29 @@ from cplus.resolve.core import _Scope, _show
 from cplus.resolve.terms import _Terms
 
 
+def resolve_show(program, text: str, diagnostics) -> list:
+    """The specifications of ``:- show TEXT.`` resolved against a resolved program, with its
+    signature and the macros and variables in force at the end of its file: the shell's
+    ``show SPEC.`` (CCALC's ``show/1``, which replaces the specifications before it).  Errors
+    are :class:`~cplus.errors.CPlusError` located in ``":- show " + text``; warnings go to
+    ``diagnostics``."""
+    from cplus.parser import parse_program
+    from cplus.program import Program
+    from cplus.resolve import BUILTIN_EXTERNALS, _Resolver
+
+    parsed = parse_program(f":- show {text}.", "<show>", diagnostics)
+    (stmt,) = parsed.statements
+    if not isinstance(stmt, ast.ShowHide):     # pragma: no cover - the text is one show statement
+        raise ResolveError("expected show specifications", stmt.loc)
+    r = _Resolver(lambda path, loc: parsed, BUILTIN_EXTERNALS, diagnostics)
+    r.sig = program.signature
+    r.program = Program(program.signature, diagnostics=diagnostics)
+    r.macros, r.variables = program.scope or ({}, {})
+    r._st_ShowHide(stmt)
+    r._check_patterns()
+    return r.program.show
+
+
 class _Show(_Terms):
     def _st_ShowHide(self, stmt: ast.ShowHide) -> None:
         if stmt.hide:
