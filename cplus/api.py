@@ -183,8 +183,7 @@ class Domain:
 
     def format(self, result: QueryResult, numbered: bool | None = None) -> str:
         """CCALC's text for a result, as ``cplus plan`` prints it: each history headed
-        ``Solution k:`` unless exactly one solution was asked for (``numbered`` overrides)."""
-        numbered = result.solutions != 1 if numbered is None else numbered
+        ``Solution k:`` when there are several, as CCALC numbers them (``numbered`` overrides)."""
         return format_result(Display(self.program), result.failed, result.histories, numbered)
 
     def to_json(self, result: QueryResult) -> dict:

@@ -187,7 +187,7 @@ def prove(theory, query, solver: str | None = None) -> InvariantResult:
     assert query.invariant is not None
     formula, inv_loc = query.invariant
     session = QuerySession(theory, QuerySpec(query.label, 0, 1, (), query.loc), solver or DEFAULT_SOLVER)
-    session.facts = []      # its step 0 is any state, not a history's first: stamped facts say nothing of it
+    session.facts_apply = False   # its step 0 is any state, not a history's first: no stamped rule applies
     h = session.horizon
     s = h.solver
 

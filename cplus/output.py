@@ -39,7 +39,9 @@ class Display:
             return prog.show
         return [] if prog.hide_all else ["positive"]
 
-    def _matches(self, p: Pattern, gc: GroundConst, value: object) -> bool:
+    def _matches(self, p: Pattern, gc: GroundConst, value: object, step: int | None = None) -> bool:
+        if p.step is not None and p.step != step:
+            return False
         if p.decl is None:
             if gc.decl.name != p.name:
                 return False
@@ -66,14 +68,20 @@ class Display:
         except TypeError:
             return True
 
-    def shown(self, gc: GroundConst, value: object) -> bool:
-        """Whether the atom ``gc=value`` is displayed (for a Boolean constant, ``value``
-        ``"false"`` is the literal ``-gc``), as CCALC 2's ``in_show_list`` decides with the
-        specifications in force (:attr:`specs`), then no ``:- hide`` pattern matching it.
+    def shown(self, gc: GroundConst, value: object, step: int | None = None) -> bool:
+        """Whether the atom ``gc=value`` (at ``step``; None for a rigid constant) is displayed
+        (for a Boolean constant, ``value`` ``"false"`` is the literal ``-gc``), as CCALC 2's
+        ``in_show_list`` decides with the specifications in force (:attr:`specs`), then no
+        ``:- hide`` pattern matching it.
 
+        * an abnormality (a constant named by ``unless``): only with ``ab`` (when true), ``all``,
+          or a pattern; except that an abnormality fluent with arguments (``unless ab1(M,M1)``
+          in a static law) is shown as the other fluents are, because CCALC prints it (its
+          ``show_fluent`` hides an atom equal to the ``unless`` term as written, variables and
+          all, so only one without arguments; the recorded sessions of multiple-monkey-test
+          print ``ab1(alice,david)``);
         * actions: a true Boolean action, or any value of a non-Boolean one, when the specs
-          hold ``positive`` or ``all`` or a pattern matching it; never a false one, except an
-          abnormality (``unless``): those only with ``ab`` (when true), ``all``, or a pattern;
+          hold ``positive`` or ``all`` or a pattern matching it; never a false one;
         * fluents and rigid constants: ``positive`` shows true Boolean atoms and the values of
           the others except ``none``; ``negative`` the false Boolean atoms (``-p``) and ``c=none``;
           ``all`` both; a pattern what it matches;
@@ -84,19 +92,18 @@ class Display:
             return False
         negative = gc.boolean and value != "true"
         specs = self.specs
-        if d.is_action:
-            if d.auto_ab:
-                ok = any(s == "all" or (s == "ab" and not negative) or (not isinstance(s, str) and self._matches(s, gc, value))
-                         for s in specs)
-            else:
-                ok = not negative and any(s in ("all", "positive") or (not isinstance(s, str) and self._matches(s, gc, value))
-                                          for s in specs)
+        if d.abnormal and (d.is_action or not d.argsorts):
+            ok = any(s == "all" or (s == "ab" and not negative) or (not isinstance(s, str) and self._matches(s, gc, value, step))
+                     for s in specs)
+        elif d.is_action:
+            ok = not negative and any(s in ("all", "positive") or (not isinstance(s, str) and self._matches(s, gc, value, step))
+                                      for s in specs)
         else:
             none = value == "none"
             ok = any(s == "all" or (s == "positive" and not negative and not none)
                      or (s == "negative" and (negative or none))
-                     or (not isinstance(s, str) and self._matches(s, gc, value)) for s in specs)
-        return ok and not any(self._matches(p, gc, value) for p in self.program.hide)
+                     or (not isinstance(s, str) and self._matches(s, gc, value, step)) for s in specs)
+        return ok and not any(self._matches(p, gc, value, step) for p in self.program.hide)
 
     @property
     def hides_something(self) -> bool:
@@ -137,20 +144,20 @@ class Display:
             return gc.text if value == "true" else "-" + gc.text
         return f"{gc.text}={render_value(value)}"  # type: ignore[arg-type]
 
-    def state_atoms(self, table: dict[GroundConst, object]) -> list[str]:
+    def state_atoms(self, table: dict[GroundConst, object], step: int | None = None) -> list[str]:
         """The displayed atoms of a state: the positive ones, then the negative ones (as CCALC
         prints them, in two passes)."""
-        gcs = sorted((gc for gc, v in table.items() if self.shown(gc, v)), key=self.key)
+        gcs = sorted((gc for gc, v in table.items() if self.shown(gc, v, step)), key=self.key)
         pos = [gc for gc in gcs if not (gc.boolean and table[gc] != "true")]
         neg = [gc for gc in gcs if gc.boolean and table[gc] != "true"]
         return [self.atom_text(gc, table[gc]) for gc in pos + neg]
 
-    def action_atoms(self, table: dict[GroundConst, object]) -> list[str]:
+    def action_atoms(self, table: dict[GroundConst, object], step: int | None = None) -> list[str]:
         out = []
         negative = []
         for gc in sorted(table, key=self.key):
             d = gc.decl
-            if d.kind == "attribute" or not self.shown(gc, table[gc]):
+            if d.kind == "attribute" or not self.shown(gc, table[gc], step):
                 continue
             attrs = self._attributes(gc, table)
             if gc.boolean:
@@ -197,15 +204,15 @@ def format_history(display: Display, hist: History) -> str:
     rigid = display.state_atoms(hist.rigid)
     if rigid:
         lines.append("  ".join(rigid))
-    states = [display.state_atoms(state) for state in hist.states]
+    states = [display.state_atoms(state, t) for t, state in enumerate(hist.states)]
     for t, state in enumerate(hist.states):
         lines.append(f"{t}:  " + "  ".join(states[t]))
         if t < len(hist.actions):
-            acts = display.action_atoms(hist.actions[t])
+            acts = display.action_atoms(hist.actions[t], t)
             if acts:
                 lines.append("ACTIONS:  " + "  ".join(acts))
             elif states[t] == states[t + 1] and display.hides_something:
-                unshown = unshown_changes(display, state, hist.actions[t], hist.states[t + 1])
+                unshown = unshown_changes(display, state, hist.actions[t], hist.states[t + 1], t)
                 named = unshown[:UNSHOWN_SHOWN] + (["..."] if len(unshown) > UNSHOWN_SHOWN else [])
                 lines.append(f"% step {t} -> {t + 1} changes only what the show statements leave out: "
                              + "  ".join(named) if unshown else f"% step {t} -> {t + 1} changes nothing")
@@ -213,21 +220,29 @@ def format_history(display: Display, hist: History) -> str:
 
 
 def unshown_changes(display: Display, before: dict[GroundConst, object], actions: dict[GroundConst, object],
-                    after: dict[GroundConst, object]) -> list[str]:
-    """What a step does that the display leaves out: the actions executed and the fluents
-    whose value changed, as atoms (``canCarry``, ``-trayUp``, ``loc(b1)=table``), in the
-    display's order."""
-    done = [gc for gc in executed_actions(actions) if not display.shown(gc, actions[gc])]
-    changed = [gc for gc, v in after.items() if before.get(gc) != v and not display.shown(gc, v)]
+                    after: dict[GroundConst, object], step: int | None = None) -> list[str]:
+    """What step ``step`` -> ``step + 1`` does that the display leaves out: the actions executed
+    and the fluents whose value changed, as atoms (``canCarry``, ``-trayUp``, ``loc(b1)=table``),
+    in the display's order."""
+    done = [gc for gc in executed_actions(actions) if not display.shown(gc, actions[gc], step)]
+    changed = [gc for gc, v in after.items()
+               if before.get(gc) != v and not display.shown(gc, v, None if step is None else step + 1)]
     return [display.atom_text(gc, actions[gc]) for gc in sorted(done, key=display.key)] + \
         [display.atom_text(gc, after[gc]) for gc in sorted(changed, key=display.key)]
 
 
-def format_result(display: Display, failed: Iterable[int], histories: list[History], numbered: bool) -> str:
+def format_result(display: Display, failed: Iterable[int], histories: list[History], numbered: bool | None = None,
+                  heading: str = "Solution") -> str:
+    """CCALC's text of a query's answer: ``No solution with maxstep m.`` for each length tried
+    in vain, then the histories, each headed ``Solution k:`` (``heading``: ``State`` for the
+    shell's ``sat.``) when ``numbered``; None: when there are several, as CCALC's
+    ``show_models`` numbers only a list of two or more."""
+    if numbered is None:
+        numbered = len(histories) > 1
     parts = [f"\nNo solution with maxstep {m}.\n\n" for m in failed]
     for k, h in enumerate(histories, start=1):
         if numbered:
-            parts.append(f"Solution {k}:\n")
+            parts.append(f"{heading} {k}:\n")
         parts.append(format_history(display, h))
     return "".join(parts)
 

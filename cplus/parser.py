@@ -139,6 +139,8 @@ def _parse(source: Source, begin: int, end: int) -> Tree | Token:
     """The tree of the statement at ``begin:end``; lark itself explains one that is not
     well formed (it is imported only then)."""
     chunk = source.text[begin:end]
+    if _NMQUERY.match(chunk):
+        chunk = _nm_arrows(chunk)
     try:
         return _parser().parse(chunk)
     except lalr.NoParse:
@@ -149,6 +151,31 @@ def _parse(source: Source, begin: int, end: int) -> Tree | Token:
     except UnexpectedInput as exc:
         raise _syntax_error(exc, source, begin, end, chunk) from None
     return lalr.from_lark(tree)
+
+
+_NMQUERY = re.compile(r"(?:\s|%[^\n]*\n|/\*.*?\*/)*:-\s*nmquery(?![A-Za-z0-9_])", re.S)
+_ARROWS = re.compile(r"%[^\n]*|/\*.*?\*/|'[^'\n]*'|[()\[\]]|@?<=|<-(?!>)|@?=>", re.S)
+
+
+def _nm_arrows(chunk: str) -> str:
+    """An nmquery with CCALC's rule arrows marked for the grammar: ``<=`` and ``<-`` (``H <= B``,
+    ``<= B``) become ``<~``, ``=>`` (``B => H``) becomes ``~>``, where they stand outside
+    parentheses and brackets.  In CCALC these arrows are operators looser than every
+    connective (precedences.std: ``op(1060, xfx, [<=, =>, <-, :-])``), never comparisons; the
+    same text elsewhere stays Cplus2ASP's ``=<`` and ``>=``.  Same length, so positions hold."""
+    out = list(chunk)
+    depth = 0
+    for m in _ARROWS.finditer(chunk):
+        tok = m.group()
+        if tok in "([":
+            depth += 1
+        elif tok in ")]":
+            depth = max(0, depth - 1)
+        elif depth == 0 and tok in ("<=", "<-"):
+            out[m.start():m.end()] = "<~"
+        elif depth == 0 and tok == "=>":
+            out[m.start():m.end()] = "~>"
+    return "".join(out)
 
 
 def _strip_comments(text: str) -> str:
@@ -641,6 +668,13 @@ class _Builder:
     def show_negative(self, meta, ch):
         return ast.Unary(self._loc(meta), "not", ch[0])
 
+    def show_stamped_pattern(self, meta, ch):
+        """``t: c(args)``: CCALC's show specification of one step (``process_show_internal``)."""
+        return ast.Stamp(self._loc(meta), ch[0], self.show_pattern(meta, ch[1:]))
+
+    def show_stamped_negative(self, meta, ch):
+        return ast.Stamp(self._loc(meta), ch[0], ast.Unary(self._loc(meta), "not", ch[1]))
+
     def query(self, meta, ch):
         return ast.Query(self._loc(meta), tuple(ch))
 
@@ -655,6 +689,18 @@ class _Builder:
 
     def nm_fact(self, meta, ch):
         return ast.QueryRule(self._loc(meta), ch[0], None, False)
+
+    def nm_rule(self, meta, ch):
+        """CCALC's ``H <= B`` (also ``H <- B``): ``caused H if B``."""
+        return ast.QueryRule(self._loc(meta), ch[0], ch[2], False)
+
+    def nm_constraint(self, meta, ch):
+        """CCALC's ``<= B``: ``caused false if B``."""
+        return ast.QueryRule(self._loc(meta), ast.Name(self._tloc(ch[0]), "false"), ch[1], False)
+
+    def nm_rule_rightwards(self, meta, ch):
+        """CCALC's ``B => H``: ``caused H if B``."""
+        return ast.QueryRule(self._loc(meta), ch[2], ch[0], False)
 
     def q_label(self, meta, ch):
         return ast.QueryLabel(self._loc(meta), ch[0])

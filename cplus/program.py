@@ -12,7 +12,8 @@ from cplus.errors import Diagnostics, Location
 from cplus.record import Record
 from cplus.signature import ConstDecl, Signature
 
-__all__ = ["BasicLaw", "IncrementLaw", "QuerySpec", "Pattern", "Program", "LAW_CLASSES", "SHOW_KEYWORDS"]
+__all__ = ["BasicLaw", "IncrementLaw", "QuerySpec", "Pattern", "Program", "StampedRule", "LAW_CLASSES",
+           "SHOW_KEYWORDS"]
 
 LAW_CLASSES = ("static", "action", "dynamic", "rigid")
 
@@ -96,6 +97,32 @@ class IncrementLaw(Record):
         self.loc = loc
 
 
+class StampedRule(Record):
+    """A causal rule of one step, from a time-stamped fact outside a query (``1: p if 0: q.``).
+
+    CCALC reads such a fact as a causal rule of the steps it names; the completion is built
+    per time class, so the rule reaches it through a hidden Boolean fluent ``aux`` (``cst``:
+    its declaration applied to the head's free variables): the resolver adds the laws
+    ``caused L if aux`` and ``exogenous aux``, and each horizon fixes ``aux`` at step ``step``
+    to ``body`` (its variables that are not the head's read existentially; an atom stamped
+    outside the horizon is false) and to false at every other step, so L is caused at that
+    step exactly when the body holds.  ``cst`` None is a rule with head ``false``: no instance
+    of ``body`` may hold."""
+
+    _fields = ("cst", "step", "body", "loc")
+
+    cst: ir.Cst | None
+    step: int
+    body: ir.Formula
+    loc: Location
+
+    def __init__(self, cst: ir.Cst | None, step: int, body: ir.Formula, loc: Location) -> None:
+        self.cst = cst
+        self.step = step
+        self.body = body
+        self.loc = loc
+
+
 class QuerySpec(Record):
     """A query: ``lo..hi`` (hi None = infinity) and its items (universal free variables).
 
@@ -147,23 +174,26 @@ SHOW_KEYWORDS = ("positive", "negative", "all", "ab", "none")
 class Pattern(Record):
     """A show/hide pattern ``c(args)`` or ``c(args)=v`` (variables match any object), ``-c(args)``
     (the Boolean atom false), or ``c`` naming a constant without its arguments: ``decl`` is None
-    and ``name`` matches every instance of every constant of that name (CCALC's ``show loc``)."""
+    and ``name`` matches every instance of every constant of that name (CCALC's ``show loc``).
+    ``step`` (``t: c(args)``, CCALC's stamped specification) matches at that step only."""
 
-    _fields = ("decl", "args", "value", "negated", "name")
+    _fields = ("decl", "args", "value", "negated", "name", "step")
 
     decl: ConstDecl | None
     args: tuple[object, ...]       # ir.Var or a value
     value: object | None           # ir.Var, a value, or None (any value)
     negated: bool
     name: str
+    step: int | None
 
     def __init__(self, decl: ConstDecl | None, args: tuple[object, ...], value: object | None,
-                 negated: bool = False, name: str = "") -> None:
+                 negated: bool = False, name: str = "", step: int | None = None) -> None:
         self.decl = decl
         self.args = args
         self.value = value
         self.negated = negated
         self.name = name or (decl.name if decl is not None else "")
+        self.step = step
 
 
 class Program(Record):
@@ -184,9 +214,9 @@ class Program(Record):
     diagnostics: Diagnostics
     files: list[str]
     nmqueries: list[QuerySpec]
-    facts: list[tuple[ir.Formula, Location]]
-    """Time-stamped facts outside any query (``0: p.``): formulas of the theory that every
-    query's histories satisfy, at each horizon where their stamps exist (CCALC's meaning)."""
+    facts: list[StampedRule]
+    """The rules of the time-stamped facts outside any query (``0: p.``): causal rules of the
+    steps they name, as in CCALC (see :class:`StampedRule`)."""
 
     def __init__(
             self,
@@ -202,7 +232,7 @@ class Program(Record):
             diagnostics: Diagnostics | None = None,
             files: list[str] | None = None,
             nmqueries: list[QuerySpec] | None = None,
-            facts: list[tuple[ir.Formula, Location]] | None = None) -> None:
+            facts: list[StampedRule] | None = None) -> None:
         self.signature = signature
         self.laws = [] if laws is None else laws
         self.increments = [] if increments is None else increments
@@ -216,6 +246,9 @@ class Program(Record):
         self.files = [] if files is None else files
         self.nmqueries = [] if nmqueries is None else nmqueries
         self.facts = [] if facts is None else facts
+        self.scope: tuple[dict, dict] | None = None
+        """The macros and variables in force at the end of the file (what the shell's
+        ``show SPEC.`` reads its patterns with, :func:`cplus.resolve.show.resolve_show`)."""
 
     def query(self, label: str) -> QuerySpec | None:
         for q in self.queries:

@@ -6,14 +6,17 @@ here, so that it can be tested without a terminal and reused by anything that ho
 
 A command is a Prolog goal ending with ``.``, as CCALC reads it at its ``?-`` prompt:
 ``loadf 'file'.`` (or ``loadf(file).``), ``query 0.``, ``nmquery label.``, ``sat.``, ``show.``,
+``show all.`` (``show SPEC.``: CCALC's show specifications for the queries after it),
 ``set(num, all).``, ``set(num, 3).``, ``set(solver, minisat22).``, ``show_parameters.``,
 ``help.``, ``help(query).``, ``halt.``.  Several goals may share a line (``query 0. query 1.``).
+A misspelt command or parameter is answered with the nearest name (``qurey`` -> ``query``).
 
 Nothing heavy is imported at module level: the shell starts in the time Python does, and the
 planner is imported by the first ``loadf``.
 """
 from __future__ import annotations
 
+import difflib
 import hashlib
 import os
 import time
@@ -30,8 +33,10 @@ HELP = {
     "query": ("query LABEL.", "run the query LABEL of the current theory (CCALC's output; 'states': every state)"),
     "nmquery": ("nmquery LABEL.", "run the nmquery LABEL (its rules completed on their own; labels "
                 "apart from the queries')"),
-    "sat": ("sat.", "list the states of the current theory (the models of a basic theory)"),
-    "show": ("show.", "list the current theory's constants, its show/hide specification and its queries"),
+    "sat": ("sat.", "list the states of the current theory (CCALC's 'State k:')"),
+    "show": ("show.  show SPEC.", "list the current theory's constants, its show/hide specification and its "
+             "queries; with specifications (positive, negative, all, ab, none, patterns; ';' between), use them "
+             "for the queries after it, in place of the file's (until the next loadf)"),
     "set": ("set(num, N).  set(num, all).  set(solver, S).",
             "how many solutions a query prints (default 1); the pysat solver (default glucose4)"),
     "show_parameters": ("show_parameters.", "print the values of num and solver"),
@@ -83,6 +88,50 @@ class Reply:
 
 _PREFIX = ("loadf", "query", "nmquery", "help")
 """Commands CCALC declares as prefix operators: ``query 0.`` is ``query(0).``"""
+
+
+def did_you_mean(word: str, names) -> str:
+    """`` (did you mean 'x'?)`` for the name of ``names`` nearest to ``word``, or nothing."""
+    near = difflib.get_close_matches(word, list(names), n=1, cutoff=0.6)
+    return f" (did you mean '{near[0]}'?)" if near else ""
+
+
+def _unknown_command(name: str, col: int, shown: str | None = None) -> ShellError:
+    return ShellError(f"unknown command '{shown or name}'{did_you_mean(name, COMMANDS)} (commands: "
+                      f"{', '.join(COMMANDS)}; help. lists them)", col)
+
+
+def _show_spec(line: str, toks: list, i: int) -> tuple[str, int, int]:
+    """The text of ``show SPEC.`` after ``show`` (one pair of enclosing parentheses taken off:
+    ``show(all).``), its column, and the index of the token that ends the goal."""
+    depth = 0
+    j = i
+    while j < len(toks):
+        kind, text, _ = toks[j]
+        if kind == "punct" and text in "([":
+            depth += 1
+        elif kind == "punct" and text in ")]":
+            depth -= 1
+        elif kind == "punct" and text == "." and depth <= 0:
+            break
+        j += 1
+    start = toks[i][2]
+    end = toks[j][2] if j < len(toks) else len(line.rstrip()) + 1
+    raw = line[start - 1:end - 1].rstrip()
+    if raw.startswith("(") and raw.endswith(")") and toks[i][:2] == ("punct", "(") and _closes_last(raw):
+        raw, start = raw[1:-1], start + 1
+    return raw, start, j
+
+
+def _closes_last(raw: str) -> bool:
+    """Whether the parenthesis opening ``raw`` is the one that closes it."""
+    depth = 0
+    for k, c in enumerate(raw):
+        depth += c == "("
+        depth -= c == ")"
+        if depth == 0:
+            return k == len(raw) - 1
+    return False
 
 
 def _tokens(line: str) -> Iterator[tuple[str, str, int]]:
@@ -140,7 +189,11 @@ def parse_line(line: str) -> list[Command]:
             raise ShellError(f"expected a command, found {text!r}", col)
         name, args, cols = text, [], []
         i += 1
-        if i < len(toks) and toks[i][:2] == ("punct", "("):
+        if name == "show" and i < len(toks) and toks[i][:2] != ("punct", "."):
+            raw, at, i = _show_spec(line, toks, i)
+            args.append(raw)
+            cols.append(at)
+        elif i < len(toks) and toks[i][:2] == ("punct", "("):
             i += 1
             while True:
                 if i < len(toks) and toks[i][:2] == ("punct", "["):
@@ -164,6 +217,8 @@ def parse_line(line: str) -> list[Command]:
             args.append(toks[i][1])
             cols.append(toks[i][2])
             i += 1
+        elif i < len(toks) and toks[i][0] == "atom" and name not in COMMANDS:
+            raise _unknown_command(name, col)     # `qurey on.`: the command is what is wrong
         if i >= len(toks) or toks[i][:2] != ("punct", "."):
             at = toks[i][2] if i < len(toks) else len(line.rstrip()) + 1
             found = f"found {toks[i][1]!r}" if i < len(toks) else "a command ends with '.'"
@@ -178,11 +233,16 @@ def parse_line(line: str) -> list[Command]:
 class _Loaded:
     """A loaded domain and the fingerprint of the files it was read from."""
 
-    __slots__ = ("domain", "stamp")
+    __slots__ = ("domain", "stamp", "show")
 
     def __init__(self, domain, stamp: tuple) -> None:
         self.domain = domain
         self.stamp = stamp
+        self.show = (list(domain.program.show), domain.program.show_given)   # the file's own
+
+    def restore_show(self) -> None:
+        """The file's show specifications again (a ``show SPEC.`` lasts until the next loadf)."""
+        self.domain.program.show, self.domain.program.show_given = list(self.show[0]), self.show[1]
 
 
 def _stamp(files: list[str]) -> tuple:
@@ -216,6 +276,7 @@ class Session:
         self.current: str | None = None
         self._externals = externals
         self._shown: dict[int, set[int]] = {}
+        self._lineno = 1             # the line of the goal being run (for located warnings)
 
     # the names readline completes
     def labels(self) -> list[str]:
@@ -237,15 +298,18 @@ class Session:
             commands = parse_line(line)
         except ShellError as exc:
             return Reply(err=self._located(lineno, exc), failed=True)
+        out: list[str] = []          # joined once: a line of 8,000 goals stays linear
+        err: list[str] = []
         reply = Reply()
         for cmd in commands:
             r = self.execute(cmd, lineno)
-            reply.out += r.out
-            reply.err += r.err
+            out.append(r.out)
+            err.append(r.err)
             reply.failed |= r.failed
             if r.halt:
                 reply.halt = True
                 break
+        reply.out, reply.err = "".join(out), "".join(err)
         return reply
 
     def _located(self, lineno: int, exc: ShellError) -> str:
@@ -254,12 +318,11 @@ class Session:
     def execute(self, cmd: Command, lineno: int = 1) -> Reply:
         """Run one goal; a :class:`ShellError` or a domain's error becomes a located line."""
         from_domain = _domain_error()
-        handler = getattr(self, f"_cmd_{cmd.name}", None)
+        self._lineno = lineno
+        handler = getattr(self, f"_cmd_{cmd.name}", None) if cmd.name in COMMANDS else None
         if handler is None:
-            near = ", ".join(COMMANDS)
-            return Reply(err=self._located(lineno, ShellError(
-                f"unknown command '{cmd.name}/{len(cmd.args)}' (commands: {near}; help. lists them)",
-                cmd.col)), failed=True)
+            return Reply(err=self._located(lineno, _unknown_command(cmd.name, cmd.col, f"{cmd.name}/{len(cmd.args)}")),
+                         failed=True)
         try:
             return handler(cmd)
         except ShellError as exc:
@@ -293,7 +356,8 @@ class Session:
         if cmd.args:
             topic = cmd.args[0]
             if topic not in HELP:
-                raise ShellError(f"no help on '{topic}' (topics: {', '.join(COMMANDS)})", cmd.arg_cols[0])
+                raise ShellError(f"no help on '{topic}'{did_you_mean(topic, COMMANDS)} (topics: "
+                                 f"{', '.join(COMMANDS)})", cmd.arg_cols[0])
             form, text = HELP[topic]
             return Reply(out=f"{form}\n    {text}\n")
         lines = ["Commands (each ends with '.', as in Prolog):"]
@@ -311,7 +375,7 @@ class Session:
         if what == "num":
             if value == "all":
                 self.num = 0
-            elif value.isdigit() and int(value) > 0:
+            elif value.isascii() and value.isdigit() and int(value) > 0:   # not '²': isdigit() alone takes it
                 self.num = int(value)
             else:
                 raise ShellError(f"set(num, N): N is a positive integer or 'all', not '{value}'", cmd.arg_cols[1])
@@ -320,10 +384,12 @@ class Session:
             from cplus.sat.solver import solver_names
             names = solver_names()
             if value not in names:
-                raise ShellError(f"unknown solver '{value}' (pysat's: {', '.join(names)})", cmd.arg_cols[1])
+                raise ShellError(f"unknown solver '{value}'{did_you_mean(value, names)} (pysat's: "
+                                 f"{', '.join(names)})", cmd.arg_cols[1])
             self.solver = value
             return Reply()
-        raise ShellError(f"unknown parameter '{what}' (num, solver)", cmd.arg_cols[0])
+        raise ShellError(f"unknown parameter '{what}'{did_you_mean(what, ('num', 'solver'))} (num, solver)",
+                         cmd.arg_cols[0])
 
     def _cmd_loadf(self, cmd: Command) -> Reply:
         self._arity(cmd, 1)
@@ -339,6 +405,7 @@ class Session:
         if old is not None:
             if _stamp(old.domain.program.files or [key]) == old.stamp:
                 self.current = key
+                old.restore_show()
                 return Reply(out=f"% {path} unchanged: reusing the loaded theory\n")
             note = f"% reloading {path} (changed)\n"
         t0 = time.perf_counter()
@@ -379,6 +446,10 @@ class Session:
             return Reply(out=domain.format_proof(domain.prove(label, self.solver)))
         wanted = 0 if every else self.num
         result = domain.solve(label, wanted, self.solver or DEFAULT_SOLVER, nmquery=nmquery)
+        if every:       # CCALC's sat: the states, each headed `State k:` when there are several
+            from cplus.output import Display, format_result
+            text = format_result(Display(domain.program), result.failed, result.histories, None, heading="State")
+            return Reply(out="% Displaying possible states:\n" + text, err=self._new_warnings(domain))
         return Reply(out=domain.format(result), err=self._new_warnings(domain))
 
     def _new_warnings(self, domain) -> str:
@@ -389,9 +460,28 @@ class Session:
         return "".join(d.render() + "\n" for d in fresh)
 
     def _cmd_show(self, cmd: Command) -> Reply:
-        self._arity(cmd, 0)
+        """``show.`` lists the theory; ``show SPEC.`` replaces its show specifications for the
+        queries after it, as CCALC's ``show/1`` does (CCALC's bare ``show.`` prompts for
+        specifications instead: a line-based session lists, docs/shell.md)."""
+        self._arity(cmd, 0, 1)
         domain = self._need_domain(cmd)
-        return Reply(out=describe(domain))
+        if not cmd.args:
+            return Reply(out=describe(domain))
+        from cplus.errors import CPlusError, Diagnostics
+        from cplus.resolve.show import resolve_show
+        diagnostics = Diagnostics()
+        offset = len(":- show ")
+        try:
+            specs = resolve_show(domain.program, cmd.args[0], diagnostics)
+        except CPlusError as exc:
+            at = cmd.arg_cols[0] + max(0, (exc.loc.start - offset) if exc.loc is not None else 0)
+            raise ShellError(exc.message, at) from None
+        domain.program.show, domain.program.show_given = specs, True
+        warnings = "".join(f"{self.source}:{self._lineno}:"
+                           f"{cmd.arg_cols[0] + max(0, d.loc.start - offset) if d.loc else cmd.col}"
+                           f": warning: {d.message}\n" for d in diagnostics.items)
+        shown = ", ".join(s if isinstance(s, str) else _pattern_text(s) for s in specs) or "nothing"
+        return Reply(out=f"% show: {shown}\n", err=warnings)
 
 
 def _domain_error() -> type[Exception]:
@@ -442,4 +532,5 @@ def _pattern_text(p) -> str:
     text = p.name + (f"({','.join(term(a) for a in p.args)})" if p.args else "")
     if p.value is not None:
         text += f"={term(p.value)}"
-    return ("-" if p.negated else "") + text
+    text = ("-" if p.negated else "") + text
+    return text if p.step is None else f"{p.step}: {text}"

@@ -173,6 +173,7 @@ class ConstDecl:
     parent_args: tuple[int, ...]   # attribute: positions of the parent's arguments
     hidden: bool                # internal constants (contributions, ...)
     auto_ab: bool               # declared by an `unless` clause
+    abnormal: bool              # named by an `unless` clause (auto-declared or not)
     order: int                      # declaration order
     instances: dict[tuple, GroundConst]
     attributes: list[ConstDecl]
@@ -200,6 +201,7 @@ class ConstDecl:
         self.parent_args = parent_args
         self.hidden = hidden
         self.auto_ab = auto_ab
+        self.abnormal = auto_ab
         self.order = order
         self.instances = {} if instances is None else instances
         self.attributes = [] if attributes is None else attributes

@@ -359,3 +359,29 @@ def test_brick_link_replaces_a_stale_link_refuses_a_live_one_and_removes_only_it
     assert os.path.exists(os.readlink(link))                    # the first brick's link is untouched
     code, _ = _end(first)
     assert code == 0 and not os.path.lexists(link)
+
+
+# --- the shell (cplus.shell): hostile command lines ----------------------------------------
+
+@pytest.mark.parametrize("line", [
+    "set(num, ²).", "set(num, ٣).", "set(solver, '').",
+    "show (((.", "show ).", "show 1: .", "show loc(.", "qurey " + "x " * 2000 + ".", "help(" + "a" * 5000 + ").",
+    "'unterminated", "show -- -- p.", "show \x00.", "loadf(" * 100 + ".",
+])
+def test_a_hostile_shell_line_is_one_located_line_never_a_traceback(line):
+    from cplus.shell import Session
+    s = Session()
+    r = s.run(line)
+    assert r.failed and r.err.count("\n") == 1 and r.err.startswith("<stdin>:1:") and "Traceback" not in r.err
+
+
+def test_a_hostile_show_spec_after_a_load_is_located(tmp_path):
+    from cplus.shell import Session
+    f = tmp_path / "l.cp"
+    f.write_text(":- constants lit :: inertialFluent; flip :: exogenousAction.\nflip causes lit.\n")
+    s = Session()
+    assert not s.run(f"loadf '{f}'.").failed
+    for line in ("show lit(((.", "show 99999999999999999999999: lit.", "show -1: lit.", "show lit=" + "x" * 3000 + ".",
+                 "show " + "; ".join(["lit"] * 3000) + "."):
+        r = s.run(line)
+        assert "Traceback" not in r.err and (not r.failed or r.err.startswith("<stdin>:1:")), (line[:40], r.err)

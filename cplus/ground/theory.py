@@ -416,9 +416,8 @@ class _Grounder:
                 rules["action"].append((lit, lit))  # type: ignore[arg-type]
             if kind == "attribute":
                 self._attribute_axiom(gc)
-        elif kind == "abAction" or kind == "contribution":
-            default = {"abAction": "false" if gc.boolean else "none", "contribution": 0}[kind]
-            aid = self.atoms.lit(gc, default)
+        elif kind == "contribution":     # (an abnormality's default comes with its first `unless`)
+            aid = self.atoms.lit(gc, 0)
             if aid:
                 lit = mk(aid, SLOT_NOW)
                 rules["action"].append((lit, lit))  # type: ignore[arg-type]

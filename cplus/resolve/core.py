@@ -65,6 +65,9 @@ class _Core:
         self.stack: list[str] = []
         self.const_order = 0
         self.deferred: list[tuple[ast.Law, dict, dict]] = []
+        self.defaulted: set[tuple[str, int]] = set()   # constants an `unless` gave `default -ab`
+        self.stamped_later: list[Location] = []        # facts with a head stamped after step 0
+        self.patterns_to_check: list = []              # show/hide patterns, checked at the end
 
     def run(self, main: ast.ParsedFile) -> None:
         path = main.source.path  # type: ignore[attr-defined]
@@ -126,8 +129,28 @@ class _Core:
             d = next(d for d in self.sig.constants.values() if d.kind in ("additiveFluent", "additiveAction"))
             raise SortError("additive constants need ':- maxAdditive :: N.'", d.loc)
         self._check_ground_size()
+        self._ccalc_differences()
         self.sig.finalize()
+        self._check_patterns()  # type: ignore[attr-defined]
+        self.program.scope = (self.macros, self.variables)
         _Validator(self.sig).run(self.program)
+
+
+    def _ccalc_differences(self) -> None:
+        """Warnings where cplus keeps, on purpose, a meaning other than CCALC's for the same
+        text (docs/language.md, section 10)."""
+        if any(law.cls == "dynamic" for law in self.program.laws):
+            for loc in self.stamped_later:
+                self.diag.warn("a fact stamped after step 0 is a causal rule of that step only here (as in "
+                               "CCALC's history mode); CCALC in transition mode, for a domain with dynamic "
+                               "laws, grounds it over steps 0 and 1 and repeats a rule of step 1 at every "
+                               "later step", loc)
+        for d in self.sig.constants.values():
+            if d.kind == "abAction" and not d.abnormal:
+                self.diag.warn(f"'{d.name}' is declared abAction but no 'unless' names it: as in CCALC it gets "
+                               "no default (its value must be caused, as a plain action's); it is printed "
+                               "among the actions here, where CCALC prints it in the state line or not at all",
+                               d.loc)
 
 
 def _no_sort_here(e) -> None:

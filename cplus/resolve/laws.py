@@ -10,10 +10,10 @@ from __future__ import annotations
 
 from cplus import ast, ir
 from cplus.errors import DefinitenessError, ResolveError, SortError
-from cplus.program import BasicLaw, IncrementLaw
+from cplus.program import BasicLaw, IncrementLaw, StampedRule
 from cplus.resolve.core import _is_boolean, _Scope
 from cplus.resolve.formulas import _Formulas
-from cplus.signature import ACTION_KINDS, FLUENT_KINDS, ConstDecl, NamedSort, RangeSort, SortExpr
+from cplus.signature import ACTION_KINDS, FLUENT_KINDS, ConstDecl, NamedSort, RangeSort, SortExpr, StepSort
 
 
 class _Laws(_Formulas):
@@ -73,23 +73,66 @@ class _Laws(_Formulas):
             raise ResolveError(f"unsupported law '{kind}'", law.loc)
 
     def _stamped_fact(self, law: ast.Law) -> None:
-        """``0: p.`` or ``F if G.`` with time stamps: a formula of the theory, as in CCALC,
-        which every query's histories satisfy (``G ->> F``; free variables universal).  It
-        names its steps itself, so it is kept apart from the step-independent laws and
-        added at each horizon (:class:`cplus.sat.horizon.QuerySession`)."""
+        """``0: q.``, ``1: p if 0: q.``: a causal rule of the steps it names, as CCALC reads a
+        fact outside a query (ccalc.pl, ``read_fail_loop``: a term that is no law becomes
+        ``insert_rule_schema((Term <= true), ...)``): its head literals are caused at their
+        stamps when its body holds.  Free variables are universal over the head's and
+        existential over the body's alone (one rule per instance).  A head conjunct without
+        constants (``L \\= L1``) that is false makes that instance a rule with head false.
+        See :class:`cplus.program.StampedRule` for how it reaches the completion."""
         if law.after is not None or law.unless is not None:
             raise ResolveError("a time-stamped fact takes no 'after' or 'unless' part (its stamps name "
                                "its steps)", law.loc)
+        if not _has_stamp(law.head):
+            raise ResolveError("a fact with time stamps in its 'if' part needs them in its head too "
+                               "(write 't: F if G.')", law.loc)
         scope = _Scope(query=True)
-        f = self._formula(law.head, scope)  # type: ignore[arg-type]
-        if law.if_ is not None:
-            f = ir.Imp(self._formula(law.if_, scope), f)
+        head = self._formula(law.head, scope)  # type: ignore[arg-type]
+        body = self._formula(law.if_, scope) if law.if_ is not None else ir.TRUE
         if law.where is not None:
             where = self._formula(law.where, scope)
             if ir.constants_in(where):
                 raise ResolveError("a 'where' condition may not mention constants", law.loc)
-            f = ir.Imp(where, f)
-        self.program.facts.append((f, law.loc))
+            body = ir.conj((where, body))
+        for step, lit in _stamped_literals(head, None, law):
+            if step is None:                       # a condition: false in an instance -> head false
+                if lit != ir.TRUE:
+                    self.program.facts.append(StampedRule(None, 0, _exists(ir.conj((body, ir.Not(lit))), ()),
+                                                          law.loc))
+                continue
+            if lit == ir.FALSE:
+                self.program.facts.append(StampedRule(None, step, _exists(body, ()), law.loc))
+                continue
+            self._stamped_rule(law, step, lit, body)
+
+    def _stamped_rule(self, law: ast.Law, step: int, lit: ir.Formula, body: ir.Formula) -> None:
+        atom = lit.arg if isinstance(lit, ir.Not) else lit
+        assert isinstance(atom, ir.Atom)
+        if isinstance(atom.cst, ir.Var):
+            raise ResolveError("the head of a time-stamped fact names its constant (not a variable over "
+                               "a kind of constants)", law.loc)
+        kind = atom.cst.decl.kind
+        if kind == "rigid":
+            raise ResolveError(f"'{atom.cst.decl.name}' is rigid: it has no time stamp (write it in a law "
+                               "without one)", law.loc)
+        if step > 0:
+            self.stamped_later.append(law.loc)
+        head_vars = list(ir.free_vars(lit).values())
+        if any(isinstance(v.sort, StepSort) for v in head_vars):
+            raise ResolveError("the head of a time-stamped fact may not take a step variable", law.loc)
+        aux = ConstDecl(f"fact#{len(self.program.facts) + 1}", tuple(v.sort for v in head_vars), "sdFluent",
+                        NamedSort("boolean"), law.loc, hidden=True, order=self.const_order)
+        self.const_order += 1
+        self.sig.constants[(aux.name, aux.arity)] = aux
+        cst = ir.Cst(aux, tuple(head_vars), law.loc)
+        cls = "action" if _is_action(atom.cst) else "static"
+        head = _truth_of(lit)
+        self._check_head(law, head, cls)
+        self.program.laws.append(BasicLaw(cls, head, ir.Atom(cst, ir.Lit("true"), law.loc), None, None, law.loc,
+                                          "fact"))
+        self.program.laws.append(BasicLaw("static", None, ir.TRUE, None, None, law.loc, "exogenous",
+                                          frame="exogenous", frame_cst=cst))
+        self.program.facts.append(StampedRule(cst, step, _exists(body, {v.name for v in head_vars}), law.loc))
 
     def _mentions_actions(self, f) -> bool:
         return any(_is_action(c) for c in ir.constants_in(f))
@@ -180,6 +223,11 @@ class _Laws(_Formulas):
         return ir.conj((body, neg)), after
 
     def _ab_atom(self, e: ast.Expr, scope: _Scope, kind: str) -> ir.Atom:
+        """The atom ``ab(args)=true`` of ``unless ab(args)``.  An undeclared ``ab`` is declared
+        Boolean, of ``kind`` (the one the law's class calls for).  The first ``unless`` that names
+        a constant gives it ``default -ab`` (macros.std, each ``unless`` macro's first use: the
+        ``process_..._abLabel`` side effect and ``default -(#4)``), declared or not: an
+        ``abAction`` of ``:- constants`` that no ``unless`` names gets no default, as in CCALC."""
         e = self._expand(e)
         if not isinstance(e, ast.Name) or e.name[0].isupper():
             raise ResolveError("'unless' takes an abnormality atom ab(args)", e.loc)
@@ -191,14 +239,15 @@ class _Laws(_Formulas):
                              order=self.const_order)
             self.const_order += 1
             self.sig.constants[(e.name, len(args))] = decl
-            if kind in ("sdFluent", "rigid"):
-                v = [ir.Var(f"_ab{i}", s, e.loc) for i, s in enumerate(sorts)]
-                cst = ir.Cst(decl, tuple(v), e.loc)
-                neg = ir.Not(ir.Atom(cst, ir.Lit("true"), e.loc))
-                cls = "static" if kind == "sdFluent" else "rigid"
-                self.program.laws.append(BasicLaw(cls, neg, neg, None, None, e.loc, "default"))
         elif not _is_boolean(decl.domain):
             raise SortError(f"'{e.name}' in 'unless' must be Boolean", e.loc)
+        if (decl.name, decl.arity) not in self.defaulted:
+            self.defaulted.add((decl.name, decl.arity))
+            decl.abnormal = True
+            v = [ir.Var(f"_ab{i}", s, e.loc) for i, s in enumerate(decl.argsorts)]
+            neg = ir.Not(ir.Atom(ir.Cst(decl, tuple(v), e.loc), ir.Lit("true"), e.loc))
+            cls = "action" if decl.is_action else "rigid" if decl.kind == "rigid" else "static"
+            self.program.laws.append(BasicLaw(cls, neg, neg, None, None, e.loc, "default"))
         return ir.Atom(ir.Cst(decl, args, e.loc), ir.Lit("true"), e.loc)
 
     def _sort_of_arg(self, a: ir.Term, e: ast.Name) -> SortExpr:
@@ -291,6 +340,42 @@ def _has_stamp(e) -> bool:
     if isinstance(e, ast.Quant):
         return _has_stamp(e.body)
     return False
+
+
+def _stamped_literals(f: ir.Formula, step: int | None, law: ast.Law) -> list[tuple[int | None, ir.Formula]]:
+    """The head of a time-stamped fact as ``(step, literal)`` pairs (``step`` None: a conjunct
+    without constants, a condition), the stamps distributed over conjunctions and negations
+    (macros.std: ``#1: #2 & #3 -> (#1: #2) & (#1: #3)``, ``#1: -(#2) -> -((#1: #2))``) and an
+    inner stamp winning (``#1: #2: #3 -> #2: #3``)."""
+    if isinstance(f, ir.StampF):
+        t = f.time
+        if not isinstance(t, ir.Lit) or not isinstance(t.value, int):
+            raise ResolveError("the time stamp of a fact's head is an integer (a step variable or "
+                               "'maxstep' is not taken there)", law.loc)
+        return _stamped_literals(f.body, t.value, law)
+    if isinstance(f, ir.And):
+        return [pair for item in f.items for pair in _stamped_literals(item, step, law)]
+    if isinstance(f, ir.Not) and isinstance(f.arg, ir.StampF):
+        return _stamped_literals(ir.StampF(f.arg.time, ir.Not(f.arg.body), f.arg.loc), step, law)
+    if not ir.constants_in(f) and not ir.mentions(f, (ir.StampF,)):
+        return [(None, f)]
+    atom = f.arg if isinstance(f, ir.Not) else f
+    if not isinstance(atom, ir.Atom):
+        raise DefinitenessError(
+            f"the head of a time-stamped fact is a literal ('t: c=v', 't: p', 't: -p'), a conjunction of them, "
+            f"true or false: CCALC reads the fact as a causal rule, and {_describe(atom)} there would not be "
+            "definite", law.loc)
+    if step is None:
+        raise ResolveError("each literal of a time-stamped fact's head needs its time stamp", law.loc)
+    return [(step, f)]
+
+
+def _exists(body: ir.Formula, keep) -> ir.Formula:
+    """``body`` with its free variables other than ``keep`` read existentially."""
+    for v in reversed(list(ir.free_vars(body).values())):
+        if v.name not in keep:
+            body = ir.Quant(True, v, body)
+    return body
 
 
 def _kind(c) -> str:

@@ -1,7 +1,8 @@
 """``:- query`` and ``:- nmquery``: a label, a range of plan lengths and the conditions on the plan.
 
-Queries are the only place for time stamps and ``maxstep``, and a query replaces an earlier
-one of the same label (warned) rather than adding to it, so they are resolved apart from laws.
+Queries are the only place for time stamps and ``maxstep``, and of two queries with one label
+the first is answered (the later is warned and ignored, as CCALC answers the first), so they
+are resolved apart from laws.
 An nmquery's items are causal rules (completed on their own when it is answered, see
 :class:`cplus.sat.horizon.QuerySession`); its labels are a namespace of their own, as in CCALC.
 """
@@ -12,6 +13,10 @@ from cplus.errors import DefinitenessError, Location, QueryError
 from cplus.program import QuerySpec
 from cplus.resolve.core import _Scope
 from cplus.resolve.formulas import _Formulas
+from cplus.signature import StepSort
+
+NM_MACROS = ("anyFluentValues", "anyActions", "anyHistory", "anyInitialState", "cwaActions")
+"""CCALC's macros for nmquery rules (macros.std); a macro or constant of the name wins."""
 
 
 class _Queries(_Formulas):
@@ -61,9 +66,11 @@ class _Queries(_Formulas):
         what = "nmquery" if stmt.nm else "query"
         known = self.program.nmqueries if stmt.nm else self.program.queries
         if any(q.label == label for q in known):
-            self.diag.warn(f"{what} label '{label}' is used again; the later {what} replaces the earlier",
-                           stmt.loc)
-            known[:] = [q for q in known if q.label != label]
+            # CCALC asserts every query_problem and answers the first of a label
+            # (ccalc.pl, process_query: assertz; query/2: query_problem(Label, ...) -> true)
+            self.diag.warn(f"{what} label '{label}' is used again; as in CCALC the first {what} with this label "
+                           "is the one answered, this one is ignored", stmt.loc)
+            return
         known.append(QuerySpec(label, lo, hi, tuple(items), stmt.loc, tuple(rules) if stmt.nm else None,
                                invariant=invariant))
 
@@ -76,6 +83,10 @@ class _Queries(_Formulas):
         """One ``caused H if B`` of an nmquery as rules ``(literal, body, loc)``, one per conjunct
         of the head (None: ``false``); ``default H if B`` is ``caused H if H & B``."""
         scope = _Scope(query=True)
+        if isinstance(rule.head, ast.Name) and not rule.head.args and rule.head.name in NM_MACROS \
+                and rule.body is None and not rule.default and (rule.head.name, 0) not in self.macros \
+                and not self.sig.constants_named(rule.head.name):
+            return self._nm_macro(rule.head.name, rule.loc)
         head = self._formula(rule.head, scope)
         body = ir.TRUE if rule.body is None else self._formula(rule.body, scope)
         if rule.default:
@@ -92,6 +103,43 @@ class _Queries(_Formulas):
                                         "conjunction of them, or false: anything else makes the rules "
                                         "non-definite", rule.loc)
             out.append((lit, body, rule.loc))
+        return out
+
+    def _nm_macro(self, name: str, loc: Location) -> list[tuple[ir.Formula | None, ir.Formula, Location]]:
+        """CCALC's nmquery macros (macros.std, "Macros used in queries"): ``t: A <= t: A`` for every
+        atom A of the kinds each names, at every step it exists: ``anyFluentValues`` (simple and
+        statically determined fluents, rigid constants), ``anyActions`` (actions and attributes,
+        abnormalities aside), ``anyHistory`` (both), ``anyInitialState`` (simple fluents at 0),
+        ``cwaActions`` (``t: -a <= t: -a`` for Boolean actions; attributes free)."""
+        kinds = {"anyFluentValues": ("simple", "sd", "rigid"), "anyActions": ("action", "attribute"),
+                 "anyHistory": ("simple", "sd", "rigid", "action", "attribute"), "anyInitialState": ("initial",),
+                 "cwaActions": ("cwa", "attribute")}[name]
+        out: list[tuple[ir.Formula | None, ir.Formula, Location]] = []
+        for d in list(self.sig.constants.values()):
+            if d.hidden:
+                continue
+            k = d.kind
+            group = ("simple" if k in ("simpleFluent", "inertialFluent") else "sd" if k == "sdFluent"
+                     else "rigid" if k == "rigid" else "attribute" if k == "attribute"
+                     else "action" if k in ("exogenousAction", "action") else None)
+            if group is None or not ({group, "initial" if group == "simple" else "",
+                                      "cwa" if group == "action" else ""} & set(kinds)):
+                continue
+            args = tuple(ir.Var(f"_nm{i}", s, loc) for i, s in enumerate(d.argsorts))
+            cst = ir.Cst(d, args, loc)
+            if "cwa" in kinds and group == "action":
+                if not _boolean_atom(ir.Atom(cst, ir.Lit("true"), loc)):
+                    continue
+                lits: list[ir.Formula] = [ir.Not(ir.Atom(cst, ir.Lit("true"), loc))]
+            else:
+                lits = [ir.Atom(cst, ir.Var("_nmv", d.domain, loc), loc)]
+                if group == "attribute":
+                    lits.append(ir.Atom(cst, ir.Lit("none"), loc))
+            if group == "rigid":
+                out.extend((lit, lit, loc) for lit in lits)
+                continue
+            step: ir.Term = ir.Lit(0) if "initial" in kinds else ir.Var("_nmt", StepSort(group in ("action", "attribute")), loc)
+            out.extend((ir.StampF(step, lit, loc), ir.StampF(step, lit, loc), loc) for lit in lits)
         return out
 
     def _label(self, e: ast.Expr) -> str:

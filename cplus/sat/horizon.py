@@ -233,9 +233,14 @@ class QuerySession:
         self.rules = [(None if head is None else compile_formula(head, self.ctx), compile_formula(body, self.ctx),
                        ir.free_vars(ir.conj((body,) if head is None else (head, body))), loc)
                       for head, body, loc in query.rules or ()]
-        # the theory's time-stamped facts, one conjunct at a time (see _add_facts)
-        self.facts = [(ir.free_vars(f), [compile_formula(c, self.ctx) for c in ir.conjuncts(f)], loc)
-                      for f, loc in getattr(theory.program, "facts", ())]
+        # the rules of the theory's time-stamped facts (see _ground_facts)
+        self.facts = []
+        for rule in getattr(theory.program, "facts", ()):
+            aux = None if rule.cst is None else ir.Atom(rule.cst, ir.Lit("true"), rule.loc)
+            variables = ir.free_vars(rule.body if aux is None else ir.conj((aux, rule.body)))
+            self.facts.append((rule, variables, None if aux is None else compile_formula(aux, self.ctx),
+                               compile_formula(rule.body, self.ctx)))
+        self.facts_apply = True     # False: no stamped rule applies (a proof's states are any states)
         self.horizon = Horizon(theory, solver, solver_factory, templates,
                                None if templates is not None else self._fixed_at_zero())
         self.stats: list[HorizonStats] = []
@@ -288,26 +293,34 @@ class QuerySession:
             raise
 
     def _ground_facts(self, m: int) -> PF:
-        """The theory's time-stamped facts at horizon m, as CCALC has them: each ground
-        instance's conjuncts are kept where their stamps exist (a fluent at 0..m, an action
-        at 0..m-1) and left out where they do not, as a rule that names a step beyond
-        maxstep has no atom to ground.  ``0: p & 1: q`` at maxstep 0 is ``0: p``."""
+        """The rules of the theory's time-stamped facts at horizon m (:class:`~cplus.program.StampedRule`):
+        each instance's hidden fluent is its body at the rule's step and false at the others
+        (every step, when the step lies beyond m: CCALC grounds no rule at a step that does not
+        exist); a body atom stamped outside 0..m is false.  A rule with head false forbids its
+        body."""
         parts: list[PF] = []
         self._m = m
-        for variables, fns, loc in self.facts:
-            def leaf(env: dict, fns=fns) -> None:
-                for fn in fns:
-                    self._oor = False
-                    pf = fn(env, None)
-                    if not self._oor:
-                        parts.append(pf)
-            self._bind(variables, leaf, loc, m)
+        apply = self.facts_apply
+        for rule, variables, aux_fn, body_fn in self.facts:
+            def leaf(env: dict, rule=rule, aux_fn=aux_fn, body_fn=body_fn) -> None:
+                if aux_fn is None:
+                    if apply:
+                        parts.append(neg(body_fn(env, None)))
+                    return
+                for t in range(m + 1):
+                    aux = aux_fn(env, t)
+                    if t == rule.step and apply:
+                        body = body_fn(env, None)
+                        parts.append(mk_and([mk_or([neg(aux), body]), mk_or([aux, neg(body)])]))
+                    else:
+                        parts.append(neg(aux))
+            self._bind(variables, leaf, rule.loc, m)
         return mk_and(parts)
 
     def _add_items(self, m: int) -> None:
         h = self.horizon
         self.act = h.new_var()
-        if self.facts:      # a fact's instance at the last steps may be out of range: guarded
+        if self.facts:      # they name steps, and the steps grow with the horizon: guarded
             h.builder.add(self._ground_facts(m), guard=self.act)
         if self.query.nm:
             self._add_completion(m)

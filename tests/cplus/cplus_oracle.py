@@ -7,8 +7,11 @@ with their kinds, variables, laws in their source forms, ``noconcurrency`` and o
 
 1. the laws are expanded as the language reference says (C.2 abbreviations, C.3 laws
    implied by declarations, C.4 additive constants, C.6 ``unless`` with auto-declared
-   abnormalities) into basic rules ``head <= body [after H]`` and classified (static,
-   action, fluent dynamic, rigid);
+   abnormalities, ``default -ab`` from the first ``unless`` that names a constant) into basic
+   rules ``head <= body [after H]`` and classified (static, action, fluent dynamic, rigid);
+   time-stamped facts outside the query are causal rules of the steps they name (CCALC);
+   chains of connectives written without parentheses are grouped by CCALC's own table of
+   precedences (precedences.std: ``&`` and ``&&`` 760, ``++`` 770, ``->>`` 780, all xfy);
 2. they are grounded here, by substituting every object of each variable's sort and
    filtering with ``where``;
 3. the ground theory D_m is searched by brute force over assignments of every constant
@@ -35,7 +38,9 @@ INITIALLY_FREE = frozenset({"simpleFluent", "inertialFluent", "additiveFluent"})
 ADDITIVE = frozenset({"additiveFluent", "additiveAction"})
 
 # Formulas are tuples:  ("true",) ("false",) ("eq", t1, t2) ("cmp", op, t1, t2) ("not", f)
-# ("and"|"or"|"imp"|"iff", f, g) ("q", "ex"|"all", var, f).
+# ("and"|"or"|"imp"|"iff", f, g) ("q", "ex"|"all", var, f), and ("chain", ops, operands): the
+# operands written with the operators between them and no parentheses (ops from "&", "&&",
+# "++", "->>"), whose grouping is CCALC's (see chain_tree).
 # Terms: ("o", object or int) ("v", name) ("c", constant name, (arg terms...)) ("+"|"-", t1, t2).
 Formula = tuple
 Term = tuple
@@ -124,6 +129,8 @@ class Description:
     noconcurrency: bool = False
     strong: bool = False       # with noconcurrency: strong_noconcurrency
     query: list[tuple[int | str, Formula]] = field(default_factory=list)   # (step or "maxstep", F)
+    facts: list[tuple[int, Formula, tuple[int, Formula] | None]] = field(default_factory=list)
+    """Time-stamped facts outside the query: ``t: H if t2: G.`` as (t, H, (t2, G) or None)."""
 
     # ------------------------------------------------------------------ C+ text
     def text(self, maxstep: int, lo: int | None = None) -> str:
@@ -158,6 +165,8 @@ class Description:
                 decls.append(f"{name} :: {c.kind}" + (f"({c.domain_text})" if c.domain_text else ""))
         out.append(":- constants " + ";\n    ".join(decls) + ".")
         out += [law_text(law) for law in self.laws]
+        for t, head, cond in self.facts:
+            out.append(f"{t}: {show(head)}" + (f" if {cond[0]}: {show(cond[1])}" if cond else "") + ".")
         if self.noconcurrency:
             out.append("strong_noconcurrency." if self.strong else "noconcurrency.")
         items = [f"maxstep :: {maxstep}" if lo is None else f"maxstep :: {lo}..{maxstep}"] + [f"{t}: {show(f)}" for t, f in self.query]
@@ -199,7 +208,34 @@ def show(f: Formula) -> str:
     if k == "q":
         quantifier = "\\/" if f[1] == "ex" else "/\\"
         return f"[{quantifier}{f[2]} | {show(f[3])}]"
+    if k == "chain":
+        out = [_operand(f[2][0])]
+        for op, g in zip(f[1], f[2][1:]):
+            out += [op, _operand(g)]
+        return "(" + " ".join(out) + ")"
     return f"({show(f[1])} {_CONNECTIVE[k]} {show(f[2])})"
+
+
+def _operand(f: Formula) -> str:
+    """An operand of a chain: an atom as it is, anything else in parentheses (show adds them)."""
+    text = show(f)
+    return text if f[0] in ("eq", "true", "false", "chain", "q") or text.startswith("(") else f"({text})"
+
+
+PRECEDENCE = {"&": 760, "&&": 760, "++": 770, "->>": 780}
+"""CCALC's precedences.std: ``op(760, xfy, [&&, &])``, ``op(770, xfy, [++])``, ``op(780, xfy,
+[->>])``.  Every one is xfy: a chain groups to the right within one precedence."""
+_MEANING = {"&": "and", "&&": "and", "++": "or", "->>": "imp"}
+
+
+def chain_tree(ops: tuple, operands: tuple) -> Formula:
+    """How Prolog's reader groups ``o0 op1 o1 op2 o2 ...`` under CCALC's operator table: the
+    operator of the highest precedence is the principal one, its leftmost occurrence for xfy."""
+    if not ops:
+        return operands[0]
+    top = max(PRECEDENCE[o] for o in ops)
+    i = next(k for k, o in enumerate(ops) if PRECEDENCE[o] == top)
+    return (_MEANING[ops[i]], chain_tree(ops[:i], operands[:i + 1]), chain_tree(ops[i + 1:], operands[i + 1:]))
 
 
 def law_text(law: Law) -> str:
@@ -280,6 +316,7 @@ class _Theory:
         self.variables: dict[str, str] = dict(desc.variables)
         self.basic: list[_Basic] = []
         self.incs: list[_Inc] = []
+        self.defaulted: set[str] = set()       # constants an `unless` gave `default -ab`
         for law in desc.laws:
             self._expand(law)
         self.ground = [(c.name, args) for c in self.consts.values() for args in self._arg_tuples(c)]
@@ -385,18 +422,23 @@ class _Theory:
         return "rigid"
 
     def _ab(self, term: Term, kind: str) -> Formula:
-        """C.6: an undeclared abnormality is declared Boolean, false by default."""
+        """C.6: an undeclared abnormality is declared Boolean; the first ``unless`` that names a
+        constant, declared or not, gives it ``default -ab`` (CCALC's macros.std); an abAction
+        that no ``unless`` names gets nothing."""
         name = term[1]
         if name not in self.consts:
             args = term[2]
             assert len(args) <= 1 and all(x[0] == "v" for x in args), "abnormality arguments: one variable"
             sort = self.variables[args[0][1]] if args else None
             self.consts[name] = Const(name, kind, arg=sort)
-            if kind in ("sdFluent", "rigid"):
-                lit = neg(("eq", ("c", name, tuple(("v", f"_AB{i}") for i in range(len(args)))), obj("true")))
-                self.basic.append(_Basic("static" if kind == "sdFluent" else "rigid", lit, lit, None, None))
-                if args:
-                    self.variables["_AB0"] = sort  # type: ignore[assignment]
+        if name not in self.defaulted:
+            self.defaulted.add(name)
+            c = self.consts[name]
+            lit = neg(("eq", ("c", name, (("v", "_AB0"),) if c.arg else ()), obj("true")))
+            if c.arg:
+                self.variables["_AB0"] = c.arg
+            cls = "action" if c.kind in ACTION_KINDS else "rigid" if c.kind == "rigid" else "static"
+            self.basic.append(_Basic(cls, lit, lit, None, None))
         return ("eq", term, obj("true"))
 
     # -------------------------------------------------------------- grounding
@@ -447,6 +489,8 @@ class _Theory:
             return ("c", f[1], tuple(self._subst(a, env) for a in f[2]))
         if k == "o":
             return f
+        if k == "chain":
+            return ("chain", f[1], tuple(self._subst(g, env) for g in f[2]))
         return (k, *[self._subst(x, env) if isinstance(x, tuple) else x for x in f[1:]])
 
     # -------------------------------------------------------------- D_m
@@ -518,8 +562,7 @@ class _Theory:
                         fn, refs = comp.formula(lit, t + 1)
                         fa, ra = comp.formula(lit, t)
                         rule(comp.head(lit, t + 1), lambda val, f1=fn, f2=fa: f1(val) and f2(val), refs | ra)
-                if c.kind in ("exogenousAction", "attribute") or \
-                        (c.kind == "abAction" and v == ("false" if c.boolean else "none")):
+                if c.kind in ("exogenousAction", "attribute"):
                     for t in range(m):
                         fn, refs = comp.formula(lit, t)
                         rule(comp.head(lit, t), fn, refs)
@@ -546,6 +589,19 @@ class _Theory:
                         p1, p2 = pos[(a1, t)], pos[(a2, t)]
                         rule(None, lambda val, p1=p1, p2=p2, v1=v1, v2=v2, is1=is1, is2=is2:
                              (val[p1] == v1) == is1 and (val[p2] == v2) == is2, {p1, p2})
+        # time-stamped facts: rules of the step they name, where that step exists (CCALC grounds
+        # no rule at a step beyond maxstep; an atom of the body stamped beyond it is false)
+        for t, head, cond in self.desc.facts:
+            for env in self._envs(head, cond[1] if cond else None):
+                for lit in _split_conj(self._subst(head, env)):
+                    action = bool(self._constants(lit) & {n for n in self.consts if self.kind(n) in ACTION_KINDS})
+                    if t > (m - 1 if action else m):
+                        continue
+                    if cond is None:
+                        fn, refs = comp.formula(TRUE, t)
+                    else:
+                        fn, refs = comp.formula(self._subst(cond[1], env), cond[0])
+                    rule(comp.head(lit, t), fn, refs)
         # C.4: additive constants are the sum of the contributions of the actions done
         incs: dict[tuple, list] = {}
         for inc in self.incs:
@@ -623,6 +679,8 @@ def _children(f) -> tuple:
         return (f[2], f[3])
     if k == "q":
         return (f[3],)
+    if k == "chain":
+        return f[2]
     return tuple(f[1:])
 
 
@@ -783,6 +841,8 @@ class _Compiler:
         if k == "not":
             g, r = self.formula(f[1], step)
             return (lambda val: not g(val)), r
+        if k == "chain":
+            return self.formula(chain_tree(f[1], f[2]), step)
         if k in ("and", "or", "imp", "iff"):
             (g, rg), (h, rh) = self.formula(f[1], step), self.formula(f[2], step)
             fn = {"and": lambda val: g(val) and h(val), "or": lambda val: g(val) or h(val),

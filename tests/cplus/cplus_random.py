@@ -10,8 +10,10 @@ nonexecutable, default (also with after), possibly caused, exogenous, inertial w
 after, rigid with if and after, constraint, always and never with and without after,
 increments/decrements, unless on every kind of law including the frame laws, where) with formulas using
 every connective, quantifiers, comparisons and arithmetic between constants and nested
-constants, sometimes ``noconcurrency``, and a query with stamped items.  Sizes are small
-enough for the brute-force oracle.
+constants, chains of ``&``, ``&&``, ``++`` and ``->>`` without parentheses (grouped by CCALC's
+precedences), time-stamped facts outside the query (causal rules of their steps, some beyond
+maxstep), a declared abAction named by an ``unless`` or by none, sometimes ``noconcurrency``,
+and a query with stamped items.  Sizes are small enough for the brute-force oracle.
 """
 from __future__ import annotations
 
@@ -62,9 +64,13 @@ class _Gen:
 
     def formula(self, pool: list[Const], depth: int = 0):
         """A formula over the constants of ``pool`` (rigid constants may join in)."""
-        roll = self.draw(st.integers(0, 11)) if depth < 2 else 0
+        roll = self.draw(st.integers(0, 12)) if depth < 2 else 0
         if roll <= 4:
             return self.literal(pool)
+        if roll == 12:                  # `a && b ++ c ->> d`: CCALC's precedences group it
+            n = self.draw(st.integers(2, 4))
+            ops = tuple(self.pick(["&", "&&", "&&", "++", "->>"]) for _ in range(n - 1))
+            return ("chain", ops, tuple(self.literal(pool) for _ in range(n)))
         if roll <= 8:
             op = self.pick(["and", "or", "imp", "iff"])
             return (op, self.formula(pool, depth + 1), self.formula(pool, depth + 1))
@@ -271,6 +277,8 @@ class _Gen:
                                    for n in walk(part) if n[0] == "c"):
             cls = "rigid"
         law = self.where_and_unless(law, cls)
+        if cls in ("dynamic", "action") and law.unless is None and self.of("abAction") and self.chance(0.3):
+            law = replace(law, unless=cst("ab"))    # the declared abAction, named by an unless
         self.laws.append(law)
 
     def where_and_unless(self, law: Law, cls: str) -> Law:
@@ -331,6 +339,26 @@ class _Gen:
                 self.laws.append(Law("inertial", every))
             elif c.kind == "rigid" and self.chance(0.85):
                 self.laws.append(Law("exogenous", every))
+            elif c.kind == "abAction" and self.chance(0.5):    # (no default unless an unless names it)
+                self.laws.append(Law("default", neg(lit)))
+
+    def facts(self) -> list:
+        """Time-stamped facts outside the query: `t: L.`, `t: L1 & L2.`, `t: L if t2: G.`, with a
+        fluent or an action head, at steps up to 2 (beyond a smaller maxstep: no rule then)."""
+        out: list = []
+        heads = self.of("inertialFluent", "simpleFluent", "sdFluent")
+        for _ in range(self.draw(st.integers(0, 2)) if self.chance(0.5) else 0):
+            acting = self.bool_actions and self.chance(0.25)
+            pool = self.bool_actions if acting else heads
+            t = self.draw(st.integers(0, 1 if acting else 2))
+            head = self.literal(pool, head=True)
+            if not acting and self.chance(0.2):
+                head = conj(head, self.literal(pool, head=True))
+            cond = None
+            if self.chance(0.5):
+                cond = (self.draw(st.integers(0, 2)), self.formula(self.fluents))
+            out.append((t, head, cond))
+        return out
 
     def query(self, m: int) -> list:
         items = []
@@ -359,6 +387,7 @@ def descriptions(draw, max_maxstep: int = 2):
     noconcurrency = g.chance(0.2)
     desc = Description(sorts=dict(SORTS), subsorts=dict(SUBSORTS), variables=dict(VARIABLES),
                        consts=g.consts, laws=g.laws, max_additive=2 if additive else None,
-                       noconcurrency=noconcurrency, strong=noconcurrency and g.chance(0.5), query=g.query(m))
+                       noconcurrency=noconcurrency, strong=noconcurrency and g.chance(0.5), query=g.query(m),
+                       facts=g.facts())
     return desc, m
 

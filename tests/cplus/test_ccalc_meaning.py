@@ -165,8 +165,8 @@ def test_a_domain_of_statically_determined_fluents_prints_them():
 # ----------------------------------------------------------------------------- stamped facts
 
 def test_a_time_stamped_fact_restricts_the_histories():
-    """CCALC: `0: -lit.` outside a query is a formula of the theory.  At maxstep 1 the lamp has
-    4 histories (lit at 0 or not, flip or not); with the fact, the 2 starting dark."""
+    """`0: -lit.` outside a query is `caused -lit` at step 0: at maxstep 1 the lamp has 4
+    histories (lit at 0 or not, flip or not); with the fact, the 2 starting dark."""
     q = ":- query maxstep :: 1; true."
     assert len(histories(LAMP + q).histories) == 4
     d = Domain.from_text(LAMP + "0: -lit.\n" + q)
@@ -181,32 +181,70 @@ def test_a_time_stamped_fact_can_make_a_query_unsatisfiable():
     assert (r.histories, r.failed) == ([], [0])
 
 
+def test_a_stamped_fact_is_a_cause_not_a_condition():
+    """Issue 32's minimal inputs, with CCALC's answers: `0: q.` causes the sdFluent q at 0
+    (2 solutions: p free), and `1: p.` causes p at 1 with no action (0: / 1: p); read as
+    conditions, both had no history."""
+    r = histories(":- constants q :: sdFluent; p :: inertialFluent.\n0: q.\n"
+                  ":- query label :: 1; maxstep :: 0.", "1")
+    assert sorted((h.value("q", 0), h.value("p", 0)) for h in r.histories) == [(True, False), (True, True)]
+    d = Domain.from_text(":- constants p :: inertialFluent; a :: exogenousAction.\nnonexecutable a.\n1: p.\n"
+                         ":- query label :: 1; maxstep :: 1; 0: -p.")
+    (h,) = d.solve("1", solutions=0).histories
+    assert (h.value("p", 0), h.value("p", 1), h.value("a", 0)) == (False, True, False)
+    assert d.format(d.solve("1")).split() == ["0:", "1:", "p"]
+    # CCALC's transition mode would repeat a rule of step 1 at every later step: warned
+    (w,) = d.diagnostics.items
+    assert "CCALC in transition mode" in w.message and w.loc.line == 3
+
+
 def test_a_time_stamped_fact_with_a_free_variable_holds_for_every_value():
-    """Free variables are universal, as in a query: `0: -on(X).` darkens every lamp."""
+    """Free variables of the head are universal: `0: -on(X).` darkens every lamp, and
+    `1: on(X) where X \\= b.` causes on(a) at 1 whatever is done (as a condition it would have
+    needed flip(a))."""
     src = """:- sorts lamp. :- objects a, b :: lamp. :- variables X :: lamp.
 :- constants on(lamp) :: inertialFluent; flip(lamp) :: exogenousAction.
 flip(X) causes on(X).
 0: -on(X).
-(1: on(X)) ->> (0: flip(X)) where X \\= b.
+1: on(X) where X \\= b.
 :- query maxstep :: 1; true."""
     r = histories(src)
-    # both dark at 0 (8 histories without the fact), each flip free: 4; the second fact (its
-    # where keeps X = a) holds in each of them, and is grounded without complaint
     assert all(not h.value("on(a)", 0) and not h.value("on(b)", 0) for h in r.histories)
-    assert len(r.histories) == 4
+    assert all(h.value("on(a)", 1) for h in r.histories)
+    assert len(r.histories) == 4 and {h.value("flip(a)", 0) for h in r.histories} == {True, False}
 
 
-def test_a_stamp_beyond_maxstep_leaves_that_conjunct_out():
+def test_a_body_variable_is_existential_and_a_false_head_condition_forbids():
+    """`1: lit if 0: on(X).`: one rule per X, so lit is caused when some lamp is on; a head
+    conjunct without constants that is false (`X \\= Y` for X = Y) makes a rule with head
+    false (multiple-monkey-test's line: no history at all)."""
+    src = """:- sorts lamp. :- objects a, b :: lamp. :- variables X, Y :: lamp.
+:- constants on(lamp), lit :: inertialFluent.
+1: lit if 0: on(X).
+:- query maxstep :: 1; 0: -lit; 0: on(a) & -on(b)."""
+    (h,) = histories(src).histories
+    assert h.value("lit", 1)
+    assert histories(src.replace("1: lit if 0: on(X).", "(0: on(X)) & (0: on(Y)) & X \\= Y.")).histories == []
+
+
+def test_a_stamp_beyond_maxstep_leaves_that_rule_out():
     """CCALC grounds a rule only where its step exists: at maxstep 0, `(0: lit) & (1: -lit).`
-    is `0: lit` (one history, lit), and from maxstep 1 on both hold (flip is then never done,
-    as it would make lit true at 1)."""
+    causes lit at 0 (one history); at maxstep 1 it also causes -lit at 1, so flip (which
+    causes lit) is never done."""
     src = LAMP + "(0: lit) & (1: -lit).\n:- query maxstep :: 0..1; true.\n:- query label :: 1; maxstep :: 1; true."
     r = histories(src)
     assert r.maxstep == 0 and [h.value("lit", 0) for h in r.histories] == [True]
-    r1 = histories(src, "1")
-    assert r1.histories == []        # lit at 0 persists: -lit at 1 has no cause
+    (h,) = histories(src, "1").histories
+    assert (h.value("lit", 0), h.value("lit", 1), h.value("flip", 0)) == (True, False, False)
     # an action at the last step does not exist either: `2: flip.` at maxstep 1 is left out
     assert len(histories(LAMP + "2: flip.\n:- query maxstep :: 1; true.").histories) == 4
+
+
+def test_the_head_of_a_stamped_fact_is_a_literal():
+    """CCALC: "One of the rules is not definite" for a head that is no conjunction of literals."""
+    with pytest.raises(CPlusError, match="time-stamped fact is a literal") as exc:
+        Domain.from_text(LAMP + "(1: lit) ->> (0: flip).")
+    assert exc.value.loc.line == 3
 
 
 def test_stamped_facts_are_in_the_dimacs_cnf(tmp_path):

@@ -244,14 +244,14 @@ WARNINGS = [
     (":- sorts n. :- objects 2..2 :: n.", []),
     (H + "caused q if -c = 1.", ["t.cp:3:13: warning: '-c' before a comparison means '(-c)' in CCALC (minus binds "
                                 "tighter than '='): '-c=v' says c = -v; write '-(c=v)' for 'c is not v'"]),
-    (H + "0: c = 3.", ["t.cp:3:4: warning: 3 is outside the domain 0..2 of 'c'; this atom is always false"]),
-    (H + "0: c = -1.", ["t.cp:3:4: warning: -1 is outside the domain 0..2 of 'c'; this atom is always false"]),
     (H + "0: c = 0. 0: c = 2.", []),
     (H + "caused q if c \\= 2 & c \\= 0.", []),
     (H + ":- query label :: 1. :- query label :: 1.",
-     ["t.cp:3:25: warning: query label '1' is used again; the later query replaces the earlier"]),
+     ["t.cp:3:25: warning: query label '1' is used again; as in CCALC the first query with this label is the one "
+      "answered, this one is ignored"]),
     (H + ":- nmquery label :: 1. :- nmquery label :: 1.",
-     ["t.cp:3:27: warning: nmquery label '1' is used again; the later nmquery replaces the earlier"]),
+     ["t.cp:3:27: warning: nmquery label '1' is used again; as in CCALC the first nmquery with this label is the "
+      "one answered, this one is ignored"]),
     (H + ":- query label :: 1. :- nmquery label :: 1.", []),
     (":- constants positive :: inertialFluent. :- show positive.",
      ["t.cp:1:50: warning: show specification 'positive' is ambiguous: it is a keyword of ':- show', so it does "
@@ -273,10 +273,17 @@ def test_includes_are_read_relative_to_the_including_file(tmp_path, monkeypatch)
     assert load_text(":- include 'sub/a.cp'.").signature.lookup("q", 0) is not None
 
 
-def test_a_later_query_of_a_label_replaces_only_that_label():
+def test_the_first_query_of_a_label_is_the_one_kept():
+    """CCALC answers the first query_problem of a label (ccalc.pl, query/2)."""
     prog = load_text(H + ":- query label :: 2; 0: q. :- query label :: 1; 0: q. :- query label :: 1; 0: -q.")
     assert [(q.label, [show(f) for f, _ in q.items]) for q in prog.queries] == [
-        ("2", ["0:q=true"]), ("1", ["0:-q=true"])]
+        ("2", ["0:q=true"]), ("1", ["0:q=true"])]
+
+
+def test_a_stamped_fact_outside_its_constants_domain_is_an_error_as_a_laws_head():
+    with pytest.raises(CPlusError) as exc:
+        load_text(H + "0: c = 3.", "t.cp")
+    assert str(exc.value) == "t.cp:3:4: '3' is not in the domain 0..2 of 'c'"
 
 
 def test_a_query_without_maxstep_is_at_maxstep_0():
@@ -523,10 +530,11 @@ def laws(text: str) -> list[str]:
     ("exogenous q if p(a).", ["static exogenous: - | p(a)=true | - | - [exogenous q]"]),
     ("exogenous go(a).", ["action exogenous: - | true | - | - [exogenous go(a)]"]),
     ("exogenous r.", ["rigid exogenous: - | true | - | - [exogenous r]"]),
-    # unless: an undeclared abnormality is declared, off by default if it is static or rigid
-    ("go(a) causes q unless ab(X).", ["dynamic causes: q=true | true | (go(a)=true & -ab(X)=true) | -"]),
-    ("caused q after go(a) unless ab(a).", ["dynamic caused: q=true | true | (go(a)=true & -ab(a)=true) | -"]),
-    ("caused go(a) if q unless ab(1).", ["action caused: go(a)=true | (q=true & -ab(1)=true) | - | -"]),
+    # unless: an undeclared abnormality is declared; the first unless naming a constant gives
+    # it `default -ab` (macros.std), declared or not
+    ("go(a) causes q unless ab(X).", ["action default: -ab(_ab0)=true | -ab(_ab0)=true | - | -", "dynamic causes: q=true | true | (go(a)=true & -ab(X)=true) | -"]),
+    ("caused q after go(a) unless ab(a).", ["action default: -ab(_ab0)=true | -ab(_ab0)=true | - | -", "dynamic caused: q=true | true | (go(a)=true & -ab(a)=true) | -"]),
+    ("caused go(a) if q unless ab(1).", ["action default: -ab(_ab0)=true | -ab(_ab0)=true | - | -", "action caused: go(a)=true | (q=true & -ab(1)=true) | - | -"]),
     ("caused q if p(a) unless sab(a).", ["static default: -sab(_ab0)=true | -sab(_ab0)=true | - | -",
                                          "static caused: q=true | (p(a)=true & -sab(a)=true) | - | -"]),
     ("caused r unless rab.", ["rigid default: -rab=true | -rab=true | - | -",
@@ -534,8 +542,8 @@ def laws(text: str) -> list[str]:
     ("caused q if -(N+1) = 2 - 5.", ["static caused: q=true | +(neg(N),1)=-3 | - | -"]),   # CCALC's minus
     ("caused q unless abC.", ["static default: -abC=true | -abC=true | - | -",
                               "static caused: q=true | -abC=true | - | -"]),
-    ("caused q unless p(a).", ["static caused: q=true | -p(a)=true | - | -"]),
-    ("inertial q unless ab(a).", ["dynamic inertial: - | true | -ab(a)=true | - [inertial q]"]),
+    ("caused q unless p(a).", ["static default: -p(_ab0)=true | -p(_ab0)=true | - | -", "static caused: q=true | -p(a)=true | - | -"]),
+    ("inertial q unless ab(a).", ["action default: -ab(_ab0)=true | -ab(_ab0)=true | - | -", "dynamic inertial: - | true | -ab(a)=true | - [inertial q]"]),
     ("exogenous q unless sab2.", ["static default: -sab2=true | -sab2=true | - | -",
                                   "static exogenous: - | -sab2=true | - | - [exogenous q]"]),
 ])
@@ -557,9 +565,15 @@ def test_increments_become_increment_laws():
     assert got == [("go=true", "n", "2", "(q=true & -ab=true)", False), ("go=true", "n", "1", "true", True)]
 
 
-def test_a_time_stamped_fact_is_a_formula_of_the_theory():
-    prog = load_text(H + "0: q if 1: p(a) where X = a.\n0: q.")
-    assert [show(f) for f, _ in prog.facts] == ["(X=a ->> (1:p(a)=true ->> 0:q=true))", "0:q=true"]
+def test_a_time_stamped_fact_is_a_causal_rule_of_its_step():
+    """CCALC: `caused q` at step 0 when the body holds, through a hidden fluent (StampedRule)
+    that is the body at that step; a variable of the body alone is existential."""
+    prog = load_text(H + "0: q if 1: p(a) where X = a.\n0: -q.")
+    assert [(r.cst.decl.name, r.step, show(r.body)) for r in prog.facts] == [
+        ("fact#1", 0, "[EX:s | (X=a & 1:p(a)=true)]"), ("fact#2", 0, "true")]
+    assert laws_of(prog) == ["static fact: q=true | fact#1=true | - | -", "static exogenous: - | true | - | -",
+                             "static fact: -q=true | fact#2=true | - | -", "static exogenous: - | true | - | -"]
+    assert all(r.cst.decl.hidden for r in prog.facts)
 
 
 def test_a_declaration_after_the_law_that_names_it_is_found():
