@@ -311,9 +311,10 @@ def test_set_num_takes_only_a_positive_integer_in_ascii_digits(value):
     assert s.num == 1
 
 
-def test_a_line_of_many_goals_is_answered_in_linear_time():
-    """Issue 30: 8,000 `help.` goals on one line took over 30 s (quadratic string building).
-    Counted, not timed: the reply is joined once from the goals' parts."""
+def test_a_line_of_many_goals_answers_every_goal():
+    """Issue 30: 8,000 `help.` goals on one line (they took over 30 s, the reply rebuilt at every
+    goal; joined once now, 0.6 s): every goal is answered, in order. The time itself is not
+    asserted here (no timed assertions in the tests)."""
     s = Session()
     one = s.run("help.").out
     r = s.run("help. " * 8000)
