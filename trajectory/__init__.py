@@ -38,11 +38,11 @@ from .states import StepState
 from .timeline import BrickTimeline, CycleFrame, RunTimeline
 
 if TYPE_CHECKING:
-    from .animate import animate_cycles, animate_run, animation_problem
+    from .animate import animate_cycles, animate_run, animation_problem, cycles_figure
     from .plots import execution_figure, plan_figure, plot_execution, plot_plan
 
 _PLOTS = ("plot_plan", "plot_execution", "plan_figure", "execution_figure")
-_ANIMATIONS = ("animate_run", "animate_cycles", "animation_problem")
+_ANIMATIONS = ("animate_run", "animate_cycles", "animation_problem", "cycles_figure")
 
 
 def __getattr__(name: str) -> Any:
@@ -67,6 +67,7 @@ __all__ = [
     "animate_cycles",
     "animate_run",
     "animation_problem",
+    "cycles_figure",
     "execution_figure",
     "plan_figure",
     "BranchChoice",
