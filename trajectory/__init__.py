@@ -39,9 +39,9 @@ from .timeline import BrickTimeline, CycleFrame, RunTimeline
 
 if TYPE_CHECKING:
     from .animate import animate_cycles, animate_run, animation_problem, cycles_figure
-    from .plots import execution_figure, plan_figure, plot_execution, plot_plan
+    from .plots import execution_figure, motor_roles, plan_figure, plan_title, plot_execution, plot_plan
 
-_PLOTS = ("plot_plan", "plot_execution", "plan_figure", "execution_figure")
+_PLOTS = ("plot_plan", "plot_execution", "plan_figure", "execution_figure", "plan_title", "motor_roles")
 _ANIMATIONS = ("animate_run", "animate_cycles", "animation_problem", "cycles_figure")
 
 
@@ -69,7 +69,9 @@ __all__ = [
     "animation_problem",
     "cycles_figure",
     "execution_figure",
+    "motor_roles",
     "plan_figure",
+    "plan_title",
     "BranchChoice",
     "Cause",
     "JointLimitError",

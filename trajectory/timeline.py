@@ -124,11 +124,14 @@ class BrickTimeline:
 @dataclass(frozen=True, slots=True, eq=False)
 class RunTimeline:
     """Every brick of one execution; ``stopped`` is ``(t_s, reason)`` when it ended early, and
-    ``skew_s`` the start skew measured from the log, ``(estimate, min, max)``, when known."""
+    ``skew_s`` the start skew measured from the log, ``(estimate, min, max)``, when known.
+    ``clock`` names the clock of its times, as the time axes say it: ``"PC clock"``, or
+    ``"simulated clock"`` for emulated bricks on simulated time (no wall clock involved)."""
 
     bricks: tuple[BrickTimeline, ...]
     stopped: tuple[float, str] | None = None
     skew_s: tuple[float, float, float] | None = None
+    clock: str = "PC clock"
     names: tuple[str, ...] = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
