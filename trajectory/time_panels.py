@@ -101,6 +101,24 @@ def _alike(brick: BrickTimeline) -> dict[int, int]:
     return out
 
 
+def _headroom(ax: Axes, rows: int) -> None:
+    """Raise the top of ``ax`` so that a legend of ``rows`` lines in its upper left corner lies
+    above every curve (a legend over a curve hides the part of it a reader looks for)."""
+    values = [v for line in ax.get_lines() for v in np.asarray(line.get_ydata(), dtype=float).ravel()
+              if np.isfinite(v)]
+    if not values:
+        return
+    lo, hi = min(values), max(values)
+    lo -= 0.05 * max(hi - lo, 1.0)
+    fig = ax.get_figure(root=True)
+    assert isinstance(fig, Figure)
+    # the axes' height before the layout shrinks it for titles and labels (a fifth, at most)
+    axes_pt = ax.get_position().height * fig.get_size_inches()[1] * 72 * 0.8
+    legend_pt = rows * 6.5 * 1.4 + 12
+    f = min(0.75, legend_pt / max(axes_pt, 1.0))           # the part of the axes the legend takes
+    ax.set_ylim(lo, max(hi + 1.0, (hi - f * lo) / (1 - f)))
+
+
 def _motor_panels(ax_deg: Axes, ax_err: Axes, brick: BrickTimeline, color: str,
                   roles: Mapping[str, str] | None = None, clock: str = "PC clock") -> None:
     t = brick.tick_end_s
@@ -141,8 +159,9 @@ def _motor_panels(ax_deg: Axes, ax_err: Axes, brick: BrickTimeline, color: str,
     if brick.start_mid_s is None:
         ax_deg.text(0.5, 0.5, f"{brick.name} never started (reached: {brick.reached})", transform=ax_deg.transAxes,
                     ha="center", va="center", fontsize=9, color="crimson")
-    for ax in (ax_deg, ax_err):
-        ax.legend(fontsize=6.5, loc="best", ncol=1, frameon=True, framealpha=0.85, edgecolor="none")
+    for ax in (ax_deg, ax_err):                 # the legend gets a band of its own above the curves
+        legend = ax.legend(fontsize=6.5, loc="upper left", ncol=1, frameon=True, framealpha=0.85, edgecolor="none")
+        _headroom(ax, len(legend.get_texts()))
     for ax in (ax_deg, ax_err):
         ax.tick_params(labelsize=7)
         ax.grid(True, linewidth=0.4, alpha=0.5)

@@ -316,6 +316,15 @@ def test_the_execution_picture_says_which_motor_is_what_and_shows_both_wheels(pa
         assert planned.get_zorder() > executed.get_zorder() and planned.get_linewidth() < executed.get_linewidth()
     plain = execution_figure(payload_scene, traj.planned_paths(), {}, timeline=clean)
     assert any(ax.get_xlabel() == "time (s, PC clock)" for ax in plain.axes)
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    canvas = FigureCanvasAgg(fig)
+    canvas.draw()
+    for title, ax in panels.items():         # a legend lies above every curve of its panel, hiding none
+        if "motor angles" in title or "tracking error" in title:
+            legend = ax.get_legend().get_window_extent(canvas.get_renderer())
+            tops = [ax.transData.transform((0, np.nanmax(line.get_ydata())))[1] for line in ax.get_lines()
+                    if len(line.get_ydata()) and np.isfinite(np.asarray(line.get_ydata(), dtype=float)).any()]
+            assert tops and legend.y0 >= max(tops), title
 
 
 def test_every_phase_of_a_brick_shows_and_a_wait_is_named(payload_scene: Scene) -> None:
