@@ -17,7 +17,7 @@ The public API is :class:`Domain`:
 """
 from __future__ import annotations
 
-__all__ = ["Domain", "CPlusError", "History", "QueryResult", "PlanStatus"]
+__all__ = ["Domain", "CPlusError", "History", "QueryResult", "PlanStatus", "OptimalResult", "Optimum"]
 
 
 def __getattr__(name: str):  # lazy: `cplus brick` should not load the solver stack
@@ -33,4 +33,7 @@ def __getattr__(name: str):  # lazy: `cplus brick` should not load the solver st
     if name in ("QueryResult", "PlanStatus"):
         from cplus import planner
         return getattr(planner, name)
+    if name in ("OptimalResult", "Optimum"):     # Domain.minimize's result
+        from cplus.sat import optimize
+        return getattr(optimize, name)
     raise AttributeError(name)

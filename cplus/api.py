@@ -23,6 +23,7 @@ ACTIONS:  flip
 from __future__ import annotations
 
 from collections.abc import Callable, Iterator
+from typing import TYPE_CHECKING
 
 from cplus.errors import Diagnostics, QueryError
 from cplus.ground.atoms import AtomTable
@@ -35,6 +36,9 @@ from cplus.planner import QueryResult, QuerySession, Session, find_horizon, iter
 from cplus.program import Program, QuerySpec
 from cplus.resolve import Externals
 from cplus.sat.solver import DEFAULT_SOLVER
+
+if TYPE_CHECKING:
+    from cplus.sat.optimize import OptimalResult
 
 __all__ = ["Domain"]
 
@@ -112,7 +116,8 @@ class Domain:
             return states_query()
         known = ", ".join(self.labels) or "none"
         hint = " (there is an nmquery of that label: --nmquery)" if self.program.nmquery(label) else ""
-        raise QueryError(f"no query with label '{label}' (this file's labels: {known}){hint}")
+        raise QueryError(f"no query with label '{label}' ({_did_you_mean(label, self.labels)}"
+                         f"this file's labels: {known}){hint}")
 
     def nmquery(self, label: str) -> QuerySpec:
         """The nmquery with this label (CCALC's ``nmquery label``)."""
@@ -120,7 +125,8 @@ class Domain:
         if q is not None:
             return q
         known = ", ".join(self.nm_labels) or "none"
-        raise QueryError(f"no nmquery with label '{label}' (this file's nmquery labels: {known})")
+        raise QueryError(f"no nmquery with label '{label}' ({_did_you_mean(label, self.nm_labels)}"
+                         f"this file's nmquery labels: {known})")
 
     def spec(self, label: str, nmquery: bool = False) -> QuerySpec:
         """The query (or, with ``nmquery``, the nmquery) with this label."""
@@ -163,6 +169,32 @@ class Domain:
         query = self._searchable(label, nmquery)
         return Session(self.theory_for(query), query, solver, max_horizon)
 
+    def minimize(self, label: str, term: str, solutions: int = 1, over_lengths: bool = False,
+                 time_limit: float | None = None, solver: str = DEFAULT_SOLVER, max_horizon: int | None = None,
+                 nmquery: bool = False) -> OptimalResult:
+        """The cheapest plan of a query, as ``cplus plan --minimize TERM`` finds it: TERM is an
+        integer fluent (an additive cost) or a sum of them with ``+``, read at the last step.
+        The shortest length with a plan, then the cheapest plan of that length; with
+        ``over_lengths`` the cheapest over the query's whole maxstep range (an open range
+        needs ``max_horizon``).  The result is :meth:`solve`'s with ``optimum``
+        (:class:`~cplus.sat.optimize.Optimum`: ``value``, ``proved``, ``lower_bound``; None
+        when there is no plan); ``solutions`` other than 1 gives every plan of the optimal
+        cost (0: all).  ``time_limit`` (seconds) stops the search for cheaper plans, never
+        the first: the best plan so far is returned, ``proved`` false.
+
+        A method of its own, not ``plans(minimize=...)``: :meth:`plans` yields histories
+        lazily with no status, and an optimum is one result with a proof status."""
+        if isinstance(solutions, bool) or not isinstance(solutions, int) or solutions < 0:
+            raise ValueError(f"solutions must be a non-negative integer (0: every plan of the optimal cost), "
+                             f"not {solutions!r}")
+        if time_limit is not None and not time_limit > 0:
+            raise ValueError(f"time_limit must be a positive number of seconds, not {time_limit!r}")
+        from cplus.sat.optimize import Objective, run_optimal
+        query = self._searchable(label, nmquery)
+        objective = Objective.parse(term, self.program.signature)
+        return run_optimal(self.theory_for(query), query, objective, solutions, solver, max_horizon,
+                           over_lengths, time_limit)
+
     def prove(self, label: str, solver: str | None = None):
         """The proof of a ``maxstep :: any`` query that no plan of any length exists
         (:func:`cplus.invariant.prove`: an :class:`~cplus.invariant.InvariantResult`)."""
@@ -184,7 +216,24 @@ class Domain:
     def format(self, result: QueryResult, numbered: bool | None = None) -> str:
         """CCALC's text for a result, as ``cplus plan`` prints it: each history headed
         ``Solution k:`` when there are several, as CCALC numbers them (``numbered`` overrides)."""
-        return format_result(Display(self.program), result.failed, result.histories, numbered)
+        text = format_result(Display(self.program), result.failed, result.histories, numbered)
+        if getattr(result, "optimum", None) is not None:      # a result of minimize: its cost line
+            from cplus.sat.optimize import optimum_text
+            text += optimum_text(result)  # type: ignore[arg-type]
+        return text
 
     def to_json(self, result: QueryResult) -> dict:
-        return result_json(self.path, result, self.spec(result.label, result.nm))
+        """The ``cplus.plan/1`` document of a result (with ``"optimum"`` for one of :meth:`minimize`)."""
+        doc = result_json(self.path, result, self.spec(result.label, result.nm))
+        if hasattr(result, "optimum"):
+            from cplus.sat.optimize import optimum_json
+            doc["optimum"] = optimum_json(result)  # type: ignore[arg-type]
+        return doc
+
+
+def _did_you_mean(label: str, labels: list[str]) -> str:
+    """``did you mean 'x'? `` for the label closest to a mistyped one (difflib), or nothing."""
+    import difflib
+
+    close = difflib.get_close_matches(label, labels, n=1)
+    return f"did you mean '{close[0]}'? " if close else ""

@@ -2,13 +2,16 @@
 
 A :class:`History` of length m holds the rigid constants, the states 0..m (every fluent's
 value) and the actions 0..m-1 (every action constant's value), keyed by ground constants.
+A Boolean constant's value is a Python ``bool`` (so ``[a for a, v in h.actions[0].items()
+if v]`` are the actions done); the grounder and the solver's atoms know the objects
+``"true"``/``"false"``, which :func:`to_object` gives back where atoms are looked up.
 """
 from __future__ import annotations
 
 from cplus.record import Record
 from cplus.signature import GroundConst, render_value
 
-__all__ = ["History", "decode_history", "executed_actions", "json_value"]
+__all__ = ["History", "decode_history", "executed_actions", "json_value", "to_object", "from_object"]
 
 
 def json_value(gc: GroundConst, v: object):
@@ -16,15 +19,30 @@ def json_value(gc: GroundConst, v: object):
     constant's value is ``True``/``False``, integers and names stay, constructor objects are
     their text (``cell(2)``)."""
     if gc.boolean:
-        return v == "true"
+        return v is True or v == "true"
     if isinstance(v, (int, str)):
         return v
     return render_value(v)  # type: ignore[arg-type]
 
 
+def to_object(gc: GroundConst, v: object) -> object:
+    """A value as a :class:`History` holds it, as the grounder's object: a Boolean constant's
+    ``True``/``False`` is ``"true"``/``"false"`` (what :meth:`AtomTable.lit` takes); other
+    values are already objects."""
+    if gc.boolean and isinstance(v, bool):
+        return "true" if v else "false"
+    return v
+
+
+def from_object(gc: GroundConst, v: object) -> object:
+    """The grounder's object as a :class:`History` holds it (the inverse of :func:`to_object`)."""
+    return v == "true" if gc.boolean else v
+
+
 class History(Record):
-    """The tables are keyed by ground constants and hold objects as the grounder knows them
-    (``"true"``/``"false"`` for Booleans); :meth:`value` and :meth:`state_values` speak by name
+    """The tables are keyed by ground constants; a Boolean constant's value is ``True`` or
+    ``False``, any other constant's the object the grounder knows (an integer, a name such as
+    ``"none"``, a tuple for ``cell(2)``).  :meth:`value` and :meth:`state_values` speak by name
     and give values as the JSON output does."""
 
     _fields = ("maxstep", "rigid", "states", "actions")
@@ -78,7 +96,7 @@ def executed_actions(actions: dict[GroundConst, object]) -> list[GroundConst]:
         d = gc.decl
         if d.hidden or d.kind == "attribute":
             continue
-        if (gc.boolean and v == "true") or (not gc.boolean and v != "none"):
+        if v is True or (not gc.boolean and v != "none"):
             out.append(gc)
     return out
 
@@ -110,7 +128,7 @@ def decode_history(session) -> History:
 
 def _read(s, h, pairs, gc: GroundConst, t: int | None) -> object:
     if gc.boolean:
-        return "true" if s.value(h.var(pairs[0][0], t)) else "false"
+        return bool(s.value(h.var(pairs[0][0], t)))
     for aid, v in pairs:
         if s.value(h.var(aid, t)):
             return v

@@ -276,7 +276,7 @@ def proof_json(result: InvariantResult, query) -> dict:
     from cplus.output import history_json
     failed = result.failed
     return {
-        "query": {"label": result.label, "min_maxstep": 0, "max_maxstep": "any"},
+        "query": {"label": result.label, "kind": "query", "min_maxstep": 0, "max_maxstep": "any"},
         "status": result.status.value,
         "maxstep": None,
         "no_solution_with_maxstep": [],

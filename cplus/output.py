@@ -11,7 +11,7 @@ from __future__ import annotations
 from collections.abc import Iterable
 
 from cplus import ir
-from cplus.history import History, executed_actions
+from cplus.history import History, executed_actions, to_object
 from cplus.history import json_value as _json_value
 from cplus.program import Pattern, Program
 from cplus.signature import GroundConst, NamedSort, RangeSort, Signature, render_value
@@ -55,12 +55,12 @@ class Display:
                 elif a != v:
                     return False
         if p.negated:
-            return gc.boolean and value == "false"
+            return value is False
         if p.value is None:
-            return not gc.boolean or value == "true"
+            return not gc.boolean or value is True
         if isinstance(p.value, ir.Var):
-            return self._in_sort(p.value, value)
-        return p.value == value
+            return self._in_sort(p.value, to_object(gc, value))
+        return p.value == to_object(gc, value)
 
     def _in_sort(self, var: ir.Var, value: object) -> bool:
         try:
@@ -69,10 +69,10 @@ class Display:
             return True
 
     def shown(self, gc: GroundConst, value: object, step: int | None = None) -> bool:
-        """Whether the atom ``gc=value`` (at ``step``; None for a rigid constant) is displayed
-        (for a Boolean constant, ``value`` ``"false"`` is the literal ``-gc``), as CCALC 2's
-        ``in_show_list`` decides with the specifications in force (:attr:`specs`), then no
-        ``:- hide`` pattern matching it.
+        """Whether the atom ``gc=value`` (at ``step``; None for a rigid constant) is displayed (a
+        value as a :class:`History` holds it: for a Boolean constant, ``False`` is the literal
+        ``-gc``), as CCALC 2's ``in_show_list`` decides with the specifications in force
+        (:attr:`specs`), then no ``:- hide`` pattern matching it.
 
         * an abnormality (a constant named by ``unless``): only with ``ab`` (when true), ``all``,
           or a pattern; except that an abnormality fluent with arguments (``unless ab1(M,M1)``
@@ -90,7 +90,7 @@ class Display:
         d = gc.decl
         if d.hidden:
             return False
-        negative = gc.boolean and value != "true"
+        negative = gc.boolean and value is not True
         specs = self.specs
         if d.abnormal and (d.is_action or not d.argsorts):
             ok = any(s == "all" or (s == "ab" and not negative) or (not isinstance(s, str) and self._matches(s, gc, value, step))
@@ -141,15 +141,15 @@ class Display:
     # -- rendering -----------------------------------------------------------------
     def atom_text(self, gc: GroundConst, value: object) -> str:
         if gc.boolean:
-            return gc.text if value == "true" else "-" + gc.text
+            return gc.text if value is True else "-" + gc.text
         return f"{gc.text}={render_value(value)}"  # type: ignore[arg-type]
 
     def state_atoms(self, table: dict[GroundConst, object], step: int | None = None) -> list[str]:
         """The displayed atoms of a state: the positive ones, then the negative ones (as CCALC
         prints them, in two passes)."""
         gcs = sorted((gc for gc, v in table.items() if self.shown(gc, v, step)), key=self.key)
-        pos = [gc for gc in gcs if not (gc.boolean and table[gc] != "true")]
-        neg = [gc for gc in gcs if gc.boolean and table[gc] != "true"]
+        pos = [gc for gc in gcs if not (gc.boolean and table[gc] is not True)]
+        neg = [gc for gc in gcs if gc.boolean and table[gc] is not True]
         return [self.atom_text(gc, table[gc]) for gc in pos + neg]
 
     def action_atoms(self, table: dict[GroundConst, object], step: int | None = None) -> list[str]:
@@ -161,7 +161,7 @@ class Display:
                 continue
             attrs = self._attributes(gc, table)
             if gc.boolean:
-                if table[gc] != "true":
+                if table[gc] is not True:
                     negative.append("-" + gc.text)
                     continue
                 if attrs:
@@ -183,7 +183,7 @@ class Display:
                     continue     # CCALC prints every attribute of a displayed action
                 rest = ag.args[gc.decl.arity:]
                 name = ad.name + (f"({','.join(render_value(a) for a in rest)})" if rest else "")
-                shown_v = render_value(v)
+                shown_v = render_value(to_object(ag, v))  # type: ignore[arg-type]
                 if isinstance(v, int) and v < 0:
                     shown_v = " " + shown_v
                 items.append(((ad.order, self.key(ag)), f"{name}={shown_v}"))

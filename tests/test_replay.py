@@ -116,7 +116,9 @@ def test_a_scene_the_log_names_must_exist_unless_given(tmp_path, capsys):
     ('[1, 2]\n', 'run.jsonl:1: a record is a JSON object with a "record" field'),
     ('{"record": "start", "format": "cplus.online/1"}\n', "run.jsonl: the log has no cycle to replay"),
     ('{"record": "start", "format": "cplus.online/1"}\n{"record": "cycle", "cycle": 0, "ti',
-     "run.jsonl:2: the last line is cut off (the run was stopped while writing it)"),
+     "run.jsonl: the log has no cycle to replay"),
+    ('{"record": "start", "format": "cplus.online/1"}\n{"record": "cycle", "cycle": 0, "ti\n'
+     '{"record": "cycle", "cycle": 1, "time": 1}\n', "run.jsonl:2: not JSON"),
     ('{"record": "start", "format": "cplus.online/1"}\n{"record": "cycle"\n{"record": "end"}\n',
      "run.jsonl:2: not JSON"),
     ('{"record": "start", "format": "cplus.online/1"}\n{"record": "cycle", "cycle": 0}\n',
@@ -126,6 +128,24 @@ def test_a_scene_the_log_names_must_exist_unless_given(tmp_path, capsys):
     ('{"record": "start", "format": "cplus.online/1"}\n{"record": "goal"}\n', "run.jsonl:2: unknown record 'goal'"),
     ('{"record": "start", "format": "cplus.online/1"}\n{"record": "end"}\n{"record": "end"}\n',
      "run.jsonl:3: a record after the end record"),
+    # cycles out of order, and times that are no finite number of seconds going forward
+    ('{"record": "start", "format": "cplus.online/1"}\n{"record": "cycle", "cycle": 2, "time": 0}\n'
+     '{"record": "cycle", "cycle": 1, "time": 1}\n',
+     "run.jsonl:3: cycle 1 after cycle 2: a run's cycles are in increasing order"),
+    ('{"record": "start", "format": "cplus.online/1"}\n{"record": "cycle", "cycle": 0, "time": 0}\n'
+     '{"record": "cycle", "cycle": 0, "time": 1}\n', "run.jsonl:3: cycle 0 after cycle 0"),
+    ('{"record": "start", "format": "cplus.online/1"}\n{"record": "cycle", "cycle": 0, "time": NaN}\n',
+     'run.jsonl:2: "time" must be a finite number of seconds from the run\'s start, not nan'),
+    ('{"record": "start", "format": "cplus.online/1"}\n{"record": "cycle", "cycle": 0, "time": Infinity}\n',
+     'run.jsonl:2: "time" must be a finite number'),
+    ('{"record": "start", "format": "cplus.online/1"}\n{"record": "cycle", "cycle": 0, "time": -1}\n',
+     'run.jsonl:2: "time" must be a finite number'),
+    ('{"record": "start", "format": "cplus.online/1"}\n{"record": "cycle", "cycle": 0, "time": 5}\n'
+     '{"record": "cycle", "cycle": 1, "time": 4.5}\n', "run.jsonl:3: cycle 1 at 4.5 s, before the cycle ahead of it"),
+    ('{"record": "start", "format": "cplus.online/1"}\n{"record": "cycle", "cycle": 0, "time": 0}\n'
+     '{"record": "end", "seconds": NaN}\n', 'run.jsonl:3: "seconds" must be a finite number'),
+    ('{"record": "start", "format": "cplus.online/1"}\n{"record": "cycle", "cycle": 0, "time": 0}\n'
+     '{"record": "start", "format": "cplus.execlog/1"}\n', "run.jsonl:3: a start record of another format"),
 ])
 def test_bad_logs_are_one_line(tmp_path, capsys, content, message):
     log = tmp_path / "run.jsonl"
@@ -178,3 +198,126 @@ def test_long_writes_report_progress_at_every_quarter():
         FrameProgress("p", "a.gif", short)(k, 10)       # a short write says nothing
         FrameProgress("p", "a.gif", quiet, quiet=True)(k * 4, 40)
     assert short.getvalue() == quiet.getvalue() == ""
+
+
+# --------------------------------------------------------------------------- several runs, literal text, cycles
+
+def start_record(goal: str = "g", **extra) -> dict:
+    return {"record": "start", "format": ONLINE_FORMAT, "domain": "d.cp", "goal": goal, "executor": "a robot", **extra}
+
+
+def end_record(cycles: int, **extra) -> dict:
+    return {"record": "end", "status": "goal_reached", "message": "goal 'g' reached", "cycles": cycles, "replans": 0,
+            "state": {"p": cycles}, "seconds": 1.5 * cycles, **extra}
+
+
+def lines_of(*records) -> str:
+    return "".join((r if isinstance(r, str) else json.dumps(r) + "\n") for r in records)
+
+
+def three_runs(path: Path) -> Path:
+    """A log continued after restarts, written by hand: run 1 ends, run 2 crashed after two
+    cycles (no end record), run 3 ends."""
+    path.write_text(lines_of(start_record(), cycle(0, {"p": 0}), cycle(1, {"p": 1}), end_record(2),
+                             start_record(), cycle(0, {"p": 10}), cycle(1, {"p": 11}),
+                             start_record(), cycle(0, {"p": 20}), cycle(1, {"p": 21}), cycle(2, {"p": 22}),
+                             end_record(3)))
+    return path
+
+
+def test_a_log_of_several_runs_replays_the_last_unless_told(tmp_path, capsys):
+    from cplus.cli.replay import read_runs
+    log = three_runs(tmp_path / "runs.jsonl")
+    runs = read_runs(str(log))
+    assert [(r.number, r.line, len(r.cycles), r.end is not None) for r in runs] == [
+        (1, 1, 2, True), (2, 5, 2, False), (3, 8, 3, True)]
+    assert read_log(str(log))[1][0]["state"] == {"p": 20}               # the last run
+    assert read_log(str(log), 2)[1][0]["state"] == {"p": 10}
+    out = tmp_path / "last.gif"
+    assert main(["replay", str(log), "--animate", str(out), *SMALL]) == 0
+    assert n_frames(out) == 3 + 1
+    assert main(["replay", str(log), "--animate", str(tmp_path / "first.gif"), "--run", "1", *SMALL]) == 0
+    assert n_frames(tmp_path / "first.gif") == 2 + 1
+    one_line_error(capsys, [str(log), "--animate", str(tmp_path / "x.gif"), "--run", "4"],
+                   f"--run 4: {log} holds 3 runs")
+    assert main(["replay", str(log), "--animate", str(tmp_path / "x.gif"), "--run", "0"]) == 2
+    assert "--run: expected a positive integer, got '0'" in capsys.readouterr().err
+    assert not (tmp_path / "x.gif").exists()
+
+
+def test_a_run_without_its_end_record_is_drawn_as_crashed(tmp_path):
+    log = three_runs(tmp_path / "runs.jsonl")
+    from cplus.cli.replay import pick_run, read_runs
+    crashed = pick_run(str(log), read_runs(str(log)), 2)
+    frames = frames_of(crashed.cycles, crashed.end, crashed=True)
+    assert [f.cycle for f in frames] == [0, 1, 1] and frames[-1].ended and frames[-1].failed
+    assert frames[-1].lines[0] == "the run has no end record: it crashed or was killed"
+    assert main(["replay", str(log), "--run", "2", "--animate", str(tmp_path / "crash.gif"), *SMALL]) == 0
+    assert n_frames(tmp_path / "crash.gif") == 3
+
+
+@pytest.mark.parametrize("joined", [False, True])
+def test_a_line_cut_off_by_a_crash_ends_its_run(tmp_path, joined):
+    """A run killed while writing leaves half a line; the restarted run's start record follows
+    it on the next line, or on the same one when the writer did not end the line first."""
+    cut = '{"record": "cycle", "cycle": 2, "ti'
+    log = tmp_path / "runs.jsonl"
+    log.write_text(lines_of(start_record(), cycle(0, {"p": 0}), cycle(1, {"p": 1}), cut + ("" if joined else "\n"),
+                            start_record(), cycle(0, {"p": 5}), end_record(1)))
+    from cplus.cli.replay import pick_run, read_runs
+    runs = read_runs(str(log))
+    assert [(len(r.cycles), r.end is not None, r.cut) for r in runs] == [(2, False, 4), (1, True, None)]
+    first = pick_run(str(log), runs, 1)
+    frames = frames_of(first.cycles, first.end, crashed=True, cut=first.cut)
+    assert "its last line (4) is cut off: it was stopped while writing it" in frames[-1].lines
+    tail = tmp_path / "tail.jsonl"                        # the last run cut off: drawn up to there
+    tail.write_text(lines_of(start_record(), cycle(0, {"p": 0}), cut))
+    assert main(["replay", str(tail), "--animate", str(tmp_path / "t.gif"), *SMALL]) == 0
+    assert n_frames(tmp_path / "t.gif") == 2
+
+
+def test_a_run_with_no_cycle_is_named(tmp_path, capsys):
+    log = tmp_path / "runs.jsonl"
+    log.write_text(lines_of(start_record(), cycle(0, {"p": 0}), end_record(1), start_record()))
+    one_line_error(capsys, [str(log), "--animate", str(tmp_path / "a.gif")],
+                   f"{log}:4: run 2 of 2 has no cycle to replay (runs with cycles: 1; pick one with --run N)")
+    assert main(["replay", str(log), "--animate", str(tmp_path / "a.gif"), "--run", "1", *SMALL]) == 0
+
+
+MATH = "$\\frac{1}{2$ and $x^$ {\\bf"
+"""Text matplotlib's mathtext cannot parse (a socket client can plant it through a rejected request)."""
+
+
+@pytest.mark.parametrize("arms", [False, True])
+def test_text_from_a_log_is_drawn_as_written(tmp_path, capsys, arms):
+    """A log's text is never read as mathematics: this crashed the replay in matplotlib's parser."""
+    records = arms_log(tmp_path / "arms.jsonl").read_text().splitlines() if arms else None
+    log = tmp_path / "math.jsonl"
+    if arms:
+        start, *rest = (json.loads(r) for r in records)  # type: ignore[union-attr]
+        start["goal"] = MATH
+        rest[0]["notes"] = [MATH]
+        rest[0]["failure"] = MATH
+        log.write_text(lines_of(start, *rest))
+    else:
+        log.write_text(lines_of(start_record(goal=MATH, executor=MATH),
+                                cycle(0, {MATH: MATH}, notes=[MATH], executed=[MATH],
+                                      goals=[{"id": 1, "request": MATH, "status": "rejected", "reason": MATH}]),
+                                end_record(1, message=MATH, status=MATH)))
+    out = tmp_path / "math.gif"
+    assert main(["replay", str(log), "--animate", str(out), *SMALL]) == 0, capsys.readouterr().err
+    assert n_frames(out) >= 2
+
+
+def test_the_replay_counts_cycles_as_cplus_online_does(tmp_path, capsys):
+    """One run, one count: 'goal reached at cycle 8; 8 cycles ran' on both sides."""
+    import re
+    log = tmp_path / "run.jsonl"
+    assert main(["online", str(DELIVERY), "--simulate", "--log", str(log)]) == 0
+    said = re.search(r"(\d+ cycles? ran, \d+ replans?)", capsys.readouterr().err)
+    assert said is not None
+    _, cycles, end = read_log(str(log))
+    assert end is not None
+    frames = frames_of(cycles, end)
+    assert said.group(1) in frames[-1].lines
+    assert f"goal 'deliver' reached at cycle {cycles[-1]['cycle']}" in frames[-1].lines

@@ -38,11 +38,11 @@ from .states import StepState
 from .timeline import BrickTimeline, CycleFrame, RunTimeline
 
 if TYPE_CHECKING:
-    from .animate import animate_cycles, animate_run, animation_problem
-    from .plots import execution_figure, plan_figure, plot_execution, plot_plan
+    from .animate import animate_cycles, animate_run, animation_problem, cycles_figure
+    from .plots import execution_figure, motor_roles, plan_figure, plan_title, plot_execution, plot_plan
 
-_PLOTS = ("plot_plan", "plot_execution", "plan_figure", "execution_figure")
-_ANIMATIONS = ("animate_run", "animate_cycles", "animation_problem")
+_PLOTS = ("plot_plan", "plot_execution", "plan_figure", "execution_figure", "plan_title", "motor_roles")
+_ANIMATIONS = ("animate_run", "animate_cycles", "animation_problem", "cycles_figure")
 
 
 def __getattr__(name: str) -> Any:
@@ -67,8 +67,11 @@ __all__ = [
     "animate_cycles",
     "animate_run",
     "animation_problem",
+    "cycles_figure",
     "execution_figure",
+    "motor_roles",
     "plan_figure",
+    "plan_title",
     "BranchChoice",
     "Cause",
     "JointLimitError",

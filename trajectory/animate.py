@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import math
 import os
+import re
 import subprocess
 import textwrap
 from collections.abc import Callable, Sequence
@@ -31,6 +32,7 @@ from matplotlib.axes import Axes
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
+from matplotlib.transforms import Bbox
 from PIL import Image
 
 from .errors import TrajectoryError
@@ -40,7 +42,8 @@ from .plots import PAYLOAD_COLOR, _color, _draw_scene
 from .scene import Robot, Scene
 from .timeline import CycleFrame, RunTimeline
 
-__all__ = ["animate_run", "animate_cycles", "animation_problem", "DEFAULT_MAX_FRAMES", "DEFAULT_DPI"]
+__all__ = ["animate_run", "animate_cycles", "cycles_figure", "table_rows", "animation_problem", "DEFAULT_MAX_FRAMES",
+           "DEFAULT_DPI", "ACTIONS_ROW"]
 
 #: Enough frames for a smooth 10-step plan (a longer run is sampled evenly down to this many).
 DEFAULT_MAX_FRAMES = 150
@@ -401,8 +404,24 @@ def _ik(robot: Robot, x: float, y: float) -> tuple[float, float]:
     return float(s), float(th)
 
 
+def _trail_segments(points: Sequence[tuple[int, tuple[float, float]]], jumps: bool) -> tuple[list, list]:
+    """The hand's trail as line data: between consecutive cycles (``jumps`` False) or between
+    cycles that several steps apart (the arms ran several steps in one cycle; the log has the
+    ends only), NaN-separated."""
+    xs: list[float] = []
+    ys: list[float] = []
+    for (c0, p), (c1, q) in zip(points, points[1:]):
+        if (c1 - c0 > 1) == jumps:
+            xs += [p[0], q[0], math.nan]
+            ys += [p[1], q[1], math.nan]
+    return xs, ys
+
+
 def _cycle_scene(ax: Axes, scene: Scene, frames: Sequence[CycleFrame]) -> Callable[[int], None]:
-    """The arms and the payload where each cycle's state puts them, with the hands' trails."""
+    """The arms and the payload where each cycle's state puts them, with the hands' trails: solid
+    between consecutive cycles, dotted across cycles that ran several steps (where the arms went
+    in between is not in the log). A re-plan is starred where it was made, a failure crossed
+    where the failing cycle left the arms (the next cycle's place)."""
     _draw_scene(ax, scene)
     carriages = []
     for f in frames:
@@ -412,36 +431,53 @@ def _cycle_scene(ax: Axes, scene: Scene, frames: Sequence[CycleFrame]) -> Callab
     _view(ax, scene, carriages)
     names = list(scene.robot_names)
     xs = [ax.get_xlim()[0], ax.get_xlim()[1]]
-    arms, trails = {}, {}
+    arms, trails, leaps = {}, {}, {}
     for k, robot in enumerate(scene.robots):
         (a, b) = _rail(robot, xs)
         ax.plot([a[0], b[0]], [a[1], b[1]], color="0.55", linewidth=5, alpha=0.5, solid_capstyle="butt", zorder=1.5)
         arms[robot.name] = _ArmArtist(ax, robot, _color(k), ghost=False)
-        (trails[robot.name],) = ax.plot([], [], color=_color(k), linewidth=1.2, marker=".", zorder=4)
+        (trails[robot.name],) = ax.plot([], [], color=_color(k), linewidth=1.2, zorder=4)
+        (leaps[robot.name],) = ax.plot([], [], color=_color(k), linewidth=1.0, linestyle=(0, (1, 2.5)), zorder=4)
     e1, e2 = scene.end_names
     (pay,) = ax.plot([], [], color=PAYLOAD_COLOR, linewidth=4, solid_capstyle="round", zorder=5)
-    (replans,) = ax.plot([], [], linestyle="none", marker="*", markersize=14, color="darkorange", zorder=8,
-                         label="re-planned here")
-    (failures,) = ax.plot([], [], linestyle="none", marker="X", markersize=12, color="crimson", zorder=8,
-                          label="failure here")
+    (dots,) = ax.plot([], [], color="0.2", marker=".", markersize=5, linestyle="none", zorder=4.2)
+    # a failure is often where the run re-planned: the star is drawn large and the cross small
+    # on top of it, so that both show at one place
+    (replans,) = ax.plot([], [], linestyle="none", marker="*", markersize=22, color="darkorange",
+                         markeredgecolor="white", markeredgewidth=0.8, zorder=8, label="re-planned here")
+    (failures,) = ax.plot([], [], linestyle="none", marker="X", markersize=8, color="crimson",
+                          markeredgecolor="white", markeredgewidth=0.8, zorder=8.5, label="failure here")
     handles = [Line2D([], [], color=_color(k), linewidth=3, label=f"robot {n}") for k, n in enumerate(names)]
-    ax.legend(handles=[*handles, replans, failures], loc="lower left", bbox_to_anchor=(0.0, 1.0), ncol=4, fontsize=8,
+    handles.append(Line2D([], [], color="0.3", linewidth=1.0, linestyle=(0, (1, 2.5)),
+                          label="several steps in one cycle"))
+    ax.legend(handles=[*handles, replans, failures], loc="lower left", bbox_to_anchor=(0.0, 1.0), ncol=3, fontsize=8,
               frameon=False)
     anchor = names[0]
 
+    def failed_at(j: int) -> tuple[float, float] | None:
+        """Where cycle ``j``'s failure left the arms: the next frame's place, else its own."""
+        later = frames[j + 1].positions.get(anchor) if j + 1 < len(frames) else None
+        return later if later is not None else frames[j].positions.get(anchor)
+
     def draw(i: int) -> None:
         marks: dict[str, list[tuple[float, float]]] = {"replan": [], "fail": []}
+        hands: list[tuple[float, float]] = []
         for robot in scene.robots:
-            past = [f.positions[robot.name] for f in frames[: i + 1] if robot.name in f.positions]
-            trails[robot.name].set_data([p[0] for p in past], [p[1] for p in past])
+            past = [(f.cycle, f.positions[robot.name]) for f in frames[: i + 1]
+                    if robot.name in f.positions and not f.ended]
+            trails[robot.name].set_data(*_trail_segments(past, jumps=False))
+            leaps[robot.name].set_data(*_trail_segments(past, jumps=True))
+            hands += [p for _, p in past]
             here = frames[i].positions.get(robot.name)
             arms[robot.name].show(*(_ik(robot, *here) if here else (math.nan, math.nan)))
-        for f in frames[: i + 1]:          # marked at the first robot's hand
+        dots.set_data([p[0] for p in hands], [p[1] for p in hands])
+        for j, f in enumerate(frames[: i + 1]):          # marked at the first robot's hand
             at = f.positions.get(anchor)
             if at is not None and f.replanned:
                 marks["replan"].append(at)
-            if at is not None and f.failed:
-                marks["fail"].append(at)
+            where = (at if f.ended else failed_at(j)) if f.failed else None
+            if where is not None:
+                marks["fail"].append(where)
         replans.set_data([p[0] for p in marks["replan"]], [p[1] for p in marks["replan"]])
         failures.set_data([p[0] for p in marks["fail"]], [p[1] for p in marks["fail"]])
         ends = frames[i].positions
@@ -454,16 +490,38 @@ def _cycle_scene(ax: Axes, scene: Scene, frames: Sequence[CycleFrame]) -> Callab
 
 _TABLE_COLUMNS = 10
 _TABLE_ROWS = 24
+ACTIONS_ROW = "actions executed"
+"""The table's first row: what each cycle executed (the rows below are the state's fluents)."""
 
 
-def _cycle_table(ax: Axes, frames: Sequence[CycleFrame]) -> Callable[[int], None]:
-    """The state's fluents over the last cycles, a changed value shaded, the current cycle framed."""
+def _natural(name: str) -> tuple:
+    """Sort key of a fluent's name: ``letter(2)`` before ``letter(10)``, by constant, then arguments."""
+    return tuple((0, int(part), "") if part.isdigit() else (1, 0, part) for part in re.split(r"(\d+)", name))
+
+
+def table_rows(frames: Sequence[CycleFrame]) -> tuple[list[str], int]:
+    """The fluents the table shows, in their names' order (``letter(1)``, ``letter(2)``, ...):
+    those whose value changes over the run first chosen, then the others, up to the table's
+    size; and how many were left out."""
     fluents: list[str] = []
     for f in frames:
         fluents += [k for k in f.state if k not in fluents]
     changing = [k for k in fluents if len({f.state.get(k) for f in frames}) > 1]
-    rows = (changing + [k for k in fluents if k not in changing])[:_TABLE_ROWS]
-    hidden = len(fluents) - len(rows)
+    chosen = (changing + [k for k in fluents if k not in changing])[:_TABLE_ROWS]
+    return sorted(chosen, key=_natural), len(fluents) - len(chosen)
+
+
+def _actions_text(actions: Sequence[str]) -> str:
+    if not actions:
+        return "-"
+    text = "\n".join(actions[:2])
+    return text + (f"\n+{len(actions) - 2} more" if len(actions) > 2 else "")
+
+
+def _cycle_table(ax: Axes, frames: Sequence[CycleFrame]) -> Callable[[int], None]:
+    """The actions and the state's fluents over the last cycles, a changed value shaded, the
+    current cycle framed; the table fills the axes whatever the number of rows."""
+    rows, hidden = table_rows(frames)
 
     def draw(i: int) -> None:
         ax.clear()
@@ -472,7 +530,11 @@ def _cycle_table(ax: Axes, frames: Sequence[CycleFrame]) -> Callable[[int], None
         cols = list(range(lo, i + 1))
         header = [("end" if frames[c].ended else f"{frames[c].cycle}") + ("\nre-plan" if frames[c].replanned else "")
                   + ("\nfailure" if frames[c].failed else "") for c in cols]
-        cells, colours = [], []
+        if not rows:
+            ax.text(0.5, 0.5, "no state in the log", ha="center", va="center", transform=ax.transAxes)
+            return
+        cells = [[_actions_text(frames[c].actions) if not frames[c].ended else "" for c in cols]]
+        colours = [["#eef3fb"] * len(cols)]
         for name in rows:
             line, shade = [], []
             for c in cols:
@@ -482,29 +544,75 @@ def _cycle_table(ax: Axes, frames: Sequence[CycleFrame]) -> Callable[[int], None
                 shade.append("#fff3b0" if value != before else "white")
             cells.append(line)
             colours.append(shade)
-        if not rows:
-            ax.text(0.5, 0.5, "no state in the log", ha="center", va="center", transform=ax.transAxes)
-            return
-        table = ax.table(cellText=cells, cellColours=colours, rowLabels=rows, colLabels=header, loc="upper center",
-                         cellLoc="center")
+        # the table fills the axes: the header takes the room of two rows, the actions row of two
+        table = ax.table(cellText=cells, cellColours=colours, rowLabels=[ACTIONS_ROW, *rows], colLabels=header,
+                         cellLoc="center", bbox=Bbox.from_bounds(0.0, 0.0, 1.0, 1.0))
         table.auto_set_font_size(False)
-        table.set_fontsize(8)
-        table.scale(1.0, min(2.6, max(1.2, 26.0 / (len(rows) + 2))))
+        size = 8 if len(rows) <= 16 else 7
+        table.set_fontsize(size)
+        n = len(rows) + 4
         for (r, c), cell in table.get_celld().items():
+            cell.set_height((2 if r in (0, 1) else 1) / n)
             if c == len(cols) - 1 and r >= 0:
                 cell.set_edgecolor("black")
                 cell.set_linewidth(1.6)
+            if r == 1:
+                cell.get_text().set_fontsize(size - 1)
+                if c < 0:
+                    cell.get_text().set_fontweight("bold")
             if r == 0 and c >= 0:
-                cell.set_height(cell.get_height() * 1.8)
                 if frames[cols[c]].failed:
                     cell.set_facecolor("#f4b6b6")
                 elif frames[cols[c]].replanned:
                     cell.set_facecolor("#ffd8a8")
-        note = "cycles (columns) and the state's fluents (rows); a shaded value changed at that cycle"
+        note = "cycles (columns): the actions each executed, then the state's fluents; a shaded value changed then"
         if hidden:
             note += f"; {hidden} more fluents not shown"
         ax.set_title(note, fontsize=8, loc="left")
     return draw
+
+
+def _literal():
+    """Text drawn as written: a log's text may hold ``$...$`` (a request a socket client sent),
+    which matplotlib would read as mathematics and may fail to parse."""
+    return matplotlib.rc_context({"text.parse_math": False, "text.usetex": False})
+
+
+def _cycles_figure(chosen: Sequence[CycleFrame], scene: Scene | None, title: str | None,
+                   last: int) -> tuple[Figure, Callable[[int], None]]:
+    fig = Figure(figsize=(12, 6))
+    grid = fig.add_gridspec(1, 2, width_ratios=(2.5, 1.5))
+    ax = fig.add_subplot(grid[0, 0])
+    side = fig.add_subplot(grid[0, 1])
+    side.set_axis_off()
+    with_scene = scene is not None and any(f.positions for f in chosen)
+    draw_main = _cycle_scene(ax, scene, chosen) if with_scene and scene is not None else _cycle_table(ax, chosen)
+    fig.suptitle(title or "online run", fontsize=11)
+    trace = side.text(0.0, 1.0, "", ha="left", va="top", fontsize=7.5, family="monospace", transform=side.transAxes)
+    fig.subplots_adjust(left=0.16 if not with_scene else 0.06, right=0.98, top=0.9 if with_scene else 0.88,
+                        bottom=0.06 if with_scene else 0.03, wspace=0.12)
+
+    def draw(i: int) -> None:
+        draw_main(i)
+        f = chosen[i]
+        lines = ["the end of the run" if f.ended else f"cycle {f.cycle} of {last}", f"t = {f.time_s:.2f} s", ""]
+        for line in f.lines:
+            lines += textwrap.wrap(line, 62, subsequent_indent="  ") or [""]
+        trace.set_text("\n".join(lines[:40]))
+        trace.set_color("crimson" if f.failed else "black")
+    return fig, draw
+
+
+def cycles_figure(frames: Sequence[CycleFrame], frame: int = -1, *, scene: Scene | None = None,
+                  title: str | None = None) -> Figure:
+    """The figure `animate_cycles` draws for one of ``frames`` (default: the last), unsaved:
+    its table, marks, legend and texts can be inspected."""
+    if not frames:
+        raise TrajectoryError("the run has no cycle to replay")
+    with _literal():
+        fig, draw = _cycles_figure(frames, scene, title, frames[-1].cycle)
+        draw(range(len(frames))[frame])
+    return fig
 
 
 def animate_cycles(frames: Sequence[CycleFrame], path: str | Path, *, scene: Scene | None = None,
@@ -514,8 +622,9 @@ def animate_cycles(frames: Sequence[CycleFrame], path: str | Path, *, scene: Sce
     defaults to 1 frame a second for a few cycles, up to 4 for many), and save it.
 
     With ``scene`` and positions in the frames, the arms and the payload move over the scene;
-    otherwise the state's fluents are shown as a table over the last cycles. Beside it, the
-    cycle's trace: the time, the actions, the events, the re-plan, the failure.
+    otherwise the actions and the state's fluents are shown as a table over the last cycles.
+    Beside it, the cycle's trace: the time, the actions, the events, the re-plan, the failure.
+    Every text is drawn as written (no mathematics between ``$`` signs).
 
     Raises:
         TrajectoryError: no frames, a bad file name, no ffmpeg for an .mp4, or bad options.
@@ -527,25 +636,6 @@ def animate_cycles(frames: Sequence[CycleFrame], path: str | Path, *, scene: Sce
         raise TrajectoryError("the run has no cycle to replay")
     chosen = [frames[int(k)] for k in _sample(len(frames), max_frames)]
     rate = fps if fps is not None else min(4.0, max(1.0, len(chosen) / 15.0))
-    fig = Figure(figsize=(12, 6))
-    grid = fig.add_gridspec(1, 2, width_ratios=(2.5, 1.5))
-    ax = fig.add_subplot(grid[0, 0])
-    side = fig.add_subplot(grid[0, 1])
-    side.set_axis_off()
-    with_scene = scene is not None and any(f.positions for f in chosen)
-    draw_main = _cycle_scene(ax, scene, chosen) if with_scene and scene is not None else _cycle_table(ax, chosen)
-    fig.suptitle(title or "online run", fontsize=11)
-    trace = side.text(0.0, 1.0, "", ha="left", va="top", fontsize=7.5, family="monospace", transform=side.transAxes)
-    last = frames[-1].cycle
-    fig.subplots_adjust(left=0.16 if not with_scene else 0.06, right=0.98, top=0.9, bottom=0.06, wspace=0.12)
-
-    def draw(i: int) -> None:
-        draw_main(i)
-        f = chosen[i]
-        lines = ["the end of the run" if f.ended else f"cycle {f.cycle} of {last}", f"t = {f.time_s:.2f} s", ""]
-        for line in f.lines:
-            lines += textwrap.wrap(line, 62, subsequent_indent="  ") or [""]
-        trace.set_text("\n".join(lines[:40]))
-        trace.set_color("crimson" if f.failed else "black")
-
-    return _write(fig, draw, len(chosen), out, rate, dpi, on_progress)
+    with _literal():
+        fig, draw = _cycles_figure(chosen, scene, title, frames[-1].cycle)
+        return _write(fig, draw, len(chosen), out, rate, dpi, on_progress)

@@ -20,12 +20,14 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 
 import matplotlib
+import matplotlib.colors
 import numpy as np
 import numpy.typing as npt
 import shapely
 from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 from matplotlib.patches import Polygon as PolygonPatch
+from matplotlib.text import Annotation, Text
 
 from .checker import Violation
 from .errors import TrajectoryError
@@ -35,8 +37,8 @@ from .states import StepState
 from .time_panels import add_time_panels
 from .timeline import RunTimeline
 
-__all__ = ["plot_plan", "plot_execution", "plan_figure", "execution_figure", "still_steps", "swept_region_for_display",
-           "ROBOT_COLORS"]
+__all__ = ["plot_plan", "plot_execution", "plan_figure", "execution_figure", "plan_title", "motor_roles",
+           "still_steps", "swept_region_for_display", "ROBOT_COLORS"]
 
 ROBOT_COLORS = ("tab:blue", "tab:red", "tab:purple", "tab:orange", "tab:brown", "tab:cyan")
 PAYLOAD_COLOR = "tab:green"
@@ -52,6 +54,22 @@ def _format_of(path: Path) -> str:
 
 def _color(k: int) -> str:
     return ROBOT_COLORS[k % len(ROBOT_COLORS)]
+
+
+def _darker(color: str) -> tuple[float, float, float]:
+    """The colour at half its brightness: a robot's planned path over its executed one."""
+    r, g, b = matplotlib.colors.to_rgb(color)
+    return (r * 0.45, g * 0.45, b * 0.45)
+
+
+_JOINT_ROLES = {"s": "carriage wheel", "theta": "arm"}
+
+
+def motor_roles(scene: Scene) -> dict[str, dict[str, str]]:
+    """What each motor of each robot drives, as the execution picture's legends say it:
+    ``{"r1": {"A": "carriage wheel", "B": "carriage wheel", "C": "arm"}}`` (the scene's
+    ``joint``: ``s`` moves the carriage along its rail, ``theta`` turns the arm)."""
+    return {r.name: {m.port: _JOINT_ROLES.get(m.joint, m.joint) for m in r.motors} for r in scene.robots}
 
 
 def swept_region_for_display(a1: Sequence[float], a2: Sequence[float], b1: Sequence[float],
@@ -78,9 +96,10 @@ def swept_region_for_display(a1: Sequence[float], a2: Sequence[float], b1: Seque
 def _draw_scene(ax: Axes, scene: Scene) -> None:
     g = scene.grid
     xs, ys = np.meshgrid(np.arange(g.x_min, g.x_max + 1), np.arange(g.y_min, g.y_max + 1))
-    ax.plot(xs.ravel(), ys.ravel(), linestyle="none", marker=".", markersize=2, color="0.75", zorder=1)
+    ax.plot(xs.ravel(), ys.ravel(), linestyle="none", marker=".", markersize=2, color="0.75", zorder=1,
+            label="grid points (the plan's positions)")
     ax.plot([g.x_min, g.x_max, g.x_max, g.x_min, g.x_min], [g.y_min, g.y_min, g.y_max, g.y_max, g.y_min],
-            color="0.6", linewidth=0.8, linestyle=":", zorder=1)
+            color="0.6", linewidth=0.8, linestyle=":", zorder=1, label="grid bounds")
     for k, obstacle in enumerate(scene.obstacles):
         coords = shapely.get_coordinates(obstacle.polygon.exterior)
         ax.add_patch(PolygonPatch(coords, closed=True, facecolor="0.15", edgecolor="black",
@@ -93,8 +112,10 @@ def _draw_scene(ax: Axes, scene: Scene) -> None:
     ax.set_ylim(g.y_min - 1.5, g.y_max + 1.5)
 
 
-def _draw_states(ax: Axes, scene: Scene, states: Sequence[StepState], *, paths: bool) -> None:
-    """Payload lines and labelled end-effector circles at every state (and the plan's paths)."""
+def _draw_states(ax: Axes, scene: Scene, states: Sequence[StepState], *, paths: bool) -> list[Annotation]:
+    """Payload lines and labelled end-effector circles at every state (and the plan's paths);
+    returns the boxed labels of steps drawn at one place."""
+    boxed: list[Annotation] = []
     e1, e2 = scene.end_names
     for i, st in enumerate(states):
         a, b = st.payload[e1], st.payload[e2]
@@ -115,10 +136,108 @@ def _draw_states(ax: Axes, scene: Scene, states: Sequence[StepState], *, paths: 
             if len(steps) == 1:
                 continue
             # several steps at one place: the circle keeps the first, a boxed label beside it names them all
-            ax.annotate(_steps_text(steps), (x, y), xytext=(9, 7), textcoords="offset points", ha="left",
-                        va="bottom", fontsize=8, color=color, zorder=6,
-                        bbox={"boxstyle": "round,pad=0.15", "facecolor": "white", "edgecolor": color,
-                              "linewidth": 0.6, "alpha": 0.9})
+            # (placed where it covers no obstacle, circle or other label: `_place_labels`)
+            boxed.append(ax.annotate(_steps_text(steps), (x, y), xytext=(9, 7), textcoords="offset points",
+                                     ha="left", va="bottom", fontsize=8, color=color, zorder=6,
+                                     bbox={"boxstyle": "round,pad=0.15", "facecolor": "white", "edgecolor": color,
+                                           "linewidth": 0.6, "alpha": 0.9}))
+    return boxed
+
+
+_STEP_SPOTS = ((9, 7, "left", "bottom"), (9, -7, "left", "top"), (-9, 7, "right", "bottom"),
+               (-9, -7, "right", "top"), (0, 11, "center", "bottom"), (0, -11, "center", "top"),
+               (13, 0, "left", "center"), (-13, 0, "right", "center"), (16, 16, "left", "bottom"),
+               (-16, -16, "right", "top"))
+"""Where a boxed step label may go, in points from its circle, in order of preference."""
+
+_CIRCLE_PT = 11.0
+"""The diameter of a step's circle (its marker size)."""
+
+
+def _renderer(fig: Figure):
+    """A renderer to measure texts with (an Agg canvas is attached to a bare figure)."""
+    canvas = fig.canvas
+    if not hasattr(canvas, "get_renderer"):
+        from matplotlib.backends.backend_agg import FigureCanvasAgg
+        canvas = FigureCanvasAgg(fig)
+    return canvas.get_renderer()
+
+
+def _box(artist: Text, renderer, pad: float = 0.0) -> shapely.Polygon:
+    bb = artist.get_window_extent(renderer)
+    return shapely.box(bb.x0 - pad, bb.y0 - pad, bb.x1 + pad, bb.y1 + pad)
+
+
+def _settle(ann: Annotation, spots: Sequence[tuple[float, float, str, str]], renderer, free) -> shapely.Polygon:
+    """Put ``ann`` at the first of ``spots`` (offset points, alignment) where ``free(box)`` holds,
+    else at the first; returns its box (display units)."""
+    for dx, dy, ha, va in [*spots, spots[0]]:
+        ann.xyann = (dx, dy)
+        ann.set(horizontalalignment=ha, verticalalignment=va)
+        box = _box(ann, renderer, pad=3.0)
+        if free(box):
+            break
+    return box
+
+
+def _place_labels(ax: Axes, scene: Scene, states: Sequence[StepState], boxed: Sequence[Annotation]) -> None:
+    """Name every obstacle (inside it in white when the name fits, else beside it), and move each
+    boxed step label to where it covers no obstacle, no circle and no other label."""
+    fig = ax.get_figure()
+    assert isinstance(fig, Figure)
+    renderer = _renderer(fig)
+    ax.apply_aspect()
+    to_px = ax.transData.transform
+    view_px = _box(ax, renderer)  # type: ignore[arg-type]
+    (x0, x1), (y0, y1) = ax.get_xlim(), ax.get_ylim()
+    view = shapely.box(x0, y0, x1, y1)
+    shapes = [shapely.Polygon(to_px(shapely.get_coordinates(o.polygon.exterior))) for o in scene.obstacles]
+    radius = _CIRCLE_PT / 2 * fig.dpi / 72 + 1.0
+    circles = [shapely.Point(to_px(p)).buffer(radius) for st in states for p in st.robots.values()]
+    taken: list[shapely.Polygon] = []
+
+    def free(box: shapely.Polygon) -> bool:
+        return (view_px.contains(box) and not any(box.intersects(o) for o in shapes)
+                and not any(box.intersects(c) for c in circles) and not any(box.intersects(t) for t in taken))
+
+    for obstacle, shape in zip(scene.obstacles, shapes):
+        seen = obstacle.polygon.intersection(view)
+        if seen.is_empty:
+            continue
+        part = seen if isinstance(seen, shapely.Polygon) else max(getattr(seen, "geoms", [seen]), key=lambda g: g.area)
+        inner = part.centroid
+        if not part.contains(inner):             # a concave obstacle: the point farthest inside it
+            from shapely.ops import polylabel
+            inner = polylabel(part, tolerance=0.01)
+        label = ax.annotate(obstacle.name, (inner.x, inner.y), xytext=(0, 0), textcoords="offset points",
+                            ha="center", va="center", fontsize=7, color="white", zorder=2.6)
+        fits = False
+        for rotation in (0, 90):                 # a tall, narrow obstacle gets its name upright
+            label.set_rotation(rotation)
+            box = _box(label, renderer, pad=1.0)
+            fits = shape.contains(box) and not any(box.intersects(c) for c in circles)
+            if fits:
+                break
+        if fits:
+            taken.append(box)
+            continue
+        label.set_rotation(0)
+        label.set_color("0.1")
+        label.set_bbox({"boxstyle": "round,pad=0.15", "facecolor": "white", "edgecolor": "0.4",
+                        "linewidth": 0.5, "alpha": 0.9})
+        bx0, by0, bx1, by1 = seen.bounds
+        anchors = [((bx0 + bx1) / 2, by1, 0, 4, "center", "bottom"), ((bx0 + bx1) / 2, by0, 0, -4, "center", "top"),
+                   (bx1, (by0 + by1) / 2, 4, 0, "left", "center"), (bx0, (by0 + by1) / 2, -4, 0, "right", "center")]
+        for k, (ax_, ay, dx, dy, ha, va) in enumerate([*anchors, anchors[0]]):
+            label.xy = (ax_, ay)
+            label.xyann = (dx, dy)
+            label.set(horizontalalignment=ha, verticalalignment=va)
+            box = _box(label, renderer, pad=3.0)
+            if free(box) or k == len(anchors):
+                break
+        taken.append(box)
+    for ann in boxed:
+        taken.append(_settle(ann, _STEP_SPOTS, renderer, free))
 
 
 def _steps_text(steps: Sequence[int]) -> str:
@@ -159,7 +278,7 @@ def plan_figure(scene: Scene, states: Sequence[StepState], violation: Violation 
     fig = Figure(figsize=(8, 6))
     ax = fig.add_subplot()
     _draw_scene(ax, scene)
-    _draw_states(ax, scene, states, paths=True)
+    boxed = _draw_states(ax, scene, states, paths=True)
     notes = still_steps(states)
     if violation is not None:
         i = violation.step
@@ -182,10 +301,17 @@ def plan_figure(scene: Scene, states: Sequence[StepState], violation: Violation 
     if lines or notes:
         fig.text(0.5, 0.005, "\n".join(lines + notes), ha="center", va="bottom",
                  fontsize=7.5, color="crimson" if violation is not None else "0.25")
-    m = len(states) - 1
-    ax.set_title(title or f"{scene.name}: plan of {m} step{'' if m == 1 else 's'}")
+    ax.set_title(title or plan_title(scene, len(states) - 1))
     ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8, frameon=False)
+    _place_labels(ax, scene, states, boxed)
     return fig
+
+
+def plan_title(scene: Scene, length: int, source: str | None = None) -> str:
+    """A plan picture's title: the scene's name (two scenes of one domain are told apart), the
+    plan's length, and where it comes from (the domain file): ``payload with an island: plan of
+    length 12 (payload.cp)``."""
+    return f"{scene.name}: plan of length {length}" + (f" ({source})" if source else "")
 
 
 def plot_plan(scene: Scene, states: Sequence[StepState], violation: Violation | None = None, *,
@@ -226,20 +352,19 @@ def execution_figure(scene: Scene, planned_paths: Mapping[str, npt.ArrayLike],
         ax = fig.add_subplot(grid[0, :])
         colors = [_color(names.index(b.name)) for b in timeline.bricks]
         specs = [grid[r, c] for c in range(cols) for r in (1, 2)]
-        add_time_panels(fig, specs, grid[3, :], timeline, colors)
+        add_time_panels(fig, specs, grid[3, :], timeline, colors, motor_roles(scene))
     _draw_scene(ax, scene)
-    if states:
-        _draw_states(ax, scene, states, paths=False)
+    boxed = _draw_states(ax, scene, states, paths=False) if states else []
     for k, name in enumerate(names):
         color = _color(k)
-        if name in planned_paths:
-            pts = np.asarray(planned_paths[name], dtype=float).reshape(-1, 2)
-            ax.plot(pts[:, 0], pts[:, 1], color=color, linewidth=1.0, linestyle="--", alpha=0.8,
-                    zorder=4, label=f"{name} planned")
         if name in executed_paths:
             pts = np.asarray(executed_paths[name], dtype=float).reshape(-1, 2)
-            ax.plot(pts[:, 0], pts[:, 1], color=color, linewidth=1.6, zorder=4.5,
-                    label=f"{name} executed")
+            ax.plot(pts[:, 0], pts[:, 1], color=color, linewidth=2.6, alpha=0.75, zorder=4,
+                    solid_capstyle="round", label=f"{name} executed")
+        if name in planned_paths:   # on top, thin and dark: it shows where the executed path lies on it
+            pts = np.asarray(planned_paths[name], dtype=float).reshape(-1, 2)
+            ax.plot(pts[:, 0], pts[:, 1], color=_darker(color), linewidth=0.9, linestyle=(0, (4, 3)),
+                    zorder=4.5, label=f"{name} planned (dashed, on top)")
     holders: list[str] = []
     if states:
         holders = [h for h in (states[0].holder(e) for e in scene.end_names) if h is not None]
@@ -255,6 +380,7 @@ def execution_figure(scene: Scene, planned_paths: Mapping[str, npt.ArrayLike],
                     alpha=0.7, zorder=3, label="payload (executed)" if j == 0 else None)
     ax.set_title(title or f"{scene.name}: planned and executed paths")
     ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8, frameon=False)
+    _place_labels(ax, scene, states or [], boxed)
     return fig
 
 

@@ -6,20 +6,25 @@ Per brick, the motor angles (setpoint dashed, measured solid) and the tracking e
 (connect, upload, homing, waiting for the start, run, log read), the interval in which each
 started (the start skew between bricks), the other events the log holds (timeouts, damaged
 replies, a lost link ...) and where the run stopped. Where a motor was not following (a
-stall: its error beyond the online monitor's threshold) its error panel is shaded and named. Every panel uses the PC's clock, so a
-late brick shows as a shifted curve.
+stall: its error beyond the online monitor's threshold) its error panel is shaded and named.
+Every panel uses one clock (the PC's, or the simulated one of emulated bricks: the timeline's
+``clock`` says which), so a late brick shows as a shifted curve. The legends say what each
+motor drives (``A: carriage wheel``, ``C: arm``, from the scene): two wheels of one carriage
+turn alike, so the first is drawn wide and the second narrow over it, and both show; the
+setpoints are thin dark dashes over the measured curves.
 
-The phases come from the brick's events:
+The phases come from the brick's events; a time between two of them is ``waiting`` (the bricks
+are uploaded and homed one after the other, so one waits while another is served):
 
 >>> b = BrickTimeline("r1", ("A",), 0.1, [[0], [5]], [[0], [4]], start_s=(1.0, 1.02),
 ...                   events=[(0.2, "link ok", ""), (0.5, "upload verified", ""), (1.5, "log read", "")])
 >>> [(p, round(a, 2), round(z, 2)) for p, a, z in _phases(b)]
-[('connect', 0.0, 0.2), ('upload', 0.2, 0.5), ('run', 1.01, 1.21), ('log read', 1.21, 1.5)]
+[('connect', 0.0, 0.2), ('upload', 0.2, 0.5), ('waiting', 0.5, 1.01), ('run', 1.01, 1.21), ('log read', 1.21, 1.5)]
 """
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 
 import numpy as np
 from matplotlib.axes import Axes
@@ -33,8 +38,11 @@ __all__ = ["add_time_panels", "MOTOR_COLORS"]
 
 #: One colour per motor of a brick (the robot's own colour names the brick in the titles).
 MOTOR_COLORS = ("#1b9e77", "#d95f02", "#7570b3", "#e7298a", "#66a61e")
-_PHASE_COLORS = {"connect": "0.82", "upload": "#c7b36a", "homing": "#8ecae6", "wait for start": "0.62",
-                 "run": None, "log read": "#d4c2e6"}
+_PHASE_COLORS = {"connect": "0.82", "upload": "#c7b36a", "waiting": "white", "homing": "#2a9fd6",
+                 "wait for start": "0.62", "run": None, "log read": "#d4c2e6"}
+_MIN_BAR = 0.008
+"""The narrowest phase bar, as a fraction of the panel's time span: a shorter phase (homing takes
+a few hundredths of a second) is drawn that wide, and its legend entry gives its duration."""
 _MAX_EVENT_LABELS = 6
 
 
@@ -63,7 +71,9 @@ def _phases(brick: BrickTimeline) -> list[tuple[str, float, float]]:
         out.append(("run", start, end))
         if read is not None and read > end:
             out.append(("log read", end, read))
-    return [(name, a, b) for name, a, b in out if b >= a]
+    kept = sorted(((name, a, b) for name, a, b in out if b >= a), key=lambda p: p[1])
+    gaps = [("waiting", p[2], q[1]) for p, q in zip(kept, kept[1:]) if q[1] - p[2] > 1e-6]
+    return sorted(kept + gaps, key=lambda p: p[1])
 
 
 def _mark_stop(axes: Sequence[Axes], timeline: RunTimeline) -> None:
@@ -72,20 +82,67 @@ def _mark_stop(axes: Sequence[Axes], timeline: RunTimeline) -> None:
             ax.axvline(timeline.stopped[0], color="crimson", linewidth=1.2, linestyle="-", zorder=6)
 
 
-def _motor_panels(ax_deg: Axes, ax_err: Axes, brick: BrickTimeline, color: str) -> None:
+_SAME_DEG = 1.0
+"""Two motors whose measured angles never differ by more than this draw one curve."""
+
+
+def _alike(brick: BrickTimeline) -> dict[int, int]:
+    """For each motor whose measured curve is another's (within ``_SAME_DEG``), that earlier motor."""
+    out: dict[int, int] = {}
+    rows = brick.measured_deg
+    known = np.all(np.isfinite(rows), axis=1)
+    if not known.any():
+        return out
+    for k in range(rows.shape[1]):
+        for j in range(k):
+            if j not in out and np.abs(rows[known, k] - rows[known, j]).max() <= _SAME_DEG:
+                out[k] = j
+                break
+    return out
+
+
+def _headroom(ax: Axes, rows: int) -> None:
+    """Raise the top of ``ax`` so that a legend of ``rows`` lines in its upper left corner lies
+    above every curve (a legend over a curve hides the part of it a reader looks for)."""
+    values = [v for line in ax.get_lines() for v in np.asarray(line.get_ydata(), dtype=float).ravel()
+              if np.isfinite(v)]
+    if not values:
+        return
+    lo, hi = min(values), max(values)
+    lo -= 0.05 * max(hi - lo, 1.0)
+    fig = ax.get_figure(root=True)
+    assert isinstance(fig, Figure)
+    # the axes' height before the layout shrinks it for titles and labels (a fifth, at most)
+    axes_pt = ax.get_position().height * fig.get_size_inches()[1] * 72 * 0.8
+    legend_pt = rows * 6.5 * 1.4 + 12
+    f = min(0.75, legend_pt / max(axes_pt, 1.0))           # the part of the axes the legend takes
+    ax.set_ylim(lo, max(hi + 1.0, (hi - f * lo) / (1 - f)))
+
+
+def _motor_panels(ax_deg: Axes, ax_err: Axes, brick: BrickTimeline, color: str,
+                  roles: Mapping[str, str] | None = None, clock: str = "PC clock") -> None:
     t = brick.tick_end_s
     err = brick.error_deg
+    roles = roles or {}
+    alike = _alike(brick)
     for j, port in enumerate(brick.ports):
         c = MOTOR_COLORS[j % len(MOTOR_COLORS)]
-        width = 1.4 + 1.2 * (len(brick.ports) - 1 - j)   # wider underneath: two wheels on one joint both show
-        ax_deg.plot(t, brick.setpoint_deg[:, j], color=c, linewidth=1.0, linestyle="--", alpha=0.9)
-        ax_deg.plot(t, brick.measured_deg[:, j], color=c, linewidth=width, alpha=0.85, label=f"motor {port}")
+        under = any(j == first for first in alike.values())
+        width = 4.2 if under else 1.6                    # a curve another motor's lies on is drawn wide
+        what = [roles[port]] if port in roles else []
+        if j in alike:
+            what.append(f"over {brick.ports[alike[j]]}: the same curve")
+        label = f"{port} ({', '.join(what)})" if what else port
+        ax_deg.plot(t, brick.measured_deg[:, j], color=c, linewidth=width, label=label,
+                    solid_capstyle="butt", zorder=2)
+        ax_deg.plot(t, brick.setpoint_deg[:, j], color="0.1", linewidth=0.8, linestyle=(0, (3, 3)), zorder=3)
         e = err[:, j]
         known = e[np.isfinite(e)]
         stats = (f": max {np.abs(known).max():.0f}°, rms {np.sqrt((known ** 2).mean()):.2f}°" if len(known)
                  else ": not measured")
-        ax_err.plot(t, e, color=c, linewidth=1.0 + 0.7 * (len(brick.ports) - 1 - j), alpha=0.85,
-                    label=f"{port}{stats}")
+        role = f" ({roles[port]})" if port in roles else ""
+        ax_err.plot(t, e, color=c, linewidth=3.4 if under else 1.2, zorder=2, label=f"{port}{role}{stats}")
+    ax_deg.plot([], [], color="0.1", linewidth=0.8, linestyle=(0, (3, 3)), zorder=3, label="setpoints")
     ax_err.axhline(0.0, color="0.4", linewidth=0.7, zorder=1)
     spans = brick.stall_spans()
     for k, (port, a, z) in enumerate(spans):      # where a motor was not following: shaded, named
@@ -98,12 +155,13 @@ def _motor_panels(ax_deg: Axes, ax_err: Axes, brick: BrickTimeline, color: str) 
     ax_err.set_title(f"{brick.name}: tracking error (measured - setpoint)", fontsize=9, color=color)
     ax_deg.set_ylabel("degrees", fontsize=8)
     ax_err.set_ylabel("degrees", fontsize=8)
-    ax_err.set_xlabel("time (s, PC clock)", fontsize=8)
+    ax_err.set_xlabel(f"time (s, {clock})", fontsize=8)
     if brick.start_mid_s is None:
         ax_deg.text(0.5, 0.5, f"{brick.name} never started (reached: {brick.reached})", transform=ax_deg.transAxes,
                     ha="center", va="center", fontsize=9, color="crimson")
-    for ax, cols in ((ax_deg, len(brick.ports)), (ax_err, 1)):
-        ax.legend(fontsize=7, loc="best", ncol=cols, frameon=True, framealpha=0.85, edgecolor="none")
+    for ax in (ax_deg, ax_err):                 # the legend gets a band of its own above the curves
+        legend = ax.legend(fontsize=6.5, loc="upper left", ncol=1, frameon=True, framealpha=0.85, edgecolor="none")
+        _headroom(ax, len(legend.get_texts()))
     for ax in (ax_deg, ax_err):
         ax.tick_params(labelsize=7)
         ax.grid(True, linewidth=0.4, alpha=0.5)
@@ -119,12 +177,19 @@ def _skew_text(timeline: RunTimeline) -> str:
 def _bricks_panel(ax: Axes, timeline: RunTimeline, colors: Sequence[str]) -> None:
     n = len(timeline.bricks)
     used: set[str] = set()
+    short: dict[str, float] = {}          # phases drawn wider than they lasted: their longest duration
+    lo_s, hi_s = timeline.span_s()
+    least = _MIN_BAR * max(hi_s - lo_s, 1e-3)
     for row, (brick, color) in enumerate(zip(timeline.bricks, colors)):
         y = n - 1 - row
         for phase, a, b in _phases(brick):
             fill = color if phase == "run" else _PHASE_COLORS[phase]
-            ax.broken_barh([(a, max(b - a, 1e-3))], (y - 0.3, 0.6), facecolors=fill, edgecolors="none",
-                           alpha=0.85 if phase == "run" else 1.0, zorder=2)
+            if b - a < least and phase != "waiting":
+                short[phase] = max(short.get(phase, 0.0), b - a)
+            hatch = {"hatch": "////", "edgecolors": "0.55", "linewidth": 0.0} if phase == "waiting" else \
+                {"edgecolors": "none"}
+            ax.broken_barh([(a, max(b - a, least if phase != "waiting" else 1e-3))], (y - 0.3, 0.6),
+                           facecolors=fill, alpha=0.85 if phase == "run" else 1.0, zorder=2, **hatch)
             used.add(phase)
         if brick.start_s is not None:
             lo, hi = brick.start_s
@@ -151,10 +216,14 @@ def _bricks_panel(ax: Axes, timeline: RunTimeline, colors: Sequence[str]) -> Non
     ax.set_ylim(-0.8, n - 0.2)
     lo, hi = timeline.span_s()
     ax.set_xlim(lo, hi + 0.02 * (hi - lo) + 1e-3)
-    ax.set_xlabel("time (s, PC clock, from the start of the execution)", fontsize=8)
+    ax.set_xlabel(f"time (s, {timeline.clock}, from the start of the execution)", fontsize=8)
     ax.tick_params(axis="x", labelsize=7)
     ax.set_title("bricks over time: phases, start intervals, events" + _skew_text(timeline), fontsize=9)
-    handles = [Patch(facecolor=_PHASE_COLORS[p] or "0.3", label=p if _PHASE_COLORS[p] else f"{p} (the robot's colour)")
+    names = {"run": "run (the robot's colour)",
+             "waiting": "waiting for the other bricks (prepared one at a time)" if n > 1 else "waiting"}
+    handles = [Patch(facecolor=_PHASE_COLORS[p] or "0.3", hatch="////" if p == "waiting" else None,
+                     edgecolor="0.55" if p == "waiting" else None,
+                     label=names.get(p, p) + (f" ({short[p] * 1000:.0f} ms: drawn wider)" if p in short else ""))
                for p in _PHASE_COLORS if p in used]
     if handles:
         ax.legend(handles=handles, fontsize=7, loc="upper left", bbox_to_anchor=(1.005, 1.0), frameon=False)
@@ -162,8 +231,9 @@ def _bricks_panel(ax: Axes, timeline: RunTimeline, colors: Sequence[str]) -> Non
 
 
 def add_time_panels(fig: Figure, specs: Sequence[SubplotSpec], bricks_spec: SubplotSpec, timeline: RunTimeline,
-                    colors: Sequence[str]) -> list[Axes]:
-    """Draw the panels: ``specs`` holds two cells (angles, error) per brick, in order; returns
+                    colors: Sequence[str], roles: Mapping[str, Mapping[str, str]] | None = None) -> list[Axes]:
+    """Draw the panels: ``specs`` holds two cells (angles, error) per brick, in order; ``roles``
+    says per brick what each motor port drives (``{"r1": {"A": "carriage wheel"}}``); returns
     every axes made (the time panels share their time axis)."""
     axes: list[Axes] = []
     first: Axes | None = None
@@ -171,7 +241,7 @@ def add_time_panels(fig: Figure, specs: Sequence[SubplotSpec], bricks_spec: Subp
         ax_deg = fig.add_subplot(specs[2 * k], sharex=first)
         first = first or ax_deg
         ax_err = fig.add_subplot(specs[2 * k + 1], sharex=first)
-        _motor_panels(ax_deg, ax_err, brick, colors[k])
+        _motor_panels(ax_deg, ax_err, brick, colors[k], (roles or {}).get(brick.name), timeline.clock)
         axes += [ax_deg, ax_err]
     span = timeline.run_span_s()
     if first is not None and span is not None:

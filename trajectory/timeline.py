@@ -124,11 +124,14 @@ class BrickTimeline:
 @dataclass(frozen=True, slots=True, eq=False)
 class RunTimeline:
     """Every brick of one execution; ``stopped`` is ``(t_s, reason)`` when it ended early, and
-    ``skew_s`` the start skew measured from the log, ``(estimate, min, max)``, when known."""
+    ``skew_s`` the start skew measured from the log, ``(estimate, min, max)``, when known.
+    ``clock`` names the clock of its times, as the time axes say it: ``"PC clock"``, or
+    ``"simulated clock"`` for emulated bricks on simulated time (no wall clock involved)."""
 
     bricks: tuple[BrickTimeline, ...]
     stopped: tuple[float, str] | None = None
     skew_s: tuple[float, float, float] | None = None
+    clock: str = "PC clock"
     names: tuple[str, ...] = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
@@ -181,7 +184,8 @@ class CycleFrame:
     text), where the scene's bodies are (robot and payload-end names -> grid position; empty
     when the run has no scene), the run's trace of this cycle (``lines``: actions, events,
     the re-plan and its reason, a failure), and whether it re-planned or failed; ``ended``
-    marks the frame of the run's end (after its last cycle)."""
+    marks the frame of the run's end (after its last cycle). ``actions`` are the actions the
+    cycle executed, as text (``"follow"``, ``"move(r1,right,steps=1) x2"``)."""
 
     cycle: int
     time_s: float
@@ -191,9 +195,11 @@ class CycleFrame:
     replanned: bool = False
     failed: bool = False
     ended: bool = False
+    actions: tuple[str, ...] = ()
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "state", MappingProxyType({str(k): str(v) for k, v in self.state.items()}))
         object.__setattr__(self, "positions", MappingProxyType(
             {str(k): (float(v[0]), float(v[1])) for k, v in self.positions.items()}))
         object.__setattr__(self, "lines", tuple(str(x) for x in self.lines))
+        object.__setattr__(self, "actions", tuple(str(x) for x in self.actions))

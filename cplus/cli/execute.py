@@ -156,10 +156,11 @@ def add_execution_options(p: argparse.ArgumentParser, *, fast: bool = False) -> 
                         "on simulated time the same seed gives the same log)")
 
 
-def run_timeline(log: nxt_link.ExecutionLog) -> trajectory.RunTimeline:
+def run_timeline(log: nxt_link.ExecutionLog, clock: str = "PC clock") -> trajectory.RunTimeline:
     """The log as `trajectory` draws it over time: each brick's setpoints and readings per tick
-    on the PC's clock (a tick lasts ``tick_ms / time_scale`` there), its start interval, its
-    events, and the run's stop and start skew."""
+    on the log's clock (a tick lasts ``tick_ms / time_scale`` there), its start interval, its
+    events, and the run's stop and start skew. ``clock`` names that clock on the time axes: the
+    PC's, or the simulated clock of emulated bricks on simulated time (:func:`clock_of`)."""
     bricks = []
     for b in log.bricks:
         measured = np.array([[math.nan] * len(b.ports) if r is None else r for r in b.measured_deg], dtype=float)
@@ -168,7 +169,13 @@ def run_timeline(log: nxt_link.ExecutionLog) -> trajectory.RunTimeline:
             start_s=b.start_s, events=tuple((e.t_s, e.event, e.detail) for e in b.events), reached=b.reached))
     skew = log.start_skew()
     return trajectory.RunTimeline(tuple(bricks), None if log.stopped is None else (log.stopped.t_s, log.stopped.reason),
-                                  None if skew is None else (skew.estimate, skew.min, skew.max))
+                                  None if skew is None else (skew.estimate, skew.min, skew.max), clock)
+
+
+def clock_of(args: argparse.Namespace) -> str:
+    """The clock an execution's times are on: emulated bricks (no ``--brick``) without
+    ``--time-scale`` run on simulated time, every other run on the PC's clock."""
+    return "simulated clock" if not args.brick and args.time_scale is None else "PC clock"
 
 
 def check_outputs(paths: Mapping[str, str | None], prog: str) -> str | None:
@@ -246,13 +253,13 @@ class _Outputs:
                     title += ", incomplete"
                 trajectory.plot_execution(self.scene, self.traj.planned_paths(),
                                           {k: v for k, v in report.executed_paths.items() if len(v)},
-                                          args.plot, title=title, timeline=run_timeline(log))
+                                          args.plot, title=title, timeline=run_timeline(log, clock_of(args)))
                 self._wrote(args.plot)
             if args.animate and self.scene is not None and not plot:
                 print(f"cplus execute: no animation {args.animate}: the run was stopped by a signal", file=self.err)
             elif args.animate and self.scene is not None:
                 title = f"{self.scene.name}: executed (solid) vs planned (dashed)"
-                trajectory.animate_run(self.scene, self.traj, args.animate, timeline=run_timeline(log),
+                trajectory.animate_run(self.scene, self.traj, args.animate, timeline=run_timeline(log, clock_of(args)),
                                        title=title + ("" if log.complete else ", incomplete"),
                                        max_frames=args.frames, dpi=args.dpi,
                                        on_progress=FrameProgress("cplus execute", args.animate, self.err,

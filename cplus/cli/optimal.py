@@ -12,7 +12,7 @@ import sys
 from cplus.cli.common import EXIT_INTERRUPTED, EXIT_INVARIANT_WRONG, EXIT_NO_PLAN_PROVED, EXIT_NOT_PROVED, EXIT_OK
 from cplus.errors import CPlusError
 from cplus.invariant import InvariantResult, InvariantStatus
-from cplus.sat.optimize import Objective, Optimum, line, optimum_json, optimum_text, run_optimal
+from cplus.sat.optimize import Objective, Optimum, line, optimum_text, run_optimal
 
 __all__ = ["proof_exit_code", "cli_check", "cli_solve", "robot_check", "robot_report"]
 
@@ -34,18 +34,15 @@ def cli_check(domain, queries, args) -> Objective:
 
 
 def cli_solve(domain, query, args, wanted: int, on_horizon):
-    """``cplus plan --minimize``'s run of one query: the result, and a function that prints
-    (or adds to the query's JSON document) what is known of the optimum and returns the exit
-    code it calls for (0; 12 a plan not proved optimal; 130 interrupted)."""
+    """``cplus plan --minimize``'s run of one query: the result (whose text and JSON,
+    ``Domain.format`` and ``Domain.to_json``, hold the optimum), and a function that says on
+    standard error what is known of an optimum not proved and returns the exit code it calls
+    for (0; 12 a plan not proved optimal; 130 interrupted)."""
     objective = Objective.parse(args.minimize, domain.program.signature)
     result = run_optimal(domain.theory_for(query), query, objective, wanted, args.solver or "glucose4",
                          args.max_horizon, args.over_lengths, args.time_limit, on_horizon=on_horizon)
 
     def report(doc: dict | None) -> int:
-        if doc is not None:
-            doc["optimum"] = optimum_json(result)
-        else:
-            sys.stdout.write(optimum_text(result))
         opt = result.optimum
         if opt is None or opt.proved:
             return EXIT_OK

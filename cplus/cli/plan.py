@@ -362,7 +362,7 @@ def _animate(task, states: list, violation, args: argparse.Namespace) -> int:
     try:
         traj = trajectory.build_trajectory(task.scene, states, points_per_step=args.points_per_step,
                                            step_time_s=args.step_time, check=False)
-        title = f"{os.path.basename(args.file)}: plan of length {len(states) - 1}"
+        title = trajectory.plan_title(task.scene, len(states) - 1, os.path.basename(args.file))
         if violation is not None:
             title += f", not collision-free ({violation.kind.value} from step {violation.step})"
         trajectory.animate_run(task.scene, traj, args.animate, title=title, max_frames=args.frames, dpi=args.dpi,

@@ -6,22 +6,31 @@ the payload where each cycle's state puts them, with the hands' trails and where
 or failed; any other run shows its state's fluents over the cycles. Beside it, each cycle's
 time, actions, events, sensed values, re-plan and failure, and at the end how the run ended.
 
+A log continued after a restart holds several runs, each from its start record to its end
+record (a run without one crashed or was killed, and is drawn so); the last is replayed unless
+``--run N`` picks another. A cycle is one turn of the loop: the state observed, the plan kept
+or made again, a step sent (the payload arms: what is left of the plan); the last cycle of a
+run finds the goal (or the reason to stop) and sends nothing, so a run that reached its goal at
+cycle 8 ran 8 cycles, as ``cplus online`` says, and is replayed as 9 cycle frames and its end.
+
 The log is checked before anything is drawn: a missing file, a file that is not such a log, a
-line that is not JSON, or a last line cut off (a run killed while writing) is one line on stderr
-and exit code 2.
+line that is not JSON (but a line cut off at the end of a run, which was killed while writing
+it), cycles out of order or at a time that is not a finite number of seconds going forward, or
+a record out of place is one line on stderr naming the file and the line, and exit code 2.
 """
 from __future__ import annotations
 
 import argparse
 import json
+import math
 import os
 import sys
-from typing import Any
+from typing import Any, NamedTuple
 
 from cplus.cli.animation_options import FrameProgress, add_animation_options, animation_check
-from cplus.cli.common import EXIT_INPUT, EXIT_OK, CliError, OneLineArgumentParser
+from cplus.cli.common import EXIT_INPUT, EXIT_OK, CliError, OneLineArgumentParser, positive_int
 
-__all__ = ["build_parser", "main", "read_log", "frames_of"]
+__all__ = ["build_parser", "main", "read_log", "read_runs", "pick_run", "Run", "frames_of", "cycles_ran"]
 
 PROG = "cplus replay"
 #: The format of the logs replayed (:data:`cplus.robot.online.loop.ONLINE_FORMAT`, which a test holds equal).
@@ -36,6 +45,9 @@ def build_parser() -> OneLineArgumentParser:
     p.add_argument("log", help="the run's log (cplus.online/1 JSON lines, from --log)")
     add_animation_options(p, "where each cycle's state puts them (any other run: its fluents over the cycles)")
     p.add_argument("--scene", metavar="FILE", help="the scene of a payload-arms run (default: the one its log names)")
+    p.add_argument("--run", type=positive_int, metavar="N",
+                   help="the run to replay when the log holds several (a log continued after a restart): 1 is the "
+                        "first (default: the last)")
     p.add_argument("--quiet", "-q", action="store_true", help="no progress on stderr")
     return p
 
@@ -44,12 +56,23 @@ def _fail(where: str, message: str) -> CliError:
     return CliError(f"{PROG}: error: {where}: {message}")
 
 
-def read_log(path: str) -> tuple[dict[str, Any], list[dict[str, Any]], dict[str, Any] | None]:
-    """The start record, the cycle records and the end record (None: the run did not end).
+class Run(NamedTuple):
+    """One run of a log: its number (1-based), the line of its start record, the records, and
+    ``cut``: the line cut off at its end (a run killed while writing it), if any."""
 
-    Raises:
-        CliError: one line naming the file, the line and what is wrong.
-    """
+    number: int
+    line: int
+    start: dict[str, Any]
+    cycles: list[dict[str, Any]]
+    end: dict[str, Any] | None
+    cut: int | None = None
+
+
+_START = '{"record": "start"'
+"""How a start record's line begins (json.dumps' default spacing, as the loop writes it)."""
+
+
+def _read_text(path: str) -> str:
     if not os.path.isfile(path):
         raise _fail(path, "not a regular file" if os.path.exists(path) else "no such file")
     try:
@@ -65,49 +88,142 @@ def read_log(path: str) -> tuple[dict[str, Any], list[dict[str, Any]], dict[str,
         raise _fail(path, f"not a {ONLINE_FORMAT} log (not UTF-8 text)") from None
     if not text.strip():
         raise _fail(path, f"the file is empty (not a {ONLINE_FORMAT} log)")
+    return text
+
+
+def _records(path: str, text: str) -> list[tuple[int, dict[str, Any] | None]]:
+    """``(line, record)`` for every line; ``None`` for a line cut off by a run killed while
+    writing it: the file's last line without its line end, or a line whose JSON stops where
+    a restarted run's start record begins (the start record is then read on its own)."""
     lines = text.split("\n")
     complete = text.endswith("\n")
     if complete:
         lines.pop()
-    records = []
+    out: list[tuple[int, dict[str, Any] | None]] = []
     for n, line in enumerate(lines, 1):
         try:
             record = json.loads(line)
         except json.JSONDecodeError as exc:
-            if n == len(lines) and not complete and n > 1:
-                raise _fail(f"{path}:{n}", "the last line is cut off (the run was stopped while writing it)") from None
-            raise _fail(f"{path}:{n}", f"not JSON: {exc.msg} at column {exc.colno}"
-                        + (f" (not a {ONLINE_FORMAT} log)" if n == 1 else "")) from None
+            restart = line.find(_START, 1)
+            if n > 1 and ((n == len(lines) and not complete) or (n < len(lines) and _starts_run(lines[n]))):
+                out.append((n, None))
+                continue
+            if restart > 0:
+                out.append((n, None))
+                line = line[restart:]
+                try:
+                    record = json.loads(line)
+                except json.JSONDecodeError as inner:
+                    raise _fail(f"{path}:{n}", f"not JSON: {inner.msg}") from None
+            else:
+                raise _fail(f"{path}:{n}", f"not JSON: {exc.msg} at column {exc.colno}"
+                            + (f" (not a {ONLINE_FORMAT} log)" if n == 1 else "")) from None
         except RecursionError:
             raise _fail(f"{path}:{n}", "JSON nested too deeply") from None
         if not isinstance(record, dict) or not isinstance(record.get("record"), str):
             raise _fail(f"{path}:{n}", "a record is a JSON object with a \"record\" field")
-        records.append((n, record))
-    if not records or records[0][1].get("record") != "start" or records[0][1].get("format") != ONLINE_FORMAT:
+        out.append((n, record))
+    return out
+
+
+def _starts_run(line: str) -> bool:
+    """Whether a line is a run's start record (a line cut off before it ended a crashed run)."""
+    if not line.startswith(_START):
+        return False
+    try:
+        return isinstance(json.loads(line), dict)
+    except (json.JSONDecodeError, RecursionError):
+        return False
+
+
+def read_runs(path: str) -> list[Run]:
+    """Every run of a log, in order: a log continued after a restart holds several, each from
+    its start record to its end record (a run without one crashed or was killed).
+
+    Raises:
+        CliError: one line naming the file, the line and what is wrong.
+    """
+    records = _records(path, _read_text(path))
+    first = records[0][1]
+    if first is None or first.get("record") != "start" or first.get("format") != ONLINE_FORMAT:
         raise _fail(f"{path}:1", f"not a {ONLINE_FORMAT} log (its first line is not the run's start record)")
-    cycles, end = [], None
-    for n, record in records[1:]:
+    runs: list[Run] = []
+    for n, record in records:
+        where = f"{path}:{n}"
+        current = runs[-1] if runs else None
+        if current is not None and current.cut is not None:
+            if record is None or record["record"] != "start":
+                raise _fail(f"{path}:{current.cut}", "not JSON: a line cut off, and the run goes on after it")
+        if record is None:                    # the run was killed while writing this line
+            assert current is not None
+            if current.end is not None:
+                raise _fail(where, "not JSON: a line cut off after the run's end record")
+            runs[-1] = current._replace(cut=n)
+            continue
         kind = record["record"]
-        if end is not None:
-            raise _fail(f"{path}:{n}", "a record after the end record")
+        if kind == "start":
+            if record.get("format") != ONLINE_FORMAT:
+                raise _fail(where, f"a start record of another format than {ONLINE_FORMAT}")
+            runs.append(Run(len(runs) + 1, n, record, [], None))
+            continue
+        assert current is not None
+        if current.end is not None:
+            raise _fail(where, "a record after the end record (a run that follows begins with its start record)")
         if kind == "cycle":
-            _check_cycle(record, f"{path}:{n}")
-            cycles.append(record)
+            _check_cycle(record, where, current.cycles[-1] if current.cycles else None)
+            current.cycles.append(record)
         elif kind == "end":
-            end = record
+            _check_end(record, where)
+            runs[-1] = current._replace(end=record)
         else:
-            raise _fail(f"{path}:{n}", f"unknown record {kind!r} (expected cycle or end)")
-    if not cycles:
-        raise _fail(path, "the log has no cycle to replay")
-    return records[0][1], cycles, end
+            raise _fail(where, f"unknown record {kind!r} (expected cycle, end, or the start of another run)")
+    return runs
 
 
-def _check_cycle(record: dict[str, Any], where: str) -> None:
+def read_log(path: str, run: int | None = None) -> tuple[dict[str, Any], list[dict[str, Any]], dict[str, Any] | None]:
+    """The start record, the cycle records and the end record (None: the run did not end) of
+    one run of a log: the last unless ``run`` (1-based) picks another.
+
+    Raises:
+        CliError: one line naming the file, the line and what is wrong.
+    """
+    chosen = pick_run(path, read_runs(path), run)
+    return chosen.start, chosen.cycles, chosen.end
+
+
+def pick_run(path: str, runs: list[Run], run: int | None) -> Run:
+    """The run to replay (``run``: 1-based; None: the last), with a cycle to replay."""
+    if run is not None and not 1 <= run <= len(runs):
+        raise CliError(f"{PROG}: error: --run {run}: {path} holds {len(runs)} run{'' if len(runs) == 1 else 's'}")
+    chosen = runs[-1] if run is None else runs[run - 1]
+    if not chosen.cycles:
+        if len(runs) == 1:
+            raise _fail(path, "the log has no cycle to replay")
+        others = [r.number for r in runs if r.cycles]
+        hint = f" (runs with cycles: {', '.join(map(str, others))}; pick one with --run N)" if others else ""
+        raise _fail(f"{path}:{chosen.line}", f"run {chosen.number} of {len(runs)} has no cycle to replay{hint}")
+    return chosen
+
+
+def _finite(value: Any) -> bool:
+    return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
+
+
+def _check_cycle(record: dict[str, Any], where: str, previous: dict[str, Any] | None) -> None:
     if not isinstance(record.get("cycle"), int) or isinstance(record.get("cycle"), bool):
         raise _fail(where, "a cycle record needs \"cycle\" (a whole number)")
     t = record.get("time")
     if not isinstance(t, (int, float)) or isinstance(t, bool):
         raise _fail(where, "a cycle record needs \"time\" (seconds)")
+    if not math.isfinite(t) or t < 0:
+        raise _fail(where, f"\"time\" must be a finite number of seconds from the run's start, not {t}")
+    if previous is not None:
+        if record["cycle"] <= previous["cycle"]:
+            raise _fail(where, f"cycle {record['cycle']} after cycle {previous['cycle']}: a run's cycles are in "
+                               "increasing order")
+        if t < previous["time"]:
+            raise _fail(where, f"cycle {record['cycle']} at {t} s, before the cycle ahead of it "
+                               f"({previous['time']} s)")
     if record.get("state") is not None and not isinstance(record["state"], dict):
         raise _fail(where, "\"state\" must be an object (fluent: value) or null")
     for key in ("events", "inferred", "executed", "notes", "goals"):
@@ -116,6 +232,18 @@ def _check_cycle(record: dict[str, Any], where: str) -> None:
     for key in ("sensed", "replanned"):
         if record.get(key) is not None and not isinstance(record[key], dict):
             raise _fail(where, f"\"{key}\" must be an object or null")
+
+
+def _check_end(record: dict[str, Any], where: str) -> None:
+    seconds = record.get("seconds")
+    if seconds is not None and not (_finite(seconds) and seconds >= 0):
+        raise _fail(where, f"\"seconds\" must be a finite number of seconds, not {seconds}")
+    for key in ("cycles", "replans"):
+        value = record.get(key)
+        if value is not None and (not isinstance(value, int) or isinstance(value, bool) or value < 0):
+            raise _fail(where, f"\"{key}\" must be a whole number")
+    if record.get("state") is not None and not isinstance(record["state"], dict):
+        raise _fail(where, "\"state\" must be an object (fluent: value) or null")
 
 
 def _text(value: Any) -> str:
@@ -181,17 +309,35 @@ def _trace(record: dict[str, Any]) -> list[str]:
 
 def _runs(items: list[str]) -> str:
     """``a, b x3, c``: repeated neighbours counted."""
+    return ", ".join(_counted(items))
+
+
+def _counted(items: list[str]) -> list[str]:
+    """``["a", "b x3", "c"]``: repeated neighbours counted."""
     out: list[list] = []
     for item in items:
         if out and out[-1][0] == item:
             out[-1][1] += 1
         else:
             out.append([item, 1])
-    return ", ".join(f"{a} x{n}" if n > 1 else a for a, n in out)
+    return [f"{a} x{n}" if n > 1 else a for a, n in out]
 
 
-def frames_of(cycles: list[dict[str, Any]], end: dict[str, Any] | None, scene=None) -> list:
-    """One :class:`trajectory.CycleFrame` per cycle, and one for the end record."""
+def cycles_ran(cycles: int) -> int:
+    """How many cycles of a run acted, as ``cplus online`` counts them: a cycle sends a step (or
+    waits), and the last cycle of a run that ended, the one that found the goal or the reason
+    to stop, sends nothing; the end record's ``cycles`` counts that one too."""
+    return max(cycles - 1, 0)
+
+
+def _plural(n: int, word: str) -> str:
+    return f"{n} {word}{'' if n == 1 else 's'}"
+
+
+def frames_of(cycles: list[dict[str, Any]], end: dict[str, Any] | None, scene=None, *, crashed: bool = False,
+              cut: int | None = None) -> list:
+    """One :class:`trajectory.CycleFrame` per cycle, and one for the end record; with
+    ``crashed`` (a run without an end record) one that says so (``cut``: the line cut off)."""
     import trajectory
     frames = []
     state: dict[str, Any] = {}
@@ -200,23 +346,33 @@ def frames_of(cycles: list[dict[str, Any]], end: dict[str, Any] | None, scene=No
         if record.get("state") is not None:
             state = record["state"]
         replan = record.get("replanned")
+        executed = list(map(str, record.get("executed") or []))
         frames.append(trajectory.CycleFrame(
             record["cycle"], float(record["time"]), {k: _text(v) for k, v in state.items()},
             _positions(state, scene), tuple(_trace(record)),
-            replanned=isinstance(replan, dict) and replan.get("reason") != "start", failed=failed))
+            replanned=isinstance(replan, dict) and replan.get("reason") != "start", failed=failed,
+            actions=tuple(_counted(executed))))
+    last = frames[-1]
     if end is not None:
-        last = frames[-1]
         final: dict[str, Any] = end["state"] if isinstance(end.get("state"), dict) else state
         seconds = _number(end.get("seconds"))
         status = str(end.get("status", "?"))
         lines = [f"the run ended: {status}", str(end.get("message", ""))]
         if isinstance(end.get("replans"), int):
             n = end["replans"]
-            lines.append(f"{end.get('cycles', len(cycles))} cycles, {n} re-plan{'' if n == 1 else 's'}")
+            ran = cycles_ran(end["cycles"] if isinstance(end.get("cycles"), int) else len(cycles))
+            lines.append(f"{_plural(ran, 'cycle')} ran, {_plural(n, 'replan')}")
         frames.append(trajectory.CycleFrame(
             last.cycle, max(last.time_s, seconds if seconds is not None else last.time_s),
             {k: _text(v) for k, v in final.items()}, _positions(final, scene), tuple(lines),
             failed=status != "goal_reached", ended=True))
+    elif crashed:
+        lines = ["the run has no end record: it crashed or was killed",
+                 f"after cycle {last.cycle} ({_plural(len(cycles), 'cycle record')} in the log)"]
+        if cut is not None:
+            lines.append(f"its last line ({cut}) is cut off: it was stopped while writing it")
+        frames.append(trajectory.CycleFrame(last.cycle, last.time_s, {k: _text(v) for k, v in state.items()},
+                                            _positions(state, scene), tuple(lines), failed=True, ended=True))
     return frames
 
 
@@ -242,17 +398,21 @@ def main(args: argparse.Namespace) -> int:
         problem = animation_check(args.animate, "--animate", PROG)
         if problem is not None:
             raise CliError(problem)
-        start, cycles, end = read_log(args.log)
-        scene = _scene(args, start)
+        runs = read_runs(args.log)
+        run = pick_run(args.log, runs, args.run)
+        scene = _scene(args, run.start)
     except CliError as exc:
         print(exc, file=err)
         return EXIT_INPUT
     except trajectory.SceneError as exc:
         print(f"{PROG}: {exc}", file=err)
         return EXIT_INPUT
-    frames = frames_of(cycles, end, scene)
+    frames = frames_of(run.cycles, run.end, scene, crashed=run.end is None, cut=run.cut)
+    start = run.start
     domain = os.path.basename(str(start.get("domain", args.log)))
     title = f"{domain}: goal '{start.get('goal', '?')}' on {start.get('executor', 'a robot')}"
+    if len(runs) > 1:
+        title += f" (run {run.number} of {len(runs)})"
     try:
         trajectory.animate_cycles(frames, args.animate, scene=scene, title=title, max_frames=args.frames,
                                   dpi=args.dpi, on_progress=FrameProgress(PROG, args.animate, err, args.quiet))

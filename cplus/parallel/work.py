@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-from cplus.history import History
+from cplus.history import History, from_object, to_object
 from cplus.sat.horizon import QuerySession
 
 __all__ = ["Work", "Outcome"]
@@ -64,7 +64,7 @@ class Work:
         ix = self.index
 
         def table(t: dict) -> list:
-            return [(ix[gc], gc.domain.index(v)) for gc, v in t.items()]
+            return [(ix[gc], gc.domain.index(to_object(gc, v))) for gc, v in t.items()]
         return hist.maxstep, table(hist.rigid), [table(s) for s in hist.states], [table(a) for a in hist.actions]
 
     def decode(self, data: tuple) -> History:
@@ -72,7 +72,7 @@ class Work:
         m, rigid, states, actions = data
 
         def table(rows: list) -> dict:
-            return {ground[i]: ground[i].domain[j] for i, j in rows}
+            return {ground[i]: from_object(ground[i], ground[i].domain[j]) for i, j in rows}
         return History(m, table(rigid), tuple(table(s) for s in states), tuple(table(a) for a in actions))
 
 

@@ -17,7 +17,7 @@ def test_tanks_are_the_jugs_puzzle_scaled_by_25():
     for t in range(7):
         before = {k: h.value(f"level({k})", t) for k in caps}
         after = {k: h.value(f"level({k})", t + 1) for k in caps}
-        [(src, dst)] = [tuple(gc.args) for gc, v in h.actions[t].items() if v == "true"]
+        [(src, dst)] = [tuple(gc.args) for gc, v in h.actions[t].items() if v is True]
         moved = min(before[src], caps[dst] - before[dst])
         assert after[src] == before[src] - moved and after[dst] == before[dst] + moved
     assert (h.value("level(a)", 7), h.value("level(b)", 7)) == (100, 100)
@@ -29,7 +29,7 @@ def test_the_car_obeys_its_physics_and_the_school_zone():
     h = r.histories[0]
     for t in range(9):
         pos, spd, clk = (h.value(c, t) for c in ("pos", "spd", "clk"))
-        done = {gc.text: gc for gc, v in h.actions[t].items() if v == "true"}
+        done = {gc.text: gc for gc, v in h.actions[t].items() if v is True}
         drives = [gc.args[0] for gc in done.values() if gc.decl.name == "drive"]
         if drives:
             (d,) = drives

@@ -252,7 +252,7 @@ def planner_atoms(h) -> frozenset:
     for t, table in [(None, h.rigid), *enumerate(h.states), *enumerate(h.actions)]:
         for gc, v in table.items():
             text = gc.text if gc.boolean else f"{gc.text}={v}"
-            if gc.boolean and v != "true":
+            if gc.boolean and v is not True:
                 continue
             out.add(text if t is None else f"{t}:{text}")
     return frozenset(out)

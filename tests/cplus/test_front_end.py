@@ -114,7 +114,7 @@ BASE = ":- sorts room. :- objects k, h :: room. :- variables R :: room.\n" \
 
 
 @pytest.mark.parametrize("text, line, col, fragment", [
-    (BASE + "flip(R) causes lit(R)\nflip(R) causes lvl=1.", 4, 1, "unexpected 'flip'"),  # missing '.'
+    (BASE + "flip(R) causes lit(R)\nflip(R) causes lvl=1.", 3, 22, "missing '.' at the end of this statement"),
     ("/* never closed\n", 1, 1, "unterminated comment"),
     ("caused p if q.r.", 1, 14, "unexpected '.'"),
     ("caused p if q & .\n", 1, 17, "ends too early"),
@@ -145,14 +145,88 @@ def test_bad_input_is_located(tmp_path, text, line, col, fragment):
     assert "^" in rendered.splitlines()[2]
 
 
-def test_a_last_statement_without_period_is_reported_and_ignored(tmp_path):
-    """CCALC's Prolog reader skips a clause it cannot end; so do we, with a warning."""
+def test_text_at_the_end_that_is_no_statement_is_reported_and_ignored(tmp_path):
+    """CCALC's Prolog reader skips a clause it cannot end; so do we, with a warning (a file of
+    the conformance corpus ends so: ``throwOff(ANML,H).NOOP``)."""
     path = tmp_path / "t.cp"
-    path.write_text(":- constants p :: inertialFluent.\ncaused p")
+    path.write_text(":- constants p :: inertialFluent.\ncaused p.NOOP")
     d = Diagnostics()
     load_program(str(path), diagnostics=d)
     assert [str(x.loc) for x in d.items] == [f"{path}:2:1"]
     assert "not ended by '.'" in d.items[0].render()
+
+
+@pytest.mark.parametrize("last, col", [
+    ("caused p", 9),
+    (":- query label :: on; maxstep :: 0..2; 0: -p; maxstep: p", 57),
+    ("caused p   % the period is missing.\n", 9),
+])
+def test_a_last_statement_without_its_period_is_an_error_at_its_end(tmp_path, last, col):
+    """A whole statement but for its '.' is a forgotten '.', not text to skip: a file whose
+    query lacks it would otherwise be told it has no queries."""
+    err = located(tmp_path, ":- constants p :: inertialFluent.\n" + last)
+    assert isinstance(err, CPlusSyntaxError)
+    assert err.render().startswith(f"{tmp_path / 'bad.cp'}:2:{col}: error: missing '.' at the end of the file's "
+                                   "last statement\n"), err.render()
+
+
+@pytest.mark.parametrize("text, line, col", [
+    ("flip causes lit\nnonexecutable flip if lit.", 1, 16),        # the issue's example
+    ("flip causes lit  % a comment.\n\n% another\ncaused lit.", 1, 16),
+    ("flip causes lit\n:- query label :: on; maxstep :: 1; maxstep: lit.", 1, 16),
+    (":- constants lit :: inertialFluent\n:- variables X :: 0..1.", 1, 35),
+    ("caused lit if lit\n  after flip\nflip causes lit.", 2, 13),   # a law over two lines
+])
+def test_a_missing_period_is_reported_at_the_end_of_the_statement_that_lacks_it(text, line, col):
+    with pytest.raises(CPlusSyntaxError) as info:
+        parse_program(text, "t.cp")
+    assert info.value.message == "missing '.' at the end of this statement (the next line starts another one)"
+    assert (info.value.loc.line, info.value.loc.col) == (line, col)
+
+
+STATEMENTS = [
+    ":- sorts room", ":- objects kitchen, hall :: room", ":- variables R :: room",
+    ":- constants at :: inertialFluent(room); go(room) :: exogenousAction",
+    "go(R) causes at=R", "nonexecutable go(R) if at=R", "suck causes -dirty(R) if at=R",
+    "go(R) increments cost by 2", "caused lit if lit after flip", "default -lit", "exogenous flip",
+    "inertial lit", "constraint -(lit & dark)", "always lit", "lit", "flip may cause lit if dark",
+    ":- query label :: tidy; maxstep :: 0..10; 0: at=hall; maxstep: -dirty(kitchen)",
+    ":- show at; dirty(R)", ":- include 'base.cp'",
+]
+"""Well-formed statements, one line each, none of which continues the one before it."""
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.lists(st.sampled_from(STATEMENTS), min_size=2, max_size=5), st.data())
+def test_one_missing_period_among_statements_is_found_where_it_is_missing(statements, data):
+    """Whichever statement lacks its '.', the error is at that statement's end."""
+    missing = data.draw(st.integers(0, len(statements) - 2))
+    text = "".join(s + ("\n" if k == missing else ".\n") for k, s in enumerate(statements))
+    with pytest.raises(CPlusSyntaxError) as info:
+        parse_program(text, "t.cp")
+    assert "missing '.'" in info.value.message
+    assert (info.value.loc.line, info.value.loc.col) == (missing + 1, len(statements[missing]) + 1)
+
+
+@pytest.mark.parametrize("text, fragment", [
+    ("clean cause lit.", "unexpected 'cause' (did you mean 'causes'?)"),
+    ("flip causes lit unles dark.", "unexpected 'unles' (did you mean 'unless'?)"),
+    ("go(R) increment cost by 2.", "unexpected 'increment' (did you mean 'increments'?)"),
+    ("nonexecutible flip if lit.", "unexpected 'flip' ('nonexecutible' is not a keyword: did you mean "
+                                   "'nonexecutable'?)"),
+    (":- constant lit :: inertialFluent.", "unknown directive ':- constant' (did you mean ':- constants'? known:"),
+])
+def test_a_misspelled_keyword_gets_a_suggestion(text, fragment):
+    with pytest.raises(CPlusSyntaxError) as info:
+        parse_program(text, "t.cp")
+    assert fragment in info.value.message
+
+
+@pytest.mark.parametrize("text", ["caused p if q r.", "flip causes lit if dark wet."])
+def test_a_name_far_from_every_keyword_gets_no_suggestion(text):
+    with pytest.raises(CPlusSyntaxError) as info:
+        parse_program(text, "t.cp")
+    assert "did you mean" not in info.value.message
 
 
 def test_include_cycle_is_an_error(tmp_path):

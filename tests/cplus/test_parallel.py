@@ -23,6 +23,7 @@ from hypothesis import assume, given, settings
 
 from cplus import Domain
 from cplus.cli import main
+from cplus.history import to_object
 from cplus.parallel import Strategy, solve_parallel
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -38,7 +39,7 @@ LONG = {"examples/benchmarks/ferryman-etc/ferryman-30-4-benchmark.cp#0",
 
 def key(h) -> tuple:
     def cells(table):
-        return frozenset((gc.text, str(v)) for gc, v in table.items())
+        return frozenset((gc.text, str(to_object(gc, v))) for gc, v in table.items())
     return cells(h.rigid), tuple(cells(s) for s in h.states), tuple(cells(a) for a in h.actions)
 
 

@@ -30,6 +30,7 @@ from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
 from cplus import Domain
+from cplus.history import to_object
 from cplus.sat import factor, intervals, products
 
 
@@ -42,7 +43,7 @@ def count(text: str, label: str = "0") -> tuple[int | None, int]:
 def key(h) -> tuple:
     """A history as the oracle writes it: (constant text, printed value) per step."""
     def cells(table):
-        return frozenset((gc.text, str(v)) for gc, v in table.items())
+        return frozenset((gc.text, str(to_object(gc, v))) for gc, v in table.items())
     return cells(h.rigid), tuple(cells(s) for s in h.states), tuple(cells(a) for a in h.actions)
 
 

@@ -208,7 +208,7 @@ def test_loadf_replaces_the_theory(lamp, tmp_path):
     other = tmp_path / "other.cp"
     other.write_text(":- constants q :: inertialFluent.\n:- query label :: only; maxstep :: 0; 0: q.\n")
     proc = cplus(["shell", lamp, str(other)], "query on.\nquery only.\n")
-    assert "no query with label 'on' (this file's labels: only)" in proc.stderr
+    assert "no query with label 'on' (did you mean 'only'? this file's labels: only)" in proc.stderr
     assert "0:  q" in proc.stdout
 
 

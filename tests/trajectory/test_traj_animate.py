@@ -129,3 +129,72 @@ def test_a_robot_the_scene_lacks_is_refused(payload_scene: Scene, traj, tmp_path
                        (dataclasses.replace(traj.robots[0], name="r7"),), traj.source)
     with pytest.raises(TrajectoryError, match="cannot animate robot r7: it is not in the scene"):
         animate_run(payload_scene, other, tmp_path / "a.gif")
+
+
+# --------------------------------------------------------------------------- a replay's figure
+
+def _delivery_frames(n: int = 4) -> list[CycleFrame]:
+    """Cycles of a delivery run: the letters in the order the log lists them (1, 3, 2, 4)."""
+    out = []
+    for k in range(n):
+        state = {"atLandmark": str(1 + k % 3), "letter(1)": "true" if k else "false", "letter(3)": "true",
+                 "letter(2)": "false", "letter(10)": "false", "letter(4)": "false", "trayUp": "true"}
+        out.append(CycleFrame(k, 1.5 * k, state, actions=("follow",) if k % 2 else ("turn", "lowerTray", "x", "y")))
+    return out
+
+
+def _table(fig):
+    (ax,) = [a for a in fig.axes if a.tables]
+    return ax, ax.tables[0]
+
+
+def test_a_replay_table_has_an_actions_row_then_the_fluents_in_order() -> None:
+    fig = animate_module.cycles_figure(_delivery_frames())
+    _, table = _table(fig)
+    cells = table.get_celld()
+    labels = [cells[r, -1].get_text().get_text() for r in range(1, 9)]
+    assert labels == [animate_module.ACTIONS_ROW, "atLandmark", "letter(1)", "letter(2)", "letter(3)", "letter(4)",
+                      "letter(10)", "trayUp"]
+    assert [cells[1, c].get_text().get_text() for c in range(4)] == ["turn\nlowerTray\n+2 more", "follow",
+                                                                     "turn\nlowerTray\n+2 more", "follow"]
+    assert animate_module.table_rows(_delivery_frames())[0][2:6] == ["letter(2)", "letter(3)", "letter(4)",
+                                                                     "letter(10)"]
+
+
+@pytest.mark.parametrize("cycles", [2, 10])
+def test_a_replay_table_fills_its_axes(cycles: int) -> None:
+    """No empty bottom quarter: the table reaches the bottom of its axes, whatever the rows."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    fig = animate_module.cycles_figure(_delivery_frames(cycles))
+    renderer = FigureCanvasAgg(fig).get_renderer()
+    ax, table = _table(fig)
+    box, area = table.get_window_extent(renderer), ax.get_window_extent(renderer)
+    assert box.y0 <= area.y0 + 0.02 * area.height and box.y1 >= area.y1 - 0.02 * area.height
+
+
+def test_a_replay_shows_the_replan_star_and_the_failure_cross_at_one_place(payload_scene: Scene) -> None:
+    """The cycle that failed left the arms where the next one re-planned: both marks show there."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.colors import to_rgb
+    at = {"r1": (4.0, 0.0), "r2": (4.0, 5.0), "pl1": (4.0, 0.0), "pl2": (4.0, 5.0)}
+    frames = [CycleFrame(0, 0.0, {}, {"r1": (0.0, 0.0), "r2": (0.0, 5.0)}, failed=True),
+              CycleFrame(4, 4.0, {}, at, replanned=True),
+              CycleFrame(6, 6.0, {}, {"r1": (6.0, 2.0), "r2": (6.0, 7.0)})]
+    fig = animate_module.cycles_figure(frames, scene=payload_scene)
+    (ax,) = [a for a in fig.axes if a.get_legend() is not None]
+    marks = {line.get_label(): line for line in ax.get_lines() if line.get_label() in ("re-planned here",
+                                                                                       "failure here")}
+    assert [tuple(p) for p in marks["failure here"].get_xydata()] == [(4.0, 0.0)]   # where cycle 0 left the arms
+    assert [tuple(p) for p in marks["re-planned here"].get_xydata()] == [(4.0, 0.0)]
+    canvas = FigureCanvasAgg(fig)
+    canvas.draw()
+    image = np.asarray(canvas.buffer_rgba())[:, :, :3].astype(float) / 255
+    x, y = ax.transData.transform((4.0, 0.0))
+    row, col = int(image.shape[0] - y), int(x)
+    window = image[row - 20:row + 21, col - 20:col + 21].reshape(-1, 3)
+
+    def seen(color: str) -> int:
+        return int((np.abs(window - np.array(to_rgb(color))).max(axis=1) < 0.08).sum())
+    assert seen("darkorange") > 20 and seen("crimson") > 5
+    legend = [t.get_text() for t in ax.get_legend().get_texts()]
+    assert legend[-3:] == ["several steps in one cycle", "re-planned here", "failure here"]

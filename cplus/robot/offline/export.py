@@ -85,7 +85,8 @@ def export_plan(task: RobotTask, states: list, violation, *, domain_path: str, p
                 os.makedirs(os.path.dirname(os.path.abspath(out)), exist_ok=True)
         if plot:
             trajectory.plot_plan(task.scene, states, violation, path=plot,  # type: ignore[arg-type]
-                                 title=f"{os.path.basename(domain_path)}: plan of length {len(states) - 1}")
+                                 title=trajectory.plan_title(task.scene, len(states) - 1,  # type: ignore[arg-type]
+                                                             os.path.basename(domain_path)))
             wrote(plot)
         if trajectory_json or csv:
             if violation is not None:

@@ -14,7 +14,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from cplus.history import History, executed_actions
+from cplus.history import History, executed_actions, to_object
 from cplus.output import Display
 from cplus.signature import GroundConst
 
@@ -73,7 +73,7 @@ def position_nogood(task, box: dict, holds: list[dict] | None = None) -> Nogood:
             ranges[(off, gc)] = (lo, hi)
     for k, state in enumerate(holds or []):
         for gc in task.holds.values():
-            conds.append((k, gc, state[gc]))
+            conds.append((k, gc, to_object(gc, state[gc])))
     if not conds and not ranges:    # every position fails: keep the exact ones (still sound)
         return position_nogood(task, {k: (lo, lo) for k, (lo, _) in box.items()}, holds)
     span = max(off for off, _, _ in box)
@@ -93,7 +93,7 @@ def _box_text(task, box: dict, holds: list[dict] | None) -> str:
         parts.append(f"{body} {'->'.join(points)}" if span else f"{body} at {points[0]}")
     text = " & ".join(parts)
     if holds:
-        text += " & " + " & ".join(f"{gc.text}={state[gc]}" for state in holds for gc in task.holds.values())
+        text += " & " + " & ".join(f"{gc.text}={to_object(gc, state[gc])}" for state in holds for gc in task.holds.values())
     return text
 
 
@@ -105,7 +105,7 @@ def action_nogood(task, hist: History, step: int) -> Nogood:
     conds: list[tuple[int, GroundConst, object]] = []
     for gcs in list(task.robots.values()) + list(task.ends.values()):
         for gc in gcs:
-            conds.append((0, gc, state[gc]))
+            conds.append((0, gc, to_object(gc, state[gc])))
     where = [f"{name} at ({state[x]},{state[y]})"
              for name, (x, y) in list(task.robots.items()) + list(task.ends.items())]
     done = set(executed_actions(acts))
@@ -117,7 +117,7 @@ def action_nogood(task, hist: History, step: int) -> Nogood:
             parent = d.parent.instances.get(gc.args[:d.parent.arity])  # type: ignore[union-attr]
             if parent not in done:
                 continue
-        conds.append((0, gc, v))
+        conds.append((0, gc, to_object(gc, v)))
     acts_text = "  ".join(Display(task.domain.program).action_atoms(acts)) or "no action"
     return _nogood(task, "actions", f"{{{acts_text}}} where {', '.join(where)}", conds, 0)
 
@@ -195,7 +195,7 @@ class NogoodStore:
         off, a = lit
         gc, value = self.atoms.gc_of[abs(a)], self.atoms.value_of[abs(a)]
         v = states[t + off][gc]
-        true = v == "true" if value is None else v == value
+        true = (v is True or v == "true") if value is None else to_object(gc, v) == value
         return true == (a > 0)
 
     def _step(self, t: int) -> None:

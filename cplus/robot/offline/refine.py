@@ -173,7 +173,8 @@ class RefinementResult:
         hist = self.shown
         q = self.query
         return {
-            "query": {"label": label if label is not None else q.label, "min_maxstep": q.lo, "max_maxstep": q.hi},
+            "query": {"label": label if label is not None else q.label, "kind": "nmquery" if q.nm else "query",
+                      "min_maxstep": q.lo, "max_maxstep": q.hi},
             "status": self.status.value,
             "maxstep": hist.maxstep if hist else None,
             "no_solution_with_maxstep": list(self.no_solution_with_maxstep),

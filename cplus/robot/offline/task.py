@@ -133,7 +133,7 @@ class RobotTask:
         for t, state in enumerate(hist.states):
             robots = {r: (state[x], state[y]) for r, (x, y) in self.robots.items()}
             payload = {e: (state[x], state[y]) for e, (x, y) in self.ends.items()}
-            holds = {e: next((r for r in self.robots if state[self.holds[(r, e)]] == "true"), None)
+            holds = {e: next((r for r in self.robots if state[self.holds[(r, e)]] is True), None)
                      for e in self.ends}
             actions = tuple(display.action_atoms(hist.actions[t])) if t < len(hist.actions) else ()
             out.append(StepState(robots=robots, payload=payload, holds=holds, actions=actions))  # type: ignore[arg-type]

@@ -49,7 +49,7 @@ from enum import StrEnum
 from cplus import ir
 from cplus.errors import QueryError
 from cplus.ground.theory import template_lit
-from cplus.history import History, decode_history
+from cplus.history import History, decode_history, to_object
 from cplus.planner import find_horizon
 from cplus.program import QuerySpec
 from cplus.sat.horizon import Horizon, QuerySession
@@ -400,10 +400,11 @@ class OnlineModel:
 
     # ------------------------------------------------------------------ helpers
     def plan_of(self, hist: History, seconds: float = 0.0) -> Plan:
-        """A history (from a session of :meth:`session`) as a :class:`Plan`."""
-        states = [State({gc: hist.rigid[gc] if gc.decl.kind == "rigid" else s[gc] for gc in self.state_gcs})
-                  for s in hist.states]
-        steps = [self.acts(table) for table in hist.actions]
+        """A history (from a session of :meth:`session`) as a :class:`Plan` (whose states and
+        acts hold the grounder's objects: ``"true"`` where the history has ``True``)."""
+        states = [State({gc: to_object(gc, hist.rigid[gc] if gc.decl.kind == "rigid" else s[gc])
+                         for gc in self.state_gcs}) for s in hist.states]
+        steps = [self.acts({gc: to_object(gc, v) for gc, v in table.items()}) for table in hist.actions]
         return Plan(steps, states, hist, seconds)
 
     def acts(self, table: Mapping[GroundConst, object]) -> list[Act]:

@@ -50,7 +50,7 @@ import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
-from cplus.history import History
+from cplus.history import History, from_object
 from cplus.robot.online import OnlineModel, Plan, Roles, State
 from cplus.sat.horizon import QuerySession
 from cplus.sat.solver import DEFAULT_SOLVER
@@ -332,8 +332,9 @@ class StandingPlanner:
         states = [model._read_state(h, t) for t in range(j + 1)]
         tables = [{gc: self._value(gc, t) for gc in self._action_gcs} for t in range(j)]
         rigid = {gc: v for gc, v in states[0].items() if gc.decl.kind == "rigid"}
-        history = History(j, rigid, tuple({gc: v for gc, v in st.items() if gc not in rigid} for st in states),
-                          tuple(tables))
+        history = History(j, {gc: from_object(gc, v) for gc, v in rigid.items()},
+                          tuple({gc: from_object(gc, v) for gc, v in st.items() if gc not in rigid} for st in states),
+                          tuple({gc: from_object(gc, v) for gc, v in table.items()} for table in tables))
         return Plan([model.acts(table) for table in tables], states, history, partial=partial)
 
     def _value(self, gc: GroundConst, t: int) -> object:
