@@ -456,6 +456,6 @@ def test_cplus_plan_checks_the_animation_first(tmp_path, capsys):
     err = capsys.readouterr().err
     assert err == f"cplus plan: error: --animate {tmp_path / 'plan.txt'}: use a .gif or .mp4 file name\n"
     lamp = str(ROOT / "domains/examples/lamp.cp")
-    assert main(["plan", lamp, "--animate", str(tmp_path / "lamp.gif")]) == 0
+    assert main(["plan", lamp, "--query", "on", "--animate", str(tmp_path / "lamp.gif")]) == 0
     assert "--animate applies to robot tasks only" in capsys.readouterr().err
     assert not (tmp_path / "lamp.gif").exists()
