@@ -101,8 +101,9 @@ KNOWN_BROKEN: dict[str, str] = {
     "cplus online domains/payload/payload.cp --stall r1:A@2+1 --log arms.jsonl; "
     "cplus replay arms.jsonl --animate arms.gif": "fixed on branch serve",
 }
-"""Command -> the branch that fixes it: expected to fail here (xfail, strict: once it runs,
-the entry must go)."""
+"""Command -> the branch that fixes it: expected to fail here, and the block is an xfail with
+that reason (the block's other commands still run); once it runs, the test fails until the
+entry goes."""
 
 EXIT: dict[str, int] = {
     "cplus shell": 2,   # docs/shell.md: from a pipe a failed command ('query zz.') exits 2; at a terminal 0
@@ -121,7 +122,18 @@ SERVES: dict[str, str] = {
         r"listening on",
 }
 """Command that serves until stopped -> the line (regular expression) that says it is up.
-It must come up, then stop on SIGINT with exit code 0."""
+It must come up, then stop on SIGINT with exit code 0 (or one in ``STOPPED``)."""
+
+STOPPED: dict[str, set[int]] = {
+    # docs/serve.md, "Stopping": a run that has not ended 1.2 s after the signal is ended by the
+    # watchdog, exit 130; on a loaded machine an emulated robot's action may outlast that
+    "cplus serve": {0, 130},
+}
+"""A serving command's first two words -> the exit codes it may stop with on SIGINT."""
+
+
+def _stopped_as_documented(command: str, code: int) -> bool:
+    return code in STOPPED.get(" ".join(command.split()[:2]), {0})
 
 NXC_PROGRAM = 'task main() { TextOut(0, LCD_LINE1, "hello"); Wait(100000); }\n'
 
@@ -437,7 +449,8 @@ def test_the_example_runs_as_printed(block: Block, scratch: Path) -> None:
                 served = Served(text, scratch, SERVES[command.text])
                 served.wait_up()
                 code = served.stop()
-                assert code == 0, f"{where}: exit {code} on SIGINT:\n" + "\n".join(served.lines)
+                assert _stopped_as_documented(command.text, code), \
+                    f"{where}: exit {code} on SIGINT:\n" + "\n".join(served.lines)
                 continue
             code, out = run(text, scratch, command.stdin)
             expected = EXIT.get(command.text, 0)
@@ -458,7 +471,8 @@ def test_the_example_runs_as_printed(block: Block, scratch: Path) -> None:
     finally:
         if server is not None:
             code = server.stop()
-            assert code == 0, f"{server.command}: exit {code} on SIGINT:\n" + "\n".join(server.lines)
+            assert _stopped_as_documented(server.command, code), \
+                f"{server.command}: exit {code} on SIGINT:\n" + "\n".join(server.lines)
 
 
 # -- the lists stay honest -------------------------------------------------------------------
