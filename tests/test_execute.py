@@ -456,6 +456,65 @@ def test_cplus_plan_checks_the_animation_first(tmp_path, capsys):
     err = capsys.readouterr().err
     assert err == f"cplus plan: error: --animate {tmp_path / 'plan.txt'}: use a .gif or .mp4 file name\n"
     lamp = str(ROOT / "domains/examples/lamp.cp")
-    assert main(["plan", lamp, "--animate", str(tmp_path / "lamp.gif")]) == 0
+    assert main(["plan", lamp, "--query", "on", "--animate", str(tmp_path / "lamp.gif")]) == 0
     assert "--animate applies to robot tasks only" in capsys.readouterr().err
     assert not (tmp_path / "lamp.gif").exists()
+
+
+# ------------------------------------------- the trajectory names its domain and scene (issue 31)
+
+
+def scene_found(trajectory_file: Path):
+    from cplus.cli.execute import _scene_for, build_parser
+    return _scene_for(build_parser().parse_args([str(trajectory_file)]), tj.load_trajectory(trajectory_file))
+
+
+@pytest.fixture
+def planned_elsewhere(tmp_path, monkeypatch) -> Path:
+    """`cplus plan --trajectory` run in one folder, with a scene that is not the one beside the
+    domain (the shipped scene under another name); then the working directory moves away."""
+    work = tmp_path / "work"
+    (work / "domains" / "payload" / "scenes").mkdir(parents=True)
+    (work / "domains" / "payload" / "payload.cp").write_text((ROOT / "domains/payload/payload.cp").read_text())
+    (work / "domains" / "payload" / "scene.toml").write_text(SCENE.read_text())
+    (work / "domains" / "payload" / "scenes" / "renamed.toml").write_text(
+        SCENE.read_text().replace('name = "payload"', 'name = "renamed"', 1))
+    monkeypatch.chdir(work)
+    assert main(["plan", "domains/payload/payload.cp", "--scene", "domains/payload/scenes/renamed.toml",
+                 "--trajectory", "out/t.json"]) == 0
+    (tmp_path / "elsewhere").mkdir()
+    monkeypatch.chdir(tmp_path / "elsewhere")
+    return work / "out" / "t.json"
+
+
+def test_the_trajectory_names_its_scene_relative_to_itself(planned_elsewhere):
+    source = json.loads(planned_elsewhere.read_text())["source"]
+    assert source == {"domain": "../domains/payload/payload.cp", "scene": "../domains/payload/scenes/renamed.toml",
+                      "plan_length": 9}
+    scene = scene_found(planned_elsewhere)
+    assert scene is not None and scene.name == "renamed"     # not scene.toml beside the domain
+    (planned_elsewhere.parents[1] / "domains/payload/scenes/renamed.toml").unlink()
+    assert scene_found(planned_elsewhere) is None             # a named scene is not replaced by another
+
+
+@pytest.mark.slow
+def test_execute_plots_from_any_working_directory(planned_elsewhere, tmp_path, capsys):
+    capsys.readouterr()
+    plot = tmp_path / "x.png"
+    assert execute_main([str(planned_elsewhere), "--plot", str(plot), *FAST]) == 0, capsys.readouterr().err
+    assert plot.stat().st_size > 0 and "no scene found" not in capsys.readouterr().err
+
+
+def test_a_trajectory_written_before_is_read_as_then(traj_file, tmp_path, monkeypatch):
+    """Files written before the scene was named give the domain as the run was given it,
+    relative to where the run started: still found from there."""
+    data = json.loads(traj_file.read_text())
+    data["source"] = {"domain": "domains/payload/payload.cp", "plan_length": 2}
+    old = tmp_path / "out" / "old.json"
+    old.parent.mkdir()
+    old.write_text(json.dumps(data))
+    monkeypatch.chdir(ROOT)
+    scene = scene_found(old)
+    assert scene is not None and Path(scene.file).resolve() == SCENE
+    monkeypatch.chdir(tmp_path)
+    assert scene_found(old) is None

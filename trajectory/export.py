@@ -13,6 +13,10 @@ sample's joint value through the gear ratio, rounded (within one degree). The CS
 `trajectory_to_dict` / `trajectory_from_dict` and `to_csv_text` are pure; `save_json`,
 `save_csv` and `load_trajectory` add the file I/O.
 
+The ``source`` mapping says where a trajectory came from; the files it names (``domain``,
+``scene``) are written by `file_reference`, relative to the trajectory file's folder, and read
+back by `referenced_paths`.
+
 >>> from trajectory import StepState, build_trajectory, parse_scene
 >>> from trajectory.scene import EXAMPLE_SCENE
 >>> held = {"pl1": "r1", "pl2": "r2"}
@@ -39,6 +43,7 @@ import csv
 import io
 import json
 import math
+import os
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
@@ -57,6 +62,8 @@ __all__ = [
     "save_json",
     "save_csv",
     "load_trajectory",
+    "file_reference",
+    "referenced_paths",
 ]
 
 _SAMPLE_FIELDS = ("t_s", "step", "x", "y", "s", "theta_deg")
@@ -161,6 +168,34 @@ def save_csv(traj: Trajectory, path: str | Path) -> Path:
     p = Path(path)
     p.write_text(to_csv_text(traj), encoding="utf-8")
     return p
+
+
+def file_reference(target: str | Path, trajectory_path: str | Path) -> str:
+    """How a trajectory file's ``source`` names another file (its domain, its scene): the
+    path relative to the trajectory file's folder, with ``/``.
+
+    Relative to the trajectory file, not to where the run started, so that the reference holds
+    from any working directory (``cplus execute out/trajectory.json`` from anywhere); and
+    relative rather than absolute, so that it still holds when the files move together (a
+    checkout cloned elsewhere, ``out/`` copied along with the domains) and a file meant to be
+    shared does not carry the user's home folder.  Absolute where no relative path exists (a
+    Windows drive of its own)."""
+    target = os.path.abspath(target)
+    try:
+        return Path(os.path.relpath(target, os.path.dirname(os.path.abspath(trajectory_path)))).as_posix()
+    except ValueError:
+        return Path(target).as_posix()
+
+
+def referenced_paths(reference: str, trajectory_path: str | Path, *, written_before: bool = False) -> list[Path]:
+    """Where a ``source`` reference (`file_reference`) may be, in the order to try: relative to
+    the trajectory file's folder; with ``written_before``, then as written, relative to the
+    working directory, which is what files written before references were relative to their
+    trajectory file meant (they named the ``domain`` as given where the run started)."""
+    paths = [Path(trajectory_path).parent / reference]
+    if written_before:
+        paths.append(Path(reference))
+    return paths
 
 
 def load_trajectory(path: str | Path) -> Trajectory:

@@ -17,6 +17,7 @@ import os
 import sys
 import time
 
+from cplus.cli.batch_job import PLAN_STATUSES
 from cplus.cli.common import EXIT_INPUT, EXIT_NO_PLAN, EXIT_OK, OneLineArgumentParser, nonneg, positive, positive_int
 
 __all__ = ["build_parser", "main"]
@@ -50,8 +51,7 @@ def build_parser() -> OneLineArgumentParser:
     return p
 
 
-STATUSES = ("found", "no_plan", "horizon_limit", "no_safe_plan", "gave_up", "unsafe", "error", "timeout", "memory",
-            "lost")
+STATUSES = (*PLAN_STATUSES, "error", "timeout", "memory", "lost")
 
 
 def main(args: argparse.Namespace) -> int:

@@ -18,11 +18,14 @@ if TYPE_CHECKING:
 
 __all__ = ["run_job", "race", "variant", "worker_init", "PLAN_STATUSES", "DEFINITE"]
 
-PLAN_STATUSES = ("found", "no_plan", "horizon_limit", "no_safe_plan", "gave_up", "unsafe")
-"""A query's statuses, best first: a job's status is its queries' worst."""
+PLAN_STATUSES = ("found", "no_plan", "no_plan_proved", "horizon_limit", "invariant_wrong", "no_safe_plan",
+                 "gave_up", "unsafe")
+"""A query's statuses, best first: a job's status is its queries' worst.  ``no_plan_proved``
+and ``invariant_wrong`` are a ``maxstep :: any`` query's proof (``cplus plan``'s exit codes 10
+and 11)."""
 
 
-DEFINITE = ("found", "no_plan", "horizon_limit", "no_safe_plan", "unsafe")
+DEFINITE = ("found", "no_plan", "no_plan_proved", "horizon_limit", "invariant_wrong", "no_safe_plan", "unsafe")
 """Statuses that answer a job: the first of them ends a portfolio race."""
 
 
@@ -188,6 +191,9 @@ def _run(job: dict, record: dict, timings: dict) -> None:
         raise QueryError("this file has no queries; use 'query = \"states\"' to list its states")
     for label in labels:
         q = domain.query(label)
+        if q.invariant is not None:
+            _prove(domain, label, job["solver"], record, timings)
+            continue
         t = time.perf_counter()
         domain.theory_for(q)
         timings["ground_s"] += time.perf_counter() - t
@@ -226,6 +232,9 @@ def _robot(job: dict, scene: str, record: dict, timings: dict, t: float) -> None
     labels = [job["query"]] if job["query"] is not None else domain.labels  # type: ignore[attr-defined]
     eager = {"auto": None, "yes": True, "no": False}[opts.get("eager", "auto")]
     for label in labels:
+        if domain.query(label).invariant is not None:  # type: ignore[attr-defined]
+            _prove(domain, label, job["solver"], record, timings)
+            continue
         kw = dict(nogoods=opts.get("nogoods", "positions"), eager=eager)
         if opts.get("jobs") is not None:
             result = refine_parallel(task, label, opts.get("max_iterations", 0), opts.get("max_horizon"),
@@ -245,6 +254,17 @@ def _robot(job: dict, scene: str, record: dict, timings: dict, t: float) -> None
             from cplus.output import history_json
             entry["plans"] = [history_json(result.history)]
         record["results"].append(entry)
+
+
+def _prove(domain: Any, label: str, solver: str | None, record: dict, timings: dict) -> None:
+    """A ``maxstep :: any`` query is proved, not searched, as ``cplus plan`` does it: its
+    entry has the proof's status and no horizons."""
+    t = time.perf_counter()
+    proof = domain.prove(label, solver)
+    timings["solve_s"] += time.perf_counter() - t
+    record["results"].append({"query": label, "status": proof.status.value, "maxstep": None,
+                              "no_solution_with_maxstep": [], "horizons": 0, "variables": 0, "clauses": 0,
+                              "histories": 0})
 
 
 def worker_init() -> None:

@@ -203,13 +203,22 @@ def execution_options(args: argparse.Namespace) -> nxt_link.ExecutionOptions:
 
 
 def _scene_for(args: argparse.Namespace, traj: trajectory.Trajectory) -> trajectory.Scene | None:
+    """``--scene``, else the scene the trajectory names (``source.scene``, relative to the
+    trajectory file), else ``scene.toml`` beside its ``source.domain`` (relative to the
+    trajectory file; in a file written before the scene was named, relative to where its run
+    started, as it was then).  A named scene that is missing is not replaced by another."""
+    from trajectory.export import referenced_paths
     path = args.scene
     if path is None:
-        domain = traj.source.get("domain") if isinstance(traj.source.get("domain"), str) else None
-        candidates = []
-        if domain:
-            candidates.append(Path(domain).parent / "scene.toml")
-            candidates.append(Path(args.trajectory).parent / Path(domain).parent / "scene.toml")
+        scene, domain = (traj.source.get(k) if isinstance(traj.source.get(k), str) else None
+                         for k in ("scene", "domain"))
+        if scene:
+            candidates = referenced_paths(scene, args.trajectory)
+        elif domain:
+            candidates = [p.parent / "scene.toml"
+                          for p in referenced_paths(domain, args.trajectory, written_before=True)]
+        else:
+            candidates = []
         path = next((str(c) for c in candidates if c.is_file()), None)
     if path is None:
         return None

@@ -1,4 +1,4 @@
-% A robot vacuum in three rooms; moving costs 2, cleaning costs 1.
+% A robot vacuum in three rooms: moving costs 2, sucking 1, calling the cleaners 10.
 :- maxAdditive :: 20.
 :- sorts room.
 :- objects kitchen, hall, study :: room.
@@ -7,15 +7,16 @@
   at           :: inertialFluent(room);
   dirty(room)  :: inertialFluent;
   cost         :: additiveFluent(0..20);
-  go(room)     :: exogenousAction;
-  suck         :: exogenousAction.
+  go(room), suck, cleaners :: exogenousAction.
 
 go(R) causes at=R.
 nonexecutable go(R) if at=R.
 suck causes -dirty(R) if at=R.
-nonexecutable go(R) & suck.
+cleaners causes -dirty(R).
+noconcurrency.
 go(R) increments cost by 2.
 suck increments cost by 1.
+cleaners increments cost by 10.
 
 :- query
   label :: tidy;

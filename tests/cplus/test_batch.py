@@ -118,6 +118,19 @@ def test_a_batch_records_every_job_and_writes_the_summary(tmp_path, capsys):
     assert "% status" in err and "found" in err
 
 
+def test_a_maxstep_any_query_is_proved_as_cplus_plan_proves_it(tmp_path, capsys):
+    """The shipped lamp's every query: two plans and a proof that none switches it off (an
+    error record before proofs were run)."""
+    f = jobs_file(tmp_path, [{"id": "lamp", "domain": str(LAMP)}])
+    code, _, err = run(["batch", str(f)], capsys)
+    assert code == 0
+    (rec,) = records(tmp_path / "jobs.results.jsonl")
+    assert [(r["query"], r["status"]) for r in rec["results"]] == [
+        ("0", "found"), ("on", "found"), ("never", "no_plan_proved")]
+    assert rec["status"] == "no_plan_proved" and rec["error"] is None
+    assert "% no_plan_proved      1" in err
+
+
 def test_a_job_over_its_time_limit(tmp_path):
     rec = run_job(read_jobs(str(jobs_file(tmp_path, [{"domain": str(HANOI), "timeout": 0.3}])))[0].to_dict())
     assert rec["status"] == "timeout" and "0.3 s" in rec["error"]
@@ -126,7 +139,7 @@ def test_a_job_over_its_time_limit(tmp_path):
 def test_a_job_over_its_memory_limit(tmp_path):
     """bw-25 needs tens of MB beyond the interpreter; 10 MB is not enough: recorded, and the
     worker goes on with the next job (its limit is put back)."""
-    f = jobs_file(tmp_path, [{"id": "big", "domain": str(BW25), "memory": 10}, {"id": "small", "domain": str(LAMP)}])
+    f = jobs_file(tmp_path, [{"id": "big", "domain": str(BW25), "memory": 10}, {"id": "small", "domain": str(LAMP), "query": "on"}])
     out: list[dict] = []
     jobs = read_jobs(str(f))
     run_local(jobs, run_job, 1, 0, out.append, Progress(2, quiet=True))
@@ -268,7 +281,7 @@ def test_a_batch_on_a_local_ray_instance(tmp_path, monkeypatch):
     f = jobs_file(tmp_path, [{"id": "victim", "domain": "lamp.cp", "query": "on"},
                              {"id": "ferry", "domain": str(FERRY), "portfolio": ["glucose4", "minisat22"]},
                              {"id": "slow", "domain": str(HANOI), "timeout": 0.5},
-                             {"id": "lamp", "domain": "lamp.cp"}])
+                             {"id": "lamp", "domain": "lamp.cp", "query": "on"}])
     from cplus.batch import run_ray
     from cplus.cli.batch_job import DEFINITE, variant
     out: list[dict] = []

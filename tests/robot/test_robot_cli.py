@@ -109,7 +109,7 @@ def test_a_grid_that_disagrees_with_the_domain_is_refused_at_the_binding(tmp_pat
 
 
 def test_robot_options_on_a_plain_domain_warn(tmp_path, capsys):
-    code, out, err = run(capsys, "plan", LAMP, "--plot", tmp_path / "p.png", "--max-iterations", "3")
+    code, out, err = run(capsys, "plan", LAMP, "--query", "on", "--plot", tmp_path / "p.png", "--max-iterations", "3")
     assert code == 0 and "ACTIONS:" in out
     assert "warning: --plot applies to robot tasks only" in err
     assert "warning: --max-iterations applies to robot tasks only" in err

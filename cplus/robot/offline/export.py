@@ -92,7 +92,8 @@ def export_plan(task: RobotTask, states: list, violation, *, domain_path: str, p
             if violation is not None:
                 raise TaskError("the plan is not collision-free; refusing to export its trajectory")
             traj = trajectory.build_trajectory(task.scene, states, points_per_step=points_per_step,  # type: ignore[arg-type]
-                                               step_time_s=step_time, source={"domain": domain_path})
+                                               step_time_s=step_time,
+                                               source=_source(task, domain_path, trajectory_json or csv))
             if trajectory_json:
                 trajectory.save_json(traj, trajectory_json)
                 wrote(trajectory_json)
@@ -104,3 +105,16 @@ def export_plan(task: RobotTask, states: list, violation, *, domain_path: str, p
     except OSError as exc:
         raise TaskError(f"cannot write output: {exc.strerror or exc}") from None
     return written
+
+
+def _source(task: RobotTask, domain_path: str, out: str | None) -> dict[str, str]:
+    """The trajectory's ``source``: its domain and scene, relative to the trajectory file's
+    folder (:func:`trajectory.export.file_reference`), so that ``cplus execute`` finds the scene
+    from any working directory."""
+    from trajectory.export import file_reference
+    source = {"domain": domain_path}
+    files = {"domain": domain_path, "scene": task.scene.file}  # type: ignore[attr-defined]
+    for key, path in files.items():
+        if out is not None and os.path.isfile(path):
+            source[key] = file_reference(path, out)
+    return source
