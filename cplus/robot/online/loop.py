@@ -167,6 +167,15 @@ class EventSource(ABC):
         once, so that a script runs deterministically. Live sources say False."""
         return False
 
+    def ready(self, cycle: int) -> bool | None:
+        """Whether :meth:`poll` would bring events for ``cycle`` now, looked at without taking
+        them; None (the default): the source cannot tell without taking them, and the idle
+        step polls it and keeps what came for the transition. A source that can look
+        overrides it, so that each transition polls it exactly once: what it hands over is
+        then committed with the transition that ends there, and what arrives later (a
+        cancellation of what was just handed over) belongs to the next one."""
+        return None
+
     def wait(self, timeout: float) -> None:
         """Block until something may have arrived, at most ``timeout`` seconds."""
         time.sleep(timeout)
@@ -559,10 +568,14 @@ class OnlineLoop:
             else:
                 self.clock.sleep(self.idle_poll_s)
             for source in live:
-                events = source.poll(cycle + 1)
-                if events:
-                    self._early[source] = events
+                ready = source.ready(cycle + 1)
+                if ready:
                     return outcome
+                if ready is None:
+                    events = source.poll(cycle + 1)
+                    if events:
+                        self._early[source] = events
+                        return outcome
         return None
 
     def _unknown(self, record: CycleRecord, est: Estimate, where: str) -> RunResult:

@@ -384,9 +384,23 @@ class GoalBoard(EventSource, Observer):
         with self._lock:
             return any(left() for left in self._script_left)
 
+    def ready(self, cycle: int) -> bool:
+        """Whether :meth:`poll` would hand the loop something now (a request with a free slot,
+        a cancellation), looked at without taking it: the loop's idle step ends on it and the
+        transition's one poll takes it, so that a request and a cancellation of its goal never
+        share a transition (a cancellation that comes before the poll recalls the request)."""
+        with self._lock:
+            return self._has_work()
+
+    def _has_work(self) -> bool:
+        """Under the lock: a cancellation to deliver, or a request that a slot is free for."""
+        if any(not g.final for g in self._cancels):
+            return True
+        return bool(self._queue) and any(slot not in self._holder for slot in self.vocabulary.slots)
+
     def wait(self, timeout: float) -> None:
         with self._lock:
-            if not self._queue and not self._cancels and not self._woken:
+            if not self._has_work() and not self._woken:
                 self._arrived.wait(timeout)
             self._woken = False
 
