@@ -160,3 +160,24 @@ def test_numbers_too_large_or_not_ascii_are_one_line_errors(tmp_path, capsys):
     requests.write_text((MAILBOT / "requests.toml").read_text().replace("$2", "$" + "9" * 20))
     assert run_bad([DOMAIN, "--requests", str(requests), "--script", script], capsys).startswith(
         f"{requests}:11:")
+
+
+def test_request_text_is_escaped_on_stderr_one_line_whatever_it_holds(tmp_path, capsys):
+    # a newline would split the progress line and let a client forge one; a NUL would reach
+    # the terminal raw
+    forged = 'x\ncplus serve: goal 7 {"cancel": 1}: rejected: forged'
+    script = tmp_path / "script.jsonl"
+    script.write_text("".join(json.dumps(x) + "\n" for x in [
+        {"cycle": 1, "request": forged}, {"cycle": 1, "request": "deliver(office1\x00,office2)"},
+        {"cycle": 1, "request": "d\u00e9liver(office1,office2)"}]))
+    assert main(["serve", DOMAIN, "--script", str(script), "--action-time", "0"]) == 0
+    err = capsys.readouterr().err
+    goals = [line for line in err.splitlines() if line.startswith("cplus serve: goal ")]
+    assert goals == [
+        "cplus serve: goal 1 x\\ncplus serve: goal 7 {\"cancel\": 1}: rejected: forged: rejected: cannot read "
+        "'x\\ncplus serve: goal 7 {\"cancel\": 1}: rejected: forged' as a request such as deliver(office,office)",
+        "cplus serve: goal 2 deliver(office1\\x00,office2): rejected: office1\\x00 is not an office (office1, office2, "
+        "office3, office4)",
+        "cplus serve: goal 3 d\\xe9liver(office1,office2): rejected: cannot read 'd\\xe9liver(office1,office2)' as "
+        "a request such as deliver(office,office)"]
+    assert "\x00" not in err

@@ -145,16 +145,31 @@ class ServeProgress(Progress):
 
 
 
+def one_line(text: str) -> str:
+    """``text`` as it may go on a progress line: printable ASCII as it is, every other character
+    escaped as Python writes it (``\\n``, ``\\x00``, ``\\xe9``, ``\\u2028``), so that what a client
+    sends can neither split a line of stderr (nor forge one) nor reach the terminal raw."""
+    if text.isascii() and text.isprintable():
+        return text
+    return _UNPRINTABLE.sub(lambda m: m.group().encode("unicode_escape").decode("ascii"), text)
+
+
+_UNPRINTABLE = re.compile(r"[^\x20-\x7e]")
+
+
 class GoalLines(GoalWatcher):
-    """A progress line per goal change on stderr."""
+    """A progress line per goal change on stderr; the request and the reason (which may quote
+    it) escaped by :func:`one_line`."""
 
     def __init__(self, out: TextIO) -> None:
         self.out = out
 
     def status(self, goal, status) -> None:
         extra = f" (slot {goal.slot})" if status.value == "active" and goal.slot is not None else ""
-        why = f": {goal.reason}" if goal.reason and status.value in ("rejected", "aborted", "recalled") else ""
-        print(f"cplus serve: goal {goal.id} {goal.request}: {status.value}{extra}{why}", file=self.out, flush=True)
+        why = f": {one_line(goal.reason)}" if goal.reason and status.value in ("rejected", "aborted", "recalled") \
+            else ""
+        print(f"cplus serve: goal {goal.id} {one_line(goal.request)}: {status.value}{extra}{why}", file=self.out,
+              flush=True)
 
 
 @dataclass(frozen=True)
