@@ -354,16 +354,21 @@ class JsonLinesLog(Observer):
         finally:
             self._lock.release()
 
-    def on_start(self, loop: OnlineLoop) -> None:
+    def start_record(self, loop: OnlineLoop) -> dict:
+        """The run's start record (the first line of a run; a log continued after a restart
+        holds several runs, each from its own start record)."""
         roles = loop.model.roles
         started = datetime.now(UTC).isoformat(timespec="seconds")
+        return {"record": "start", "format": ONLINE_FORMAT, "started": started, "domain": loop.model.domain.path,
+                "goal": loop.model.query.label, "max_plan_length": loop.model.goal_query.hi,
+                "agent": sorted(gc.text for gc in roles.agent),
+                "observed": sorted(gc.text for gc in roles.observed),
+                "inferred": sorted(gc.text for gc in roles.inferred),
+                "executor": loop.executor.description, **self.extra}
+
+    def on_start(self, loop: OnlineLoop) -> None:
         self._t0 = time.monotonic()
-        self._write({"record": "start", "format": ONLINE_FORMAT, "started": started, "domain": loop.model.domain.path,
-                     "goal": loop.model.query.label, "max_plan_length": loop.model.goal_query.hi,
-                     "agent": sorted(gc.text for gc in roles.agent),
-                     "observed": sorted(gc.text for gc in roles.observed),
-                     "inferred": sorted(gc.text for gc in roles.inferred),
-                     "executor": loop.executor.description, **self.extra})
+        self._write(self.start_record(loop))
 
     def on_cycle(self, record: CycleRecord) -> None:
         line = record.to_json()

@@ -69,7 +69,7 @@ from cplus.signature import render_value
 _log = logging.getLogger(__name__)
 """A watcher's failure is logged here: the library prints nothing (the command shows warnings)."""
 
-__all__ = ["FINAL", "Feedback", "Goal", "GoalBoard", "GoalStatus", "GoalWatcher", "Limits"]
+__all__ = ["FINAL", "Feedback", "Goal", "GoalBoard", "GoalRecorder", "GoalStatus", "GoalWatcher", "Limits"]
 
 
 class GoalStatus(StrEnum):
@@ -135,6 +135,19 @@ class GoalWatcher:
         """A cycle of work happened while the goal was in progress."""
 
 
+class GoalRecorder:
+    """Where every goal change is recorded when it happens (a server's log,
+    :class:`cplus.robot.serving.serve_log.ServeLog`), before anyone can be told of it."""
+
+    def goal_changed(self, goal: Goal) -> None:
+        """``goal`` changed (called under the board's lock, in the order of the changes: write
+        and flush, take no lock but the recorder's own, never call the board)."""
+
+    def sync(self) -> None:
+        """Make the changes recorded so far durable (called with no lock of the board held,
+        before a final status is told to anyone)."""
+
+
 @dataclass
 class Goal:
     """One request and what became of it. ``slot`` is the domain object it occupies while in
@@ -190,7 +203,7 @@ class GoalBoard(EventSource, Observer):
     """
 
     def __init__(self, vocabulary: RequestVocabulary, clock: Callable[[], float] = time.perf_counter,
-                 limits: Limits | None = None) -> None:
+                 limits: Limits | None = None, first_id: int = 1) -> None:
         self.vocabulary = vocabulary
         self.clock = clock
         self.limits = limits or Limits()
@@ -198,7 +211,9 @@ class GoalBoard(EventSource, Observer):
         self._arrived = threading.Condition(self._lock)    # the loop waits here while idle
         self._news = threading.Condition(self._lock)       # the dispatcher waits here
         self.goals: dict[int, Goal] = {}           # every goal open, and the last final ones
-        self._next_id = 1
+        self.first_id = first_id                   # ids before it are an earlier run's (a log continued)
+        self._next_id = first_id
+        self.recorder: GoalRecorder | None = None  # the log: told of each change under the lock
         self._queue: deque[Goal] = deque()         # pending, oldest first
         self._cancels: list[Goal] = []             # active goals whose cancellation is not delivered
         self._holder: dict[object, Goal] = {}      # slot -> goal in flight
@@ -207,7 +222,6 @@ class GoalBoard(EventSource, Observer):
         self._by_client: dict[Hashable, int] = {}  # client -> its goals not final
         self._finals: deque[int] = deque()         # final goals still remembered, oldest first
         self._watchers: tuple[GoalWatcher, ...] = ()
-        self._changed: dict[int, Goal] = {}        # since the last log line
         self._scripts: list[Callable[[int], None]] = []
         self._script_left: list[Callable[[], bool]] = []
         self._live = 0
@@ -329,7 +343,8 @@ class GoalBoard(EventSource, Observer):
             return None if goal is None else goal.to_json()
 
     def forgotten(self, goal_id: int) -> bool:
-        """True for a goal that existed and ended so long ago that it is no longer remembered."""
+        """True for a goal that existed and ended so long ago that it is no longer remembered
+        (in this run, or in an earlier run of a log this one continues)."""
         with self._lock:
             return 0 < goal_id < self._next_id and goal_id not in self.goals
 
@@ -488,18 +503,6 @@ class GoalBoard(EventSource, Observer):
         self._started()
 
     # ------------------------------------------------------------------ the log
-    def log_goals(self, timeout: float = -1) -> list[dict]:
-        """For the log's cycle line: every goal whose status changed since the last line (as it
-        is now: its last status), so that a line is as long as what happened, not as the
-        number of goals open."""
-        if not self._lock.acquire(timeout=timeout):
-            return []
-        try:
-            changed, self._changed = self._changed, {}
-            return [changed[i].to_json() for i in sorted(changed)]
-        finally:
-            self._lock.release()
-
     def remembered(self, timeout: float = -1) -> list[dict]:
         """Every goal still remembered (those open, and the last final ones), for the end record."""
         if not self._lock.acquire(timeout=timeout):
@@ -532,7 +535,8 @@ class GoalBoard(EventSource, Observer):
         goal.status = status
         if reason:
             goal.reason = reason
-        self._changed[goal.id] = goal
+        if self.recorder is not None:              # before anyone can hear of it
+            self.recorder.goal_changed(goal)
         if status in FINAL:
             if status is not GoalStatus.REJECTED:  # a rejected goal never counted
                 self._open -= 1
@@ -588,6 +592,9 @@ class GoalBoard(EventSource, Observer):
                 batch = list(self._outbox)
                 self._outbox.clear()
                 self._delivering = True
+                recorder = self.recorder
+            if recorder is not None and any(kind == "status" and what in FINAL for kind, _, what, _ in batch):
+                recorder.sync()                    # a result is told once it is durable
             for kind, goal, what, audience in batch:
                 for w in audience:
                     try:

@@ -69,13 +69,14 @@ from cplus.robot.online import (
 )
 from cplus.robot.serving.goals import Goal, GoalBoard, Limits
 from cplus.robot.serving.script import RequestScript
+from cplus.robot.serving.serve_log import LogHistory, ServeLog
 from cplus.robot.serving.socket_channel import SocketChannel, SocketLimits
 from cplus.robot.serving.standing import DEFAULT_BUDGET, StandingModel
 from cplus.robot.serving.vocabulary import RequestsError, RequestVocabulary
 from cplus.sat.solver import DEFAULT_SOLVER
 from nxt_link.clock import MONOTONIC, Clock, MonotonicClock
 
-__all__ = ["SERVE_LOG", "Server", "ServerSettings", "ServeLog", "serve_roles"]
+__all__ = ["Server", "ServerSettings", "serve_roles"]
 
 
 def serve_roles(domain, vocabulary: RequestVocabulary, binding=None) -> Roles:
@@ -93,55 +94,6 @@ def serve_roles(domain, vocabulary: RequestVocabulary, binding=None) -> Roles:
             raise RequestsError(f"{gc.text} is an event of the requests in {vocabulary.path}, so {binding.path} must "
                                 f"bind it with source = \"input\" ([events.{gc.decl.name}])", where)
     return roles
-
-
-SERVE_LOG = "cplus.serve/2"
-"""What a server adds to the ``cplus.online/1`` log (the start record's ``serve_format``):
-version 2 lists in each cycle record the goals whose status changed since the record before
-(version 1, unnamed, listed every open goal in every record: a log that grew with the goals
-open times the cycles)."""
-
-
-class ServeLog(JsonLinesLog):
-    """The ``cplus.online/1`` log of a server: each cycle's record also names the goals that
-    changed since the record before (``goals``), and the end record every goal still
-    remembered with the counts of all (``goal_counts``).
-
-    Lines are written under the log's lock (:class:`JsonLinesLog`), so that the watchdog's end
-    record (:meth:`end_now`) is never interleaved with a line of the loop's, and after an end
-    record nothing more is written. Lock order: the log's lock, then the board's (never the
-    other way round: the board never calls the log)."""
-
-    def __init__(self, stream: TextIO, board: GoalBoard, extra=None) -> None:
-        super().__init__(stream, {**(extra or {}), "serve_format": SERVE_LOG},
-                         annotate=lambda record, line: line.update(goals=board.log_goals()))
-        self.board = board
-
-    def on_end(self, result: RunResult) -> None:
-        line = result.to_json()
-        line["goals"] = self.board.remembered()
-        line["goal_counts"] = self.board.summary()
-        self._write(line, end=True)
-
-    def end_now(self, line: dict, timeout: float) -> bool:
-        """Write ``line`` as the end record now (``"forced": true``, with the goals), unless the
-        loop already wrote one (:meth:`JsonLinesLog.end_forced` for a server: the watchdog's
-        end of a run that did not stop in time); False when the lock could not be had in time
-        (a write is stuck: the lines stay as they are)."""
-        if not self._lock.acquire(timeout=max(timeout, 0.0)):
-            return False
-        try:
-            if not self._ended:
-                line = dict(line, forced=True, goals=self.board.remembered(timeout),
-                            goal_counts=self.board.summary(timeout))
-                self.stream.write(json.dumps(line, separators=(",", ":")) + "\n")
-                self.stream.flush()
-                self._ended = True
-            return True
-        except (OSError, ValueError):         # the file is gone or closed: nothing more to save
-            return False
-        finally:
-            self._lock.release()
 
 
 class _StopClock:
@@ -180,6 +132,7 @@ class ServerSettings:
         limits: how many goals may be open, per client and in all (:class:`Limits`).
         socket: what the socket takes from its clients (:class:`SocketLimits`).
         keep_records: cycle records kept in memory (the log has them all).
+        first_goal_id: the first goal's id (one above the last of the log a run continues).
     """
 
     goal: str | None = None
@@ -193,6 +146,7 @@ class ServerSettings:
     limits: Limits = Limits()
     socket: SocketLimits = SocketLimits()
     keep_records: int = 1000
+    first_goal_id: int = 1
 
 
 class Server:
@@ -224,7 +178,7 @@ class Server:
         self.vocabulary = vocabulary
         self._stopping = threading.Event()
         clock = _StopClock(settings.clock, self._stopping)
-        self.board = GoalBoard(vocabulary, limits=settings.limits)
+        self.board = GoalBoard(vocabulary, limits=settings.limits, first_id=settings.first_goal_id)
         label = settings.goal or domain.labels[0]
         self.model = StandingModel(domain, label, serve_roles(domain, vocabulary, binding),
                                    max_horizon=settings.max_horizon, budget=settings.budget, agenda=self.board.agenda,
@@ -238,6 +192,14 @@ class Server:
         self.loop = OnlineLoop(self.model, executor, [self.board], [self.board, *observers], when_done="wait",
                                clock=clock, idle_poll_s=settings.idle_poll_s, keep_records=settings.keep_records)
         self._t0 = time.monotonic()
+
+    def log_to(self, stream: TextIO, extra: dict | None = None, history: LogHistory | None = None) -> ServeLog:
+        """Write the run's log to ``stream`` (:mod:`.serve_log`): its start record now, then
+        every goal change as it happens and every cycle. ``history``: the log it continues
+        (:func:`~cplus.robot.serving.serve_log.open_log`)."""
+        log = ServeLog(stream, self.board, extra, loop=self.loop, history=history)
+        self.loop.observers.append(log)
+        return log
 
     def add_script(self, script: RequestScript) -> None:
         script.attach(self.board)

@@ -349,6 +349,9 @@ class _Client(GoalWatcher):
 
 
 def _unknown(board: GoalBoard, goal_id: int) -> str:
+    if 0 < goal_id < board.first_id:
+        return (f"goal {goal_id} belongs to an earlier run of the server (this run's goals start at "
+                f"{board.first_id}; the log has its result)")
     if board.forgotten(goal_id):
         return (f"goal {goal_id} ended long ago and is forgotten (the server remembers the last "
                 f"{board.limits.kept_final} final goals; the log has its result)")
