@@ -123,7 +123,7 @@ def test_a_scene_the_log_names_must_exist_unless_given(tmp_path, capsys):
      'run.jsonl:2: a cycle record needs "time" (seconds)'),
     ('{"record": "start", "format": "cplus.online/1"}\n{"record": "cycle", "cycle": 0, "time": 0, "state": 3}\n',
      'run.jsonl:2: "state" must be an object'),
-    ('{"record": "start", "format": "cplus.online/1"}\n{"record": "goal"}\n', "run.jsonl:2: unknown record 'goal'"),
+    ('{"record": "start", "format": "cplus.online/1"}\n{"record": "frame"}\n', "run.jsonl:2: unknown record 'frame'"),
     ('{"record": "start", "format": "cplus.online/1"}\n{"record": "end"}\n{"record": "end"}\n',
      "run.jsonl:3: a record after the end record"),
 ])
@@ -178,3 +178,14 @@ def test_long_writes_report_progress_at_every_quarter():
         FrameProgress("p", "a.gif", short)(k, 10)       # a short write says nothing
         FrameProgress("p", "a.gif", quiet, quiet=True)(k * 4, 40)
     assert short.getvalue() == quiet.getvalue() == ""
+
+
+def test_a_servers_goal_records_are_shown_with_the_next_cycle(tmp_path):
+    start = {"record": "start", "format": "cplus.online/1", "domain": "domains/mailbot/mailbot.cp", "goal": "serve",
+             "serve_format": "cplus.serve/3"}
+    goal = {"record": "goal", "id": 1, "request": "deliver(office3,office2)", "status": "active", "slot": 1}
+    log = tmp_path / "run.jsonl"
+    log.write_text("".join(json.dumps(x) + "\n" for x in [start, cycle(0, {"at": "office1"}), goal,
+                                                           cycle(1, {"at": "office1"})]))
+    _, cycles, end = read_log(str(log))
+    assert end is None and "goals" not in cycles[0] and cycles[1]["goals"] == [goal]

@@ -109,7 +109,7 @@ def log_finals(log: Path) -> dict[int, str]:
     assert lines[0]["record"] == "start" and lines[-1]["record"] == "end"
     last: dict[int, str] = {}
     for line in lines:
-        for g in line.get("goals", []):
+        for g in [line] if line["record"] == "goal" else line.get("goals", []):
             last[g["id"]] = g["status"]
     return last
 

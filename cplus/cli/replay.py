@@ -86,17 +86,24 @@ def read_log(path: str) -> tuple[dict[str, Any], list[dict[str, Any]], dict[str,
     if not records or records[0][1].get("record") != "start" or records[0][1].get("format") != ONLINE_FORMAT:
         raise _fail(f"{path}:1", f"not a {ONLINE_FORMAT} log (its first line is not the run's start record)")
     cycles, end = [], None
+    goals: list[dict[str, Any]] = []      # a server's goal records (cplus.serve/3), shown with the next cycle
     for n, record in records[1:]:
         kind = record["record"]
         if end is not None:
             raise _fail(f"{path}:{n}", "a record after the end record")
         if kind == "cycle":
             _check_cycle(record, f"{path}:{n}")
+            if goals:
+                record, goals = dict(record, goals=[*record.get("goals", []), *goals]), []
             cycles.append(record)
+        elif kind == "goal":
+            goals.append(record)
         elif kind == "end":
             end = record
         else:
-            raise _fail(f"{path}:{n}", f"unknown record {kind!r} (expected cycle or end)")
+            raise _fail(f"{path}:{n}", f"unknown record {kind!r} (expected cycle, goal or end)")
+    if goals and cycles:
+        cycles[-1] = dict(cycles[-1], goals=[*cycles[-1].get("goals", []), *goals])
     if not cycles:
         raise _fail(path, "the log has no cycle to replay")
     return records[0][1], cycles, end
