@@ -347,7 +347,9 @@ def _run(opts: ServeOptions) -> int:
                       file=err, flush=True)
             if ros is not None:
                 from cplus.robot.serving import ros_bridge
-                channel = ros_bridge.ActionChannel(server.board, args.ros_name, ros)
+                def say(text: str) -> None:
+                    print(f"cplus serve: {text}", file=err, flush=True)
+                channel = ros_bridge.ActionChannel(server.board, args.ros_name, ros, say=say)
                 server.add_channel(channel)
                 channel.start()
                 print(f"cplus serve: ROS action server {channel.namespace} ({channel.action_type}) at "
