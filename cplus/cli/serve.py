@@ -100,6 +100,10 @@ def build_parser() -> OneLineArgumentParser:
     p.add_argument("--log-overwrite", action="store_true",
                    help="replace the --log file whatever it holds (without it, a file that is not a cplus.online/1 "
                         "log is refused)")
+    p.add_argument("--preempt", choices=("finish", "stop"), default="finish",
+                   help="what cancelling a goal in flight does to the robot's step under way: finish lets it end "
+                        "(default); stop sets the motors to 0 at once (the actions the binding allows to stop), "
+                        "estimates the state from what was measured and plans on from there")
     p.add_argument("--action-time", type=_at_most(seconds, 3600, "seconds"), default=0.5, metavar="SECONDS",
                    help="simulated robot: how long each action takes (default 0.5)")
     p.add_argument("--budget", type=_at_most(nonneg, 1e12, "propagations"), metavar="PROPAGATIONS",
@@ -306,7 +310,8 @@ def _check(args: argparse.Namespace) -> ServeOptions | int:
     settings = ServerSettings(goal=label, budget=DEFAULT_BUDGET if args.budget is None else args.budget,
                               horizon=args.horizon, max_horizon=args.max_horizon, solver=args.solver,
                               action_time=args.action_time, limits=limits, socket=sockets,
-                              first_goal_id=history.last_goal_id + 1 if history is not None else 1)
+                              first_goal_id=history.last_goal_id + 1 if history is not None else 1,
+                              preempt=args.preempt)
     return ServeOptions(domain, label, vocabulary, requests_path, script, binding, ports, listen, ros, log_file,
                         history, settings, args)
 

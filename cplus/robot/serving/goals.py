@@ -214,6 +214,7 @@ class GoalBoard(EventSource, Observer):
         self.first_id = first_id                   # ids before it are an earlier run's (a log continued)
         self._next_id = first_id
         self.recorder: GoalRecorder | None = None  # the log: told of each change under the lock
+        self.on_preempt: Callable[[], object] | None = None   # an active goal was cancelled (--preempt stop)
         self._queue: deque[Goal] = deque()         # pending, oldest first
         self._cancels: list[Goal] = []             # active goals whose cancellation is not delivered
         self._holder: dict[object, Goal] = {}      # slot -> goal in flight
@@ -317,8 +318,10 @@ class GoalBoard(EventSource, Observer):
 
     def cancel(self, goal_id: int, origin: str = "") -> Goal:
         """Cancel a goal: a pending one is recalled at once; an active one is preempting until
-        the cancellation's events have done their work. A final goal stays as it is.
-        Raises KeyError for an unknown (or forgotten) id. Thread-safe."""
+        the cancellation's events have done their work (and :attr:`on_preempt` is called, with
+        no lock held: ``--preempt stop`` cuts the robot's step short). A final goal stays as it
+        is. Raises KeyError for an unknown (or forgotten) id. Thread-safe."""
+        preempted = False
         with self._lock:
             goal = self.goals[goal_id]
             if goal.status is GoalStatus.PENDING:
@@ -329,7 +332,10 @@ class GoalBoard(EventSource, Observer):
                 self._cancels.append(goal)
                 self._set(goal, GoalStatus.PREEMPTING)
                 self._arrived.notify_all()
+                preempted = True
         self._started()
+        if preempted and self.on_preempt is not None:
+            self.on_preempt()
         return goal
 
     def get(self, goal_id: int) -> Goal | None:

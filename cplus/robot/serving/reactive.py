@@ -133,6 +133,11 @@ class ServerSettings:
         socket: what the socket takes from its clients (:class:`SocketLimits`).
         keep_records: cycle records kept in memory (the log has them all).
         first_goal_id: the first goal's id (one above the last of the log a run continues).
+        preempt: what a cancellation of an active goal does to the robot's step under way:
+            ``"finish"`` lets it end (the step's actions are done, then the cancellation's
+            events take effect); ``"stop"`` cuts it short (the executor stops its actions
+            part-way where it can: motors to 0, the state estimated from what was measured,
+            and the loop plans on from there).
     """
 
     goal: str | None = None
@@ -147,6 +152,7 @@ class ServerSettings:
     socket: SocketLimits = SocketLimits()
     keep_records: int = 1000
     first_goal_id: int = 1
+    preempt: str = "finish"
 
 
 class Server:
@@ -191,6 +197,10 @@ class Server:
         self.channels: list = []
         self.loop = OnlineLoop(self.model, executor, [self.board], [self.board, *observers], when_done="wait",
                                clock=clock, idle_poll_s=settings.idle_poll_s, keep_records=settings.keep_records)
+        if settings.preempt not in ("finish", "stop"):
+            raise ValueError(f"preempt must be 'finish' or 'stop', not {settings.preempt!r}")
+        if settings.preempt == "stop":
+            self.board.on_preempt = self.loop.interrupt
         self._t0 = time.monotonic()
 
     def log_to(self, stream: TextIO, extra: dict | None = None, history: LogHistory | None = None) -> ServeLog:
