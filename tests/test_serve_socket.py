@@ -4,9 +4,9 @@ server running in a thread (a simulated robot whose actions take a few milliseco
 from __future__ import annotations
 
 import json
-import shutil
 import os
 import re
+import shutil
 import signal
 import socket
 import subprocess

@@ -509,6 +509,7 @@ class OnlineLoop:
             for obs in self.observers:
                 obs.on_act(record)
             t_act = self.clock.now()
+            outcome: Outcome | None
             try:
                 if plan.length:
                     self._cut.clear()
@@ -535,6 +536,7 @@ class OnlineLoop:
             record.act_s = self.clock.now() - t_act
             record.failure = outcome.failure
             record.notes.extend(outcome.notes)
+            sent = list(acts)
             if outcome.ran is not None:      # the log says what ran, not what was sent
                 acts = list(outcome.ran)
                 record.executed = list(acts)
@@ -548,7 +550,7 @@ class OnlineLoop:
             if outcome.failure is not None:
                 record.decision_s = time.perf_counter() - t
                 self._record(record)
-                what = ", ".join(a.text for a in acts) or "the idle step"
+                what = ", ".join(a.text for a in sent) or "the idle step"
                 return self._end(OnlineStatus.CONTRADICTED, f"{what} failed at cycle {cycle - 1}: {outcome.failure}",
                                  unexplained=[f"{what} failed: {outcome.failure}"])
             # estimate

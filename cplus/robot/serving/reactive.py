@@ -49,7 +49,6 @@ Python API::
 """
 from __future__ import annotations
 
-import json
 import threading
 import time
 from collections.abc import Callable, Iterable
@@ -58,7 +57,6 @@ from typing import TextIO
 
 from cplus.robot.online import (
     Executor,
-    JsonLinesLog,
     Observer,
     OnlineLoop,
     OnlineStatus,

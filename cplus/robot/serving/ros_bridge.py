@@ -160,7 +160,8 @@ class MasterWatch:
         while not self._stop.wait(MASTER_CHECK_S):
             master = xmlrpc.client.ServerProxy(self.master_uri)
             try:
-                code, _, uri = master.lookupNode(caller, caller)
+                answer: Any = master.lookupNode(caller, caller)
+                code, _, uri = answer
             except (OSError, xmlrpc.client.Error):
                 if not silent:
                     self.say(f"the ROS master at {self.master_uri} does not answer; goals in flight go on, new ROS "

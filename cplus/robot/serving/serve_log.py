@@ -36,8 +36,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import TextIO
 
-from cplus.robot.online import JsonLinesLog, RunResult
-from cplus.robot.online.loop import ONLINE_FORMAT
+from cplus.robot.online import ONLINE_FORMAT, JsonLinesLog, RunResult
 from cplus.robot.serving.goals import Goal, GoalBoard, GoalRecorder
 
 __all__ = ["SERVE_LOG", "LogHistory", "LogRefused", "ServeLog", "open_log"]
