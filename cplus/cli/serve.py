@@ -336,7 +336,7 @@ def _run(opts: ServeOptions) -> int:
                     observers=observers)
     if opts.log_file is not None:
         extra = {"requests": opts.requests_path, "accepts": opts.vocabulary.usage(), "binding": args.robot}
-        server.log_to(opts.log_file, extra, opts.log_history)
+        serve_log = server.log_to(opts.log_file, extra, opts.log_history)
     if not args.quiet:
         server.board.watch(GoalLines(err))
     if opts.script is not None:
@@ -372,6 +372,9 @@ def _run(opts: ServeOptions) -> int:
             return EXIT_OK
         code = EXIT_OK if result.status in (OnlineStatus.STOPPED, OnlineStatus.GOAL_REACHED) \
             else exit_code(result.status)
+        if opts.log_file is not None and serve_log.failure:
+            print(f"cplus serve: warning: goal records of {args.log} could not all be written: {serve_log.failure}",
+                  file=err, flush=True)
         watchdog.finished(code)
         return code
     finally:
