@@ -31,14 +31,17 @@ as in ROSoClingo's Table I).
 **Threads and locks.** Clients submit from their channels' threads (the socket's I/O thread,
 actionlib's callbacks, the loop's thread for a script), the loop polls and observes from its
 own, and watchers are told from the board's *dispatcher* thread. There is one lock,
-``GoalBoard._lock``, and it is a leaf: it is held only while the board's own bookkeeping
-changes, never while calling a watcher, a channel, actionlib, a socket or the log. A change
+``GoalBoard._lock``: it is held only while the board's own bookkeeping changes, never while
+calling a watcher, a channel, actionlib or a socket. The one thing called under it is the
+:class:`GoalRecorder` (the log), which writes the change before anyone can hear of it, takes
+only its own lock (a leaf) and never calls the board; the dispatcher has it ``sync`` (fsync)
+with no lock held before it delivers a final status. A change
 queues a notification (with a copy of the goal as it is then) in the board's outbox; the
 dispatcher delivers them in order with no lock held, so a watcher may call back into the board,
 and a component whose own lock is held while it calls the board (actionlib holds its
 ``action_server.lock`` in its goal and cancel callbacks) never waits for the board's watchers.
-The lock order of the server is therefore: a channel's own lock (actionlib's) → ``_lock``;
-nothing is taken under ``_lock``. A watcher must not block: a slow one delays every other's
+The lock order of the server is therefore: a channel's own lock (actionlib's) → ``_lock`` →
+the log's lock; nothing else is taken under ``_lock``. A watcher must not block: a slow one delays every other's
 news (the socket queues its lines per client, and never waits for a client).
 
 **Bounds.** Nothing grows with time or with what clients send: at most

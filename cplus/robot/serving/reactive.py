@@ -16,9 +16,12 @@ the board's dispatcher tells watchers (:mod:`.goals`); the socket has one I/O th
 (:mod:`.socket_channel`); rospy has its own (:mod:`.ros_bridge`). Every lock of the server, and the
 one order in which they may be held::
 
-    actionlib's action_server.lock  ─┐
-    the log's lock (JsonLinesLog)   ─┴─>  GoalBoard._lock      (nothing is taken under it)
+    actionlib's action_server.lock  ──>  GoalBoard._lock  ──>  the log's lock (ServeLog: a leaf)
+    the loop's _act_lock                                        (a leaf: nothing under it)
     a socket client's _Client._lock                             (a leaf: nothing under it)
+
+(the log writes each goal change under the board's lock, and never calls the board with its
+own lock held: :mod:`.serve_log`)
 
 No lock is held while calling into another component: the board queues notifications and the
 dispatcher delivers them with no lock held; a watcher (a socket client, an actionlib goal
