@@ -240,7 +240,9 @@ def test_recalled_and_pending_at_the_stop_are_the_states_docs_serve_says(roscore
     doc = " ".join((ROOT / "docs" / "serve.md").read_text().split())
     assert "a goal still pending when the server stops is REJECTED for actionlib (which aborts active goals only), " \
            "with the result status `aborted` and the reason" in doc
-    assert "client.cancel_goal() # -> PREEMPTED, or RECALLED when the goal had not started yet; with a result" in doc
+    assert "client.cancel_goal() # the goal ends PREEMPTED or RECALLED (the log says which)" in doc
+    assert ("| RECALLED (8) | `status \"recalled\"`, `reason \"cancelled by ros before it started\"` | cancelled "
+            "while pending in the server |") in doc
     server = subprocess.Popen([sys.executable, "-m", "cplus", "serve", str(MAILBOT / "mailbot.cp"), "--ros",
                                "--ros-name", "states", "--action-time", "1"],
                               env=dict(roscore, PYTHONUNBUFFERED="1"), stderr=subprocess.PIPE, text=True)

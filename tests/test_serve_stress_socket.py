@@ -88,7 +88,7 @@ class Served:
         assert text.endswith("\n")
         lines = [json.loads(x) for x in text.splitlines()]
         assert lines[0]["record"] == "start" and lines[-1]["record"] == "end"
-        assert all(x["record"] == "cycle" for x in lines[1:-1])
+        assert all(x["record"] in ("cycle", "goal") for x in lines[1:-1])
         return lines
 
     def __enter__(self) -> Served:
