@@ -147,7 +147,10 @@ class MasterWatch:
     def start(self) -> None:
         self._thread.start()
 
-    def stop(self, timeout: float = 1.0) -> None:
+    def stop(self, timeout: float = 0.05) -> None:
+        """End the watch: at once when it waits for its next check; a check under way (an
+        XML-RPC call to a slow master) is not waited for (the thread is a daemon, and the
+        server's stop must stay within its grace period)."""
         self._stop.set()
         if self._thread.is_alive():
             self._thread.join(timeout)
