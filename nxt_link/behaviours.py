@@ -72,7 +72,7 @@ from nxt_link.errors import (
 )
 
 __all__ = ["BehaviourClient", "BehaviourTiming", "ActResult", "BrickEvent", "Behaviour",
-           "Status", "BehaviourError", "BehaviourFailed", "BehaviourRefused", "BrickLostError",
+           "Status", "BehaviourError", "BehaviourFailed", "BehaviourInterrupted", "BehaviourRefused", "BrickLostError",
            "BrickPanicError"]
 
 log = logging.getLogger(__name__)
@@ -90,6 +90,17 @@ class BehaviourFailed(BehaviourError):
     def __init__(self, message: str, result: ActResult) -> None:
         super().__init__(message)
         self.result = result
+
+
+class BehaviourInterrupted(BehaviourError):
+    """The caller stopped the behaviour part-way (``act(interrupt=...)``): the brick was told
+    to ABORT (every behaviour stops, the motors coast) at ``abort_sent_at`` and acknowledged
+    it at ``stopped_at`` (the brick's clock): the motors stopped in between."""
+
+    def __init__(self, message: str, stopped_at: float, abort_sent_at: float | None = None) -> None:
+        super().__init__(message)
+        self.stopped_at = stopped_at
+        self.abort_sent_at = stopped_at if abort_sent_at is None else abort_sent_at
 
 
 class BehaviourRefused(BehaviourError):
@@ -368,7 +379,8 @@ class BehaviourClient:
     # -- actions --------------------------------------------------------------------------------
 
     def act(self, behaviour: int, args: tuple[int, ...] = (), *,
-            on_more_time: Callable[[float], None] | None = None) -> ActResult:
+            on_more_time: Callable[[float], None] | None = None,
+            interrupt: Callable[[], bool] | None = None) -> ActResult:
         """Execute one behaviour; return when it is done, with its sensing values.
 
         Args:
@@ -376,6 +388,9 @@ class BehaviourClient:
             args: its integer arguments (int16 each, at most 8).
             on_more_time: called with the seconds elapsed each time the brick asks for
                 more time (progress for the caller).
+            interrupt: asked at every poll (every ``poll_s``) while the behaviour runs; once
+                it says True the brick is told to ABORT and :class:`BehaviourInterrupted`
+                is raised (a preempted goal's motion stops within a poll and a round trip).
 
         Raises:
             BehaviourFailed: the behaviour ended with a failure status (``.result``).
@@ -396,7 +411,12 @@ class BehaviourClient:
         sent = heard = self.clock.now()
         self.clock.sleep(self.timing.poll_s)  # the program takes the ACT within its loop
         while True:
-            resp = self._poll()
+            resp = None if interrupt is not None and interrupt() else self._poll()
+            if interrupt is not None and interrupt():   # asked before the poll, or during its round trip
+                sent = self.clock.now()
+                self.abort()
+                raise BehaviourInterrupted(f"brick {self.name}: ACT {seq} ({_name(Behaviour, behaviour)}) stopped "
+                                           "part-way on request", self.clock.now(), sent)
             now = self.clock.now()
             if resp is None:
                 if now - heard > self.timing.max_silent_s:

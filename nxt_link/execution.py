@@ -214,7 +214,9 @@ def execute_streams(streams: Sequence[SetpointStream], bricks: Mapping[str, Bric
         bricks: connected :class:`~nxt_link.brick.Brick` objects by name; they
             must share one clock (real bricks: the monotonic clock).
         options: controller, timeouts, limits.
-        on_progress: receives a :class:`Progress` at every step of every phase.
+        on_progress: receives a :class:`Progress` at every step of every phase; an
+            exception it raises stops every brick at once (STOP, acknowledged) and is
+            raised to the caller.
         session_ids: fixed session ids per brick (tests); random by default.
 
     Returns:
@@ -319,6 +321,11 @@ class _Execution:
             stopped = self._stopped(str(exc))
             self._abort(exc)
             raise ExecutionFailed.of(exc, self._log(stopped), stopped.brick) from exc
+        except Exception:
+            # the caller's on_progress gave up (a motor off its setpoints): every brick stops
+            # at once, before the caller looks at the arms; the exception is the caller's
+            self._stop_all(failed=None, confirm_s=self.opts.timing.max_silent_s)
+            raise
         finally:
             for s in self.streams:
                 self.bricks[s.brick].on_event = _unchain(self.bricks[s.brick].on_event)

@@ -186,3 +186,32 @@ def test_arms_usage_errors(argv, message, capsys):
     code = main(["online", str(PAYLOAD / "payload.cp"), *argv])
     err = capsys.readouterr().err
     assert code == 2 and message in err and "Traceback" not in err
+
+
+@pytest.mark.slow
+def test_the_readmes_stall_example_reaches_the_goal(tmp_path, capsys):
+    """`cplus online domains/payload/payload.cp --stall r1:A@2+1 --log arms.jsonl` as printed
+    (Bluetooth timing, simulated time). The bricks used to go on with the old trajectory after
+    the fault, so the angles read were not where the arms stood when the new plan started
+    (motor B 119 degrees from its start: contradicted, with 22 actions logged as executed that
+    never ran). Now they stop at the fault, are braked, and are read standing still."""
+    log = tmp_path / "arms.jsonl"
+    code = main(["online", str(PAYLOAD / "payload.cp"), "--stall", "r1:A@2+1", "--log", str(log)])
+    err = capsys.readouterr().err
+    assert code == 0, err
+    lines = [json.loads(x) for x in log.read_text().splitlines()]
+    cycles = [x for x in lines if x["record"] == "cycle"]
+    assert cycles[0]["failure"].startswith("robot r1 motor A:") and cycles[1]["replanned"]["reason"] == "fault"
+    assert all(x["failure"] is None for x in cycles[1:])
+    assert lines[-1]["status"] == "goal_reached"
+
+
+def test_a_plan_refused_before_anything_moved_logs_nothing_as_executed(task, monkeypatch):
+    from nxt_link.errors import SetpointError
+
+    def refuse(*a, **kw):
+        raise SetpointError("brick r1 motor B stands at 461 deg, the trajectory starts at 342 deg")
+    monkeypatch.setattr(pm.nxt_link, "execute_streams", refuse)
+    result = Arms().run(task)
+    assert result.status is OnlineStatus.CONTRADICTED
+    assert result.records[-1].failure.startswith("brick r1 motor B") and result.records[-1].executed == []

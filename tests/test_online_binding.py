@@ -175,7 +175,18 @@ BAD = [
      "robot.toml:30:1"),
     ("not a fluent", edit("[sensed.lit]", "[sensed.bump]"), "'bump' is an exogenousAction of d.cp, not a fluent",
      "robot.toml:32:1"),
+    ("stop event", edit("args = [\"$1\", \"$speed\", 12]", "args = [\"$1\", \"$speed\", 12]\nstop = \"slip\""),
+     "stop = 'slip': bind the event slip with source = \"stop\" in [events] (events from source stop: none)",
+     "robot.toml:8:1"),
 ]
+
+
+def test_an_action_that_may_be_stopped_names_its_stop_event(domain):
+    text = edit('args = ["$1", "$speed", 12]', 'args = ["$1", "$speed", 12]\nstop = "slip"').replace(
+        'source = "inferred"', 'source = "stop"')
+    b = parse(text, domain)
+    assert {a.stop.text for a in b.actions.values()} == {"slip"}
+    assert {gc.text for gc in b.roles().observed} >= {"slip"}
 
 
 @pytest.mark.parametrize("name, text, message, where", BAD, ids=[b[0] for b in BAD])

@@ -125,7 +125,7 @@ def test_a_scene_the_log_names_must_exist_unless_given(tmp_path, capsys):
      'run.jsonl:2: a cycle record needs "time" (seconds)'),
     ('{"record": "start", "format": "cplus.online/1"}\n{"record": "cycle", "cycle": 0, "time": 0, "state": 3}\n',
      'run.jsonl:2: "state" must be an object'),
-    ('{"record": "start", "format": "cplus.online/1"}\n{"record": "goal"}\n', "run.jsonl:2: unknown record 'goal'"),
+    ('{"record": "start", "format": "cplus.online/1"}\n{"record": "frame"}\n', "run.jsonl:2: unknown record 'frame'"),
     ('{"record": "start", "format": "cplus.online/1"}\n{"record": "end"}\n{"record": "end"}\n',
      "run.jsonl:3: a record after the end record"),
     # cycles out of order, and times that are no finite number of seconds going forward
@@ -321,3 +321,28 @@ def test_the_replay_counts_cycles_as_cplus_online_does(tmp_path, capsys):
     frames = frames_of(cycles, end)
     assert said.group(1) in frames[-1].lines
     assert f"goal 'deliver' reached at cycle {cycles[-1]['cycle']}" in frames[-1].lines
+
+
+def test_a_servers_goal_records_are_shown_with_the_next_cycle(tmp_path):
+    start = {"record": "start", "format": "cplus.online/1", "domain": "domains/mailbot/mailbot.cp", "goal": "serve",
+             "serve_format": "cplus.serve/3"}
+    goal = {"record": "goal", "id": 1, "request": "deliver(office3,office2)", "status": "active", "slot": 1}
+    log = tmp_path / "run.jsonl"
+    log.write_text("".join(json.dumps(x) + "\n" for x in [start, cycle(0, {"at": "office1"}), goal,
+                                                           cycle(1, {"at": "office1"})]))
+    _, cycles, end = read_log(str(log))
+    assert end is None and "goals" not in cycles[0] and cycles[1]["goals"] == [goal]
+
+
+def test_a_compact_log_of_several_runs_is_split_at_its_start_records(tmp_path):
+    """The logs are written compact (``{"record":"start",...}``, as cplus.robot writes them): a
+    line cut off by a crash, followed by the next run's start record, ends the run before."""
+    def compact(obj) -> str:
+        return json.dumps(obj, separators=(",", ":")) + "\n"
+    text = (compact(start_record()) + compact(cycle(0, {"p": 0})) + compact(cycle(1, {"p": 1}))[:12]
+            + compact(start_record()) + compact(cycle(0, {"p": 5})) + compact(end_record(1)))
+    log = tmp_path / "compact.jsonl"
+    log.write_text(text)
+    from cplus.cli.replay import read_runs
+    runs = read_runs(str(log))
+    assert [(len(r.cycles), r.end is not None, r.cut) for r in runs] == [(1, False, 3), (1, True, None)]

@@ -160,3 +160,70 @@ def test_numbers_too_large_or_not_ascii_are_one_line_errors(tmp_path, capsys):
     requests.write_text((MAILBOT / "requests.toml").read_text().replace("$2", "$" + "9" * 20))
     assert run_bad([DOMAIN, "--requests", str(requests), "--script", script], capsys).startswith(
         f"{requests}:11:")
+
+
+def test_request_text_is_escaped_on_stderr_one_line_whatever_it_holds(tmp_path, capsys):
+    # a newline would split the progress line and let a client forge one; a NUL would reach
+    # the terminal raw
+    forged = 'x\ncplus serve: goal 7 {"cancel": 1}: rejected: forged'
+    script = tmp_path / "script.jsonl"
+    script.write_text("".join(json.dumps(x) + "\n" for x in [
+        {"cycle": 1, "request": forged}, {"cycle": 1, "request": "deliver(office1\x00,office2)"},
+        {"cycle": 1, "request": "d\u00e9liver(office1,office2)"}]))
+    assert main(["serve", DOMAIN, "--script", str(script), "--action-time", "0"]) == 0
+    err = capsys.readouterr().err
+    goals = [line for line in err.splitlines() if line.startswith("cplus serve: goal ")]
+    assert goals == [
+        "cplus serve: goal 1 x\\ncplus serve: goal 7 {\"cancel\": 1}: rejected: forged: rejected: cannot read "
+        "'x\\ncplus serve: goal 7 {\"cancel\": 1}: rejected: forged' as a request such as deliver(office,office)",
+        "cplus serve: goal 2 deliver(office1\\x00,office2): rejected: office1\\x00 is not an office (office1, office2, "
+        "office3, office4)",
+        "cplus serve: goal 3 d\\xe9liver(office1,office2): rejected: cannot read 'd\\xe9liver(office1,office2)' as "
+        "a request such as deliver(office,office)"]
+    assert "\x00" not in err
+
+
+def run_script(log, capsys, *more) -> tuple[int, str]:
+    code = main(["serve", DOMAIN, "--script", str(MAILBOT / "table1.jsonl"), "--action-time", "0", "--log", str(log),
+                 *more])
+    return code, capsys.readouterr().err
+
+
+def test_a_log_is_continued_with_a_new_run_and_goal_ids_go_on(tmp_path, capsys):
+    log = tmp_path / "run.jsonl"
+    assert run_script(log, capsys)[0] == 0
+    first = log.read_bytes()
+    code, err = run_script(log, capsys)
+    assert code == 0
+    assert "cplus serve: goal 3 deliver(office3,office2): active (slot 1)" in err      # ids go on
+    assert "cplus serve: goal 3 deliver(office3,office2): preempted" in err          # the script's own first
+    assert log.read_bytes().startswith(first)
+    lines = [json.loads(x) for x in log.read_text().splitlines()]
+    starts = [i for i, x in enumerate(lines) if x["record"] == "start"]
+    ends = [i for i, x in enumerate(lines) if x["record"] == "end"]
+    assert len(starts) == 2 and len(ends) == 2 and ends[0] == starts[1] - 1
+    assert lines[starts[0]]["first_goal_id"] == 1 and "continues" not in lines[starts[0]]
+    assert lines[starts[1]]["first_goal_id"] == 3 and lines[starts[1]]["continues"] is True
+    created = [x["id"] for x in lines if x["record"] == "goal" and x["status"] == "pending"]
+    assert created == [1, 2, 3, 4]
+    # a crash left a line cut off: it is removed, and the new run says so
+    with open(log, "a") as f:
+        f.write('{"record":"goal","id":5,"requ')
+    code, err = run_script(log, capsys)
+    assert code == 0
+    lines = [json.loads(x) for x in log.read_text().splitlines()]       # every line JSON again
+    start = [x for x in lines if x["record"] == "start"][-1]
+    assert start["first_goal_id"] == 5 and start["repaired"] == (
+        "removed a last line of 29 bytes cut off by a crash of the run before")
+
+
+def test_a_log_of_another_kind_is_refused_unless_overwritten(tmp_path, capsys):
+    log = tmp_path / "notes.txt"
+    log.write_text("my notes\n")
+    code, err = run_script(log, capsys)
+    assert code == 2 and err == (f"cplus serve: error: --log: {log} is not a cplus.online/1 log (its first line is "
+                                 "not a run's start record): give another file, or --log-overwrite to replace it\n")
+    assert log.read_text() == "my notes\n"
+    code, err = run_script(log, capsys, "--log-overwrite")
+    assert code == 0 and json.loads(log.read_text().splitlines()[0])["first_goal_id"] == 1
+    assert run_bad([DOMAIN, "--log-overwrite"], capsys) == "cplus serve: error: --log-overwrite needs --log FILE\n"

@@ -14,7 +14,7 @@ import pytest
 from cplus.api import Domain
 from cplus.robot.online.loop import OnlineStatus
 from cplus.robot.serving.goals import GoalBoard, GoalStatus, GoalWatcher, Limits
-from cplus.robot.serving.reactive import ServeLog, Server, ServerSettings
+from cplus.robot.serving.reactive import Server, ServerSettings
 from cplus.robot.serving.script import ScriptError, parse_script
 from cplus.robot.serving.vocabulary import Rejected, RequestsError, load_requests, parse_requests
 from nxt_link.clock import VirtualClock
@@ -36,7 +36,7 @@ def serve(d, lines: list[dict], **kw):
     text = "".join(json.dumps(x) + "\n" for x in lines)
     server = Server(d, vocabulary(d), ServerSettings(clock=VirtualClock(), **kw))
     out = io.StringIO()
-    server.loop.observers.append(ServeLog(out, server.board))
+    server.log_to(out)
     server.add_script(parse_script(text, "script.jsonl"))
     result = server.run()
     return result, server, [json.loads(x) for x in out.getvalue().splitlines()]
@@ -147,8 +147,8 @@ def test_requests_the_domain_cannot_express_are_rejected_and_the_server_goes_on(
                        "unknown request 'fetch'; this domain accepts deliver(office,office)",
                        "deliver takes 2 arguments (deliver(office,office)), not 1"]
     assert server.board.goals[5].slot == 1            # rejected requests take no slot
-    goals = {g["id"]: g for line in log if line["record"] == "cycle" for g in line["goals"]}
-    assert goals[2] == {"id": 2, "request": "deliver(office9,office2)", "status": "rejected",
+    goals = {g["id"]: g for g in log if g["record"] == "goal"}
+    assert goals[2] == {"record": "goal", "id": 2, "request": "deliver(office9,office2)", "status": "rejected",
                         "reason": "office9 is not an office (office1, office2, office3, office4)"}
 
 
@@ -214,24 +214,29 @@ def test_watchers_hear_each_change_in_order_with_feedback_per_cycle(domain):
     assert watcher.feedback_cycles == [1, 2, 3, 4]
 
 
-def test_the_log_is_the_online_log_with_goals(domain):
+def test_the_log_is_the_online_log_with_a_record_at_each_goal_change(domain):
     result, server, log = serve(domain, [{"cycle": 1, "request": "deliver(office3,office2)"}, {"cycle": 3, "cancel": 1}])
-    assert [x["record"] for x in log] == ["start"] + ["cycle"] * len(result.records) + ["end"]
+    kinds = [x["record"] for x in log]
+    assert kinds[0] == "start" and kinds[-1] == "end" and kinds.count("cycle") == len(result.records)
     assert log[0]["format"] == "cplus.online/1" and "cancel(1)" in log[0]["observed"]
     assert "move(office2)" in log[0]["agent"] and "request(1,office3)" not in log[0]["agent"]
-    for line in log[1:-1]:
-        assert {"cycle", "state", "executed", "events", "sensed", "plan", "replanned", "goals"} <= set(line)
-    assert log[2]["goals"] == [{"id": 1, "request": "deliver(office3,office2)", "status": "active", "slot": 1,
-                                "cycle": 1, "reaction_ms": log[2]["goals"][0]["reaction_ms"]}]
-    assert log[3]["goals"] == []                  # active still: nothing changed
-    assert log[4]["cycle"] == 3 and log[4]["goals"][0]["status"] == "preempted" and log[4]["goals"][0]["done_cycle"] == 3
+    assert log[0]["serve_format"] == "cplus.serve/3" and log[0]["first_goal_id"] == 1 and "continues" not in log[0]
+    for line in log:
+        if line["record"] == "cycle":
+            assert {"cycle", "state", "executed", "events", "sensed", "plan", "replanned"} <= set(line)
+            assert "goals" not in line
+    # each change where it happened: pending and active before the record of cycle 1 (the
+    # transition that took it), preempted before the record of cycle 3 (where it closed)
+    where = [(x["record"], x.get("cycle") if x["record"] == "cycle" else x.get("status")) for x in log[1:-1]]
+    assert where[:4] == [("cycle", 0), ("goal", "pending"), ("goal", "active"), ("cycle", 1)]
+    assert where[5:8] == [("goal", "preempting"), ("goal", "preempted"), ("cycle", 3)]
+    active = log[3]
+    assert active == {"record": "goal", "id": 1, "request": "deliver(office3,office2)", "status": "active", "slot": 1,
+                      "cycle": 1}
+    done = next(x for x in log if x["record"] == "goal" and x["status"] == "preempted")
+    assert done["done_cycle"] == 3 and done["reason"] == "cancelled"
     assert log[-1]["status"] == "goal_reached" and [g["status"] for g in log[-1]["goals"]] == ["preempted"]
-    assert log[-1]["goal_counts"] == {"preempted": 1} and log[0]["serve_format"] == "cplus.serve/2"
-    # a cycle line names the goals that changed since the line before, not those open
-    result, server, log = serve(domain, [{"cycle": 1, "request": "deliver(office1,office2)"},
-                                         {"cycle": 6, "request": "deliver(office1,office2)"}])
-    assert [[g["id"] for g in x["goals"]] for x in log[1:-1]] == [[], [1], [], [], [1], [], [2], [], [], [], [2]]
-    assert log[5]["goals"][0]["status"] == "succeeded" and log[-2]["goals"][0]["status"] == "succeeded"
+    assert log[-1]["goal_counts"] == {"preempted": 1}
 
 
 # ---------------------------------------------------------------------------------- inputs

@@ -7,6 +7,7 @@ from __future__ import annotations
 import contextlib
 import json
 import os
+import re
 import shutil
 import signal
 import socket
@@ -41,10 +42,30 @@ def free_port() -> int:
         return s.getsockname()[1]
 
 
+def process_tree(pid: int) -> list[int]:
+    """``pid`` and every process below it (roslaunch starts the master in a session of its own)."""
+    children: dict[int, list[int]] = {}
+    for entry in os.listdir("/proc"):
+        if entry.isdigit():
+            try:
+                with open(f"/proc/{entry}/stat") as f:
+                    ppid = int(f.read().rsplit(")", 1)[1].split()[1])
+            except (OSError, IndexError, ValueError):
+                continue
+            children.setdefault(ppid, []).append(int(entry))
+    out, todo = [], [pid]
+    while todo:
+        p = todo.pop()
+        out.append(p)
+        todo.extend(children.get(p, []))
+    return out
+
+
 @contextlib.contextmanager
-def ros_master(home: Path):
-    """A roscore on a free loopback port, its logs in ``home``; yields the environment that names it."""
-    port = free_port()
+def ros_master(home: Path, port: int | None = None, kill: bool = False):
+    """A roscore on a loopback port (a free one by default), its logs in ``home``; yields the
+    environment that names it. ``kill``: it ends by SIGKILL (a crash), not SIGINT."""
+    port = port or free_port()
     env = dict(os.environ, ROS_MASTER_URI=f"http://127.0.0.1:{port}", ROS_HOSTNAME="127.0.0.1",
                ROS_HOME=str(home), ROS_LOG_DIR=str(home / "log"))
     proc = subprocess.Popen(["roscore", "-p", str(port)], env=env, stdout=subprocess.DEVNULL,
@@ -61,7 +82,12 @@ def ros_master(home: Path):
                 time.sleep(0.2)
         yield env
     finally:
-        os.killpg(proc.pid, signal.SIGINT)
+        if kill:                                     # a crash: roslaunch and the master and rosout it started
+            for pid in process_tree(proc.pid):
+                with contextlib.suppress(ProcessLookupError):
+                    os.kill(pid, signal.SIGKILL)
+        else:
+            os.killpg(proc.pid, signal.SIGINT)
         try:
             proc.wait(30)
         except subprocess.TimeoutExpired:
@@ -214,7 +240,9 @@ def test_recalled_and_pending_at_the_stop_are_the_states_docs_serve_says(roscore
     doc = " ".join((ROOT / "docs" / "serve.md").read_text().split())
     assert "a goal still pending when the server stops is REJECTED for actionlib (which aborts active goals only), " \
            "with the result status `aborted` and the reason" in doc
-    assert "client.cancel_goal() # -> PREEMPTED, or RECALLED when the goal had not started yet; with a result" in doc
+    assert "client.cancel_goal() # the goal ends PREEMPTED or RECALLED (the log says which)" in doc
+    assert ("| RECALLED (8) | `status \"recalled\"`, `reason \"cancelled by ros before it started\"` | cancelled "
+            "while pending in the server |") in doc
     server = subprocess.Popen([sys.executable, "-m", "cplus", "serve", str(MAILBOT / "mailbot.cp"), "--ros",
                                "--ros-name", "states", "--action-time", "1"],
                               env=dict(roscore, PYTHONUNBUFFERED="1"), stderr=subprocess.PIPE, text=True)
@@ -246,3 +274,74 @@ def test_recalled_and_pending_at_the_stop_are_the_states_docs_serve_says(roscore
     assert out["pending"]["state"] == REJECTED and out["pending"]["result"]["status"] == "aborted"
     assert out["pending"]["result"]["reason"].startswith("the server stopped (ended on request at cycle ")
     assert out["pending"]["text"] == out["pending"]["result"]["reason"]
+
+
+ONE_GOAL = textwrap.dedent("""
+    import json, sys
+    import rospy, actionlib
+    from cplus_msgs.msg import ServeAction, ServeGoal
+    rospy.init_node("cplus_test_after_restart", anonymous=True, disable_signals=True)
+    client = actionlib.SimpleActionClient(sys.argv[1], ServeAction)
+    out = {"server": client.wait_for_server(rospy.Duration(60))}
+    client.send_goal(ServeGoal(request=sys.argv[2]))
+    client.wait_for_result(rospy.Duration(120))
+    r = client.get_result()
+    out.update(state=client.get_state(), status=r.status if r else None, id=r.id if r else None)
+    print(json.dumps(out))
+""")
+
+
+@pytest.mark.slow
+@needs_ros
+def test_the_server_registers_again_when_the_master_restarts(tmp_path):
+    """roscore killed and started again while a goal runs: the server sees that the new master
+    does not know it, registers its action server again (one line on stderr), the goal in
+    flight finishes, and a new client's goal succeeds."""
+    home = tmp_path / "ros"
+    port = free_port()
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join([MSG_PATH, DIST]))
+    with ros_master(home, port, kill=True) as master:
+        server = subprocess.Popen([sys.executable, "-m", "cplus", "serve", str(MAILBOT / "mailbot.cp"), "--ros",
+                                   "--action-time", "0.3", "--listen", "127.0.0.1:0"],
+                                  env=dict(master, PYTHONUNBUFFERED="1"), stderr=subprocess.PIPE, text=True)
+        assert server.stderr is not None
+        for line in server.stderr:
+            m = re.search(r"listening on 127\.0\.0\.1:(\d+)", line)
+            if m:
+                address = ("127.0.0.1", int(m.group(1)))
+            if "ROS action server" in line:
+                break
+        first = subprocess.Popen([*client_python(), "-c", ONE_GOAL, "/cplus_serve", "deliver(office4,office1)"],
+                                 env=dict(env, **{k: master[k] for k in ("ROS_MASTER_URI", "ROS_HOSTNAME")}),
+                                 stdout=subprocess.PIPE, text=True)
+        for line in server.stderr:
+            if "goal 1 deliver(office4,office1): active" in line:
+                break
+    try:
+        with ros_master(home, port) as master:      # the same address, a master that knows nobody
+            for line in server.stderr:
+                if "registered its action server again" in line:
+                    break
+            assert "did not know this node (restarted)" in line
+            r = subprocess.run([*client_python(), "-c", ONE_GOAL, "/cplus_serve", "deliver(office2,office3)"],
+                               env=dict(env, **{k: master[k] for k in ("ROS_MASTER_URI", "ROS_HOSTNAME")}),
+                               capture_output=True, text=True, timeout=300)
+            assert r.returncode == 0, r.stderr
+            out = json.loads(r.stdout.strip().splitlines()[-1])
+            assert out == {"server": True, "state": 3, "status": "succeeded", "id": 2}
+            with socket.create_connection(address, timeout=60) as s:   # the goal in flight went on
+                f = s.makefile("rw")
+                while True:
+                    f.write(json.dumps({"status": 1}) + "\n")
+                    f.flush()
+                    got = json.loads(f.readline())
+                    if got["status"] != "active":
+                        break
+            assert got["status"] == "succeeded"
+            server.send_signal(signal.SIGTERM)
+            assert server.wait(60) == 0
+    finally:
+        for proc in (server, first):
+            if proc.poll() is None:
+                proc.kill()
+                proc.wait()

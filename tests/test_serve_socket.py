@@ -6,6 +6,7 @@ from __future__ import annotations
 import json
 import os
 import re
+import shutil
 import signal
 import socket
 import subprocess
@@ -258,3 +259,48 @@ def test_the_python_line_of_docs_serve_talks_to_the_socket(server):
     lines = [json.loads(x) for x in r.stdout.splitlines()]
     assert lines[0] == {"type": "goal", "id": 1, "request": "deliver(office3,office2)", "status": "pending"}
     assert lines[-1]["type"] == "result" and lines[-1]["status"] == "succeeded"
+
+
+@pytest.mark.parametrize("tool", ["nc -q 30", "socat -t 30"])
+def test_the_docs_nc_and_socat_lines_hear_their_goal_to_its_result(server, tool):
+    """A client that shuts its writing side after its request (netcat's -q, socat's -t) gets its
+    goal's lines until the result, then the server hangs up: the docs' lines, run as written."""
+    program = tool.split()[0]
+    if shutil.which(program) is None:
+        pytest.skip(f"{program} is not installed (.ci/run installs it)")
+    doc = (ROOT / "docs" / "serve.md").read_text()
+    line = next(x for x in doc.splitlines() if x.startswith("printf ") and f"| {tool} " in x)
+    command = line.replace("7070", str(server.address[1]))
+    r = subprocess.run(["sh", "-c", command], capture_output=True, text=True, timeout=120)
+    assert r.returncode == 0, r.stderr
+    lines = [json.loads(x) for x in r.stdout.splitlines()]
+    assert lines[0] == {"type": "goal", "id": 1, "request": "deliver(office3,office2)", "status": "pending"}
+    assert [x["status"] for x in lines if x["type"] == "status"] == ["active"]
+    assert [x["type"] for x in lines].count("feedback") >= 5
+    assert lines[-1]["type"] == "result" and lines[-1]["status"] == "succeeded"
+
+
+def test_a_half_closed_client_keeps_hearing_its_goals_then_the_server_hangs_up(server):
+    a = Client(server.address)
+    a.send({"request": "deliver(office4,office1)"})
+    a.send({"request": "deliver(office2,office3)"})
+    a.send({"status": 1})
+    a.sock.shutdown(socket.SHUT_WR)             # nothing more to say; still listening
+    got = []
+    while raw := a.rfile.readline():            # until the server hangs up
+        got.append(json.loads(raw))
+    assert [x["id"] for x in got if x["type"] == "goal"] == [1, 2]
+    results = {x["id"]: x["status"] for x in got if x["type"] == "result"}
+    assert results == {1: "succeeded", 2: "succeeded"} and got[-1]["type"] == "result"
+    a.close()
+    # a client that hangs up altogether is let go too (its goal goes on)
+    b = Client(server.address)
+    b.send({"request": "deliver(office1,office2)"})
+    assert b.line()["status"] == "pending"
+    b.close()
+    c = Client(server.address)
+    while True:
+        c.send({"status": 3})
+        if c.line()["status"] == "succeeded":
+            break
+    c.close()

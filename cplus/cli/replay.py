@@ -23,6 +23,7 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import re
 import os
 import sys
 from typing import Any, NamedTuple
@@ -68,8 +69,9 @@ class Run(NamedTuple):
     cut: int | None = None
 
 
-_START = '{"record": "start"'
-"""How a start record's line begins (json.dumps' default spacing, as the loop writes it)."""
+_START = re.compile(r'\{\s*"record"\s*:\s*"start"')
+"""How a start record's line begins (the logs are written compact, ``{"record":"start",...}``;
+spaces allowed, for a log written by other tools)."""
 
 
 def _read_text(path: str) -> str:
@@ -104,7 +106,8 @@ def _records(path: str, text: str) -> list[tuple[int, dict[str, Any] | None]]:
         try:
             record = json.loads(line)
         except json.JSONDecodeError as exc:
-            restart = line.find(_START, 1)
+            found = _START.search(line, 1)
+            restart = found.start() if found else -1
             if n > 1 and ((n == len(lines) and not complete) or (n < len(lines) and _starts_run(lines[n]))):
                 out.append((n, None))
                 continue
@@ -128,7 +131,7 @@ def _records(path: str, text: str) -> list[tuple[int, dict[str, Any] | None]]:
 
 def _starts_run(line: str) -> bool:
     """Whether a line is a run's start record (a line cut off before it ended a crashed run)."""
-    if not line.startswith(_START):
+    if not _START.match(line):
         return False
     try:
         return isinstance(json.loads(line), dict)
@@ -148,6 +151,7 @@ def read_runs(path: str) -> list[Run]:
     if first is None or first.get("record") != "start" or first.get("format") != ONLINE_FORMAT:
         raise _fail(f"{path}:1", f"not a {ONLINE_FORMAT} log (its first line is not the run's start record)")
     runs: list[Run] = []
+    goals: list[dict[str, Any]] = []      # a server's goal records (cplus.serve/3), shown with the next cycle
     for n, record in records:
         where = f"{path}:{n}"
         current = runs[-1] if runs else None
@@ -164,6 +168,7 @@ def read_runs(path: str) -> list[Run]:
         if kind == "start":
             if record.get("format") != ONLINE_FORMAT:
                 raise _fail(where, f"a start record of another format than {ONLINE_FORMAT}")
+            _flush_goals(runs, goals)
             runs.append(Run(len(runs) + 1, n, record, [], None))
             continue
         assert current is not None
@@ -171,13 +176,27 @@ def read_runs(path: str) -> list[Run]:
             raise _fail(where, "a record after the end record (a run that follows begins with its start record)")
         if kind == "cycle":
             _check_cycle(record, where, current.cycles[-1] if current.cycles else None)
+            if goals:
+                record, goals = dict(record, goals=[*record.get("goals", []), *goals]), []
             current.cycles.append(record)
+        elif kind == "goal":
+            goals.append(record)
         elif kind == "end":
             _check_end(record, where)
             runs[-1] = current._replace(end=record)
         else:
-            raise _fail(where, f"unknown record {kind!r} (expected cycle, end, or the start of another run)")
+            raise _fail(where, f"unknown record {kind!r} (expected cycle, goal, end, or the start of another run)")
+    _flush_goals(runs, goals)
     return runs
+
+
+def _flush_goals(runs: list[Run], goals: list[dict[str, Any]]) -> None:
+    """Goal records after a run's last cycle go with that cycle (a run ended, or was killed, with
+    goals still changing)."""
+    if goals and runs and runs[-1].cycles:
+        last = runs[-1].cycles
+        last[-1] = dict(last[-1], goals=[*last[-1].get("goals", []), *goals])
+    goals.clear()
 
 
 def read_log(path: str, run: int | None = None) -> tuple[dict[str, Any], list[dict[str, Any]], dict[str, Any] | None]:

@@ -95,7 +95,15 @@ def build_parser() -> OneLineArgumentParser:
                    help="with --robot: brick NAME is at PORT; none: emulate every brick in its world")
     p.add_argument("--requests", metavar="FILE", help="the requests the domain accepts (cplus.requests/1; default: "
                    "requests.toml beside the domain)")
-    p.add_argument("--log", metavar="FILE", help="write the run as JSON lines (cplus.online/1, with goals)")
+    p.add_argument("--log", metavar="FILE", help="write the run as JSON lines (cplus.online/1, with goals); an "
+                   "existing log of that kind is continued, goal ids going on from its last one")
+    p.add_argument("--log-overwrite", action="store_true",
+                   help="replace the --log file whatever it holds (without it, a file that is not a cplus.online/1 "
+                        "log is refused)")
+    p.add_argument("--preempt", choices=("finish", "stop"), default="finish",
+                   help="what cancelling a goal in flight does to the robot's step under way: finish lets it end "
+                        "(default); stop sets the motors to 0 at once (the actions the binding allows to stop), "
+                        "estimates the state from what was measured and plans on from there")
     p.add_argument("--action-time", type=_at_most(seconds, 3600, "seconds"), default=0.5, metavar="SECONDS",
                    help="simulated robot: how long each action takes (default 0.5)")
     p.add_argument("--budget", type=_at_most(nonneg, 1e12, "propagations"), metavar="PROPAGATIONS",
@@ -145,16 +153,31 @@ class ServeProgress(Progress):
 
 
 
+def one_line(text: str) -> str:
+    """``text`` as it may go on a progress line: printable ASCII as it is, every other character
+    escaped as Python writes it (``\\n``, ``\\x00``, ``\\xe9``, ``\\u2028``), so that what a client
+    sends can neither split a line of stderr (nor forge one) nor reach the terminal raw."""
+    if text.isascii() and text.isprintable():
+        return text
+    return _UNPRINTABLE.sub(lambda m: m.group().encode("unicode_escape").decode("ascii"), text)
+
+
+_UNPRINTABLE = re.compile(r"[^\x20-\x7e]")
+
+
 class GoalLines(GoalWatcher):
-    """A progress line per goal change on stderr."""
+    """A progress line per goal change on stderr; the request and the reason (which may quote
+    it) escaped by :func:`one_line`."""
 
     def __init__(self, out: TextIO) -> None:
         self.out = out
 
     def status(self, goal, status) -> None:
         extra = f" (slot {goal.slot})" if status.value == "active" and goal.slot is not None else ""
-        why = f": {goal.reason}" if goal.reason and status.value in ("rejected", "aborted", "recalled") else ""
-        print(f"cplus serve: goal {goal.id} {goal.request}: {status.value}{extra}{why}", file=self.out, flush=True)
+        why = f": {one_line(goal.reason)}" if goal.reason and status.value in ("rejected", "aborted", "recalled") \
+            else ""
+        print(f"cplus serve: goal {goal.id} {one_line(goal.request)}: {status.value}{extra}{why}", file=self.out,
+              flush=True)
 
 
 @dataclass(frozen=True)
@@ -170,7 +193,7 @@ class ServeOptions:
         binding: the ``--robot`` binding, and ``ports`` its ``--brick`` ports (empty: emulated).
         listen: the socket's address, if it listens.
         ros: ROS, checked (master answering), when ``--ros``.
-        log_file: the open ``--log`` file, if any.
+        log_file: the open ``--log`` file, if any; ``log_history`` what it held, when continued.
         settings: how the server plans and runs (``--budget``, ``--horizon``, ...).
         args: the parsed command line, for the plain values (``--quiet``, ``--ros-name``, ...).
     """
@@ -185,6 +208,7 @@ class ServeOptions:
     listen: tuple[str, int] | None
     ros: Any                      # ros_bridge.RosSetup: that module is imported only with --ros
     log_file: TextIO | None
+    log_history: Any              # serve_log.LogHistory of a continued log, or None
     settings: ServerSettings
     args: argparse.Namespace
 
@@ -267,11 +291,16 @@ def _check(args: argparse.Namespace) -> ServeOptions | int:
             ros = ros_bridge.RosSetup.check()
         except ros_bridge.RosUnavailable as exc:
             return _fail(str(exc))
-    log_file = None
+    log_file = history = None
+    if args.log_overwrite and not args.log:
+        return _fail("--log-overwrite needs --log FILE")
     if args.log:
+        from cplus.robot.serving.serve_log import LogRefused, open_log
         try:
             os.makedirs(os.path.dirname(os.path.abspath(args.log)), exist_ok=True)
-            log_file = open(args.log, "w", encoding="utf-8")
+            log_file, history = open_log(args.log, overwrite=args.log_overwrite)
+        except LogRefused as exc:
+            return _fail(f"--log: {exc}")
         except OSError as exc:
             return _fail(f"cannot write {args.log}: {exc.strerror}")
     limits, sockets = Limits(), SocketLimits()
@@ -280,16 +309,18 @@ def _check(args: argparse.Namespace) -> ServeOptions | int:
     sockets = replace(sockets, clients=args.max_clients or sockets.clients)
     settings = ServerSettings(goal=label, budget=DEFAULT_BUDGET if args.budget is None else args.budget,
                               horizon=args.horizon, max_horizon=args.max_horizon, solver=args.solver,
-                              action_time=args.action_time, limits=limits, socket=sockets)
+                              action_time=args.action_time, limits=limits, socket=sockets,
+                              first_goal_id=history.last_goal_id + 1 if history is not None else 1,
+                              preempt=args.preempt)
     return ServeOptions(domain, label, vocabulary, requests_path, script, binding, ports, listen, ros, log_file,
-                        settings, args)
+                        history, settings, args)
 
 
 def _run(opts: ServeOptions) -> int:
     """Build the server from checked inputs, open its channels, serve until the end."""
     from cplus.cli.online import exit_code
     from cplus.robot.online.loop import OnlineStatus
-    from cplus.robot.serving.reactive import ServeLog, Server
+    from cplus.robot.serving.reactive import Server
     args = opts.args
     err = sys.stderr
     executor = None
@@ -305,7 +336,7 @@ def _run(opts: ServeOptions) -> int:
                     observers=observers)
     if opts.log_file is not None:
         extra = {"requests": opts.requests_path, "accepts": opts.vocabulary.usage(), "binding": args.robot}
-        server.loop.observers.append(ServeLog(opts.log_file, server.board, extra))
+        serve_log = server.log_to(opts.log_file, extra, opts.log_history)
     if not args.quiet:
         server.board.watch(GoalLines(err))
     if opts.script is not None:
@@ -321,7 +352,9 @@ def _run(opts: ServeOptions) -> int:
                       file=err, flush=True)
             if ros is not None:
                 from cplus.robot.serving import ros_bridge
-                channel = ros_bridge.ActionChannel(server.board, args.ros_name, ros)
+                def say(text: str) -> None:
+                    print(f"cplus serve: {text}", file=err, flush=True)
+                channel = ros_bridge.ActionChannel(server.board, args.ros_name, ros, say=say)
                 server.add_channel(channel)
                 channel.start()
                 print(f"cplus serve: ROS action server {channel.namespace} ({channel.action_type}) at "
@@ -339,6 +372,9 @@ def _run(opts: ServeOptions) -> int:
             return EXIT_OK
         code = EXIT_OK if result.status in (OnlineStatus.STOPPED, OnlineStatus.GOAL_REACHED) \
             else exit_code(result.status)
+        if opts.log_file is not None and serve_log.failure:
+            print(f"cplus serve: warning: goal records of {args.log} could not all be written: {serve_log.failure}",
+                  file=err, flush=True)
         watchdog.finished(code)
         return code
     finally:

@@ -34,21 +34,38 @@
 
 :- constants
   facing                       :: inertialFluent(direction);   % up: towards office4
+  between                      :: inertialFluent;     % stopped on the line between `at` and the next office up
   follow                       :: exogenousAction;    % follow the line to the next office
   turn                         :: exogenousAction;    % turn 180 degrees onto the line
-  missed                       :: exogenousAction.    % the follower drove past an office
+  missed                       :: exogenousAction;    % the follower drove past an office
+  halted                       :: exogenousAction.    % the follow was stopped part-way (cplus serve --preempt stop)
 
 % Following the line: to the next office, or the one after it when the follower misses one
 % (an event nothing reports: the landmark the robot stops at says so).
-follow causes at=O1 if at=O & facing=up & -missed where next(O,O1).
-follow causes at=O1 if at=O & facing=down & -missed where next(O1,O).
-follow causes at=O2 if at=O & facing=up & missed where next(O,O1) & next(O1,O2).
-follow causes at=O2 if at=O & facing=down & missed where next(O1,O) & next(O2,O1).
+follow causes at=O1 if at=O & facing=up & -between & -missed & -halted where next(O,O1).
+follow causes at=O1 if at=O & facing=down & -between & -missed & -halted where next(O1,O).
+follow causes at=O2 if at=O & facing=up & -between & missed where next(O,O1) & next(O1,O2).
+follow causes at=O2 if at=O & facing=down & -between & missed where next(O1,O) & next(O2,O1).
 nonexecutable follow if at=office4 & facing=up.
-nonexecutable follow if at=office1 & facing=down.
+nonexecutable follow if at=office1 & facing=down & -between.
 nonexecutable missed if -follow.
 nonexecutable missed if at=office3 & facing=up.
-nonexecutable missed if at=office2 & facing=down.
+nonexecutable missed if at=office2 & facing=down & -between.
+nonexecutable missed if at=office1 & facing=down.
+
+% Stopped part-way (a goal preempted with --preempt stop): the robot stands on the line between
+% two offices, `at` the one down the line.  From there it follows to the office ahead of it:
+% the next one up, or `at` itself facing down (one further when it misses one).
+follow causes between if halted.
+follow causes at=O1 if at=O & facing=down & -between & halted where next(O1,O).
+follow causes -between if -halted.
+follow causes at=O1 if at=O & facing=up & between & -missed & -halted where next(O,O1).
+follow causes at=O2 if at=O & facing=up & between & missed where next(O,O1) & next(O1,O2).
+follow causes at=O1 if at=O & facing=down & between & missed where next(O1,O).
+nonexecutable halted if -follow.
+nonexecutable halted & missed.
+nonexecutable pickup(P) if between.
+nonexecutable deliver(P) if between.
 
 turn causes facing=down if facing=up.
 turn causes facing=up if facing=down.
@@ -64,5 +81,5 @@ nonexecutable turn & deliver(P).
 :- query
   label :: serve;
   maxstep :: 0..40;
-  0: at=office1 & facing=up & load=0 & [/\P | phase(P)=idle & origin(P)=none & dest(P)=none];
+  0: at=office1 & facing=up & -between & load=0 & [/\P | phase(P)=idle & origin(P)=none & dest(P)=none];
   maxstep: [/\P | -pending(P)].

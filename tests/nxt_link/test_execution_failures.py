@@ -229,3 +229,23 @@ def test_a_link_that_cannot_be_reopened_ends_the_run_at_once(rig, wave):
     program1 = rig.emulators["r1"].program
     assert program1.state == State.STOPPED
     assert log.brick("r1").measured_deg == tuple(program1.measured_rows())
+
+
+def test_an_exception_from_on_progress_stops_every_brick_before_it_is_raised(rig, wave):
+    """A monitor that gives up (the payload arms' tracking fault) raises from on_progress: every
+    brick is told to STOP before the caller sees the exception, so the arms do not run on with
+    a trajectory the caller has abandoned."""
+    rig.add("r1")
+    rig.add("r2")
+
+    class GiveUp(Exception):
+        pass
+
+    def monitor(p) -> None:
+        if p.phase == "run" and p.done >= 30:
+            raise GiveUp(p.brick)
+    with pytest.raises(GiveUp):
+        execute_streams(two_streams(wave, 200), rig.bricks, options=OPTIONS, on_progress=monitor)
+    for name in ("r1", "r2"):
+        program = rig.emulators[name].program
+        assert program.state == State.STOPPED and program.logged < 200

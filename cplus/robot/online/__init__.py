@@ -31,6 +31,7 @@ from cplus.robot.online.estimation import (
 from cplus.robot.online.events import EventsError, LineEvents, ScriptedEvents, check_events, parse_events
 from cplus.robot.online.executors import SimulatedExecutor
 from cplus.robot.online.loop import (
+    ONLINE_FORMAT,
     CycleRecord,
     EventSource,
     Executor,
@@ -48,7 +49,7 @@ from cplus.robot.online.nxt_executor import NxtExecutor
 from cplus.robot.online.payload_monitor import ArmsExecutor, run_arms
 from cplus.robot.online.world_file import WorldFileError, load_world, parse_world
 
-__all__ = ["Act", "ArmsExecutor", "BindingError", "CycleRecord", "Estimate", "EstimateStatus", "EventSource",
+__all__ = ["ONLINE_FORMAT", "Act", "ArmsExecutor", "BindingError", "CycleRecord", "Estimate", "EstimateStatus", "EventSource",
            "EventsError", "Executor", "JsonLinesLog", "LineEvents", "NxtExecutor", "Observer", "OnlineLoop",
            "OnlineModel", "OnlineStatus", "Outcome", "Plan", "Replan", "RobotBinding", "RobotLost", "Roles",
            "RunResult", "ScriptedEvents", "SimulatedExecutor", "State", "Step", "WorldFileError", "binding_beside",

@@ -9,13 +9,16 @@ sensor reads. The binding file beside a domain says so, for the online loop:
 * ``[actions.C]``: the action constant ``C`` (every ground instance of that name, or one
   instance written out, ``[actions."goto(2)"]``) is the robot's. It runs ``behaviour`` N on
   brick ``brick`` with ``args``: integers, ``"$1"``.. for the action's own arguments, or
-  ``"$name"`` for the value of one of its attributes;
+  ``"$name"`` for the value of one of its attributes. ``stop = "halted"``: the action may be
+  stopped part-way (``cplus serve --preempt stop``), and then the event ``halted`` (bound with
+  source ``"stop"``) happened with it, so that the domain says where that leaves the robot;
 * ``[events.C]``: ``C`` is an event, with its ``source``. ``"brick"``: the brick program
   reports it (``event = "button"``), its arguments becoming the constant's. ``"sensor"``:
   the PC reads a sensor ``port`` of a ``brick`` after every step and the event happens when
   the reading crosses ``below`` or ``above``. ``"input"``: a line of ``--events`` (or a
   request channel). ``"inferred"``: nothing reports it, and the state estimate decides
-  whether it happened;
+  whether it happened. ``"stop"``: the executor reports it when it stopped an action part-way
+  (the action's ``stop``);
 * ``[sensed.F]``: the fluent ``F`` is read after each step, either from a ``value`` that the
   brick's behaviours return (``value = "landmark"``) or from a sensor ``port``. The reading
   maps to a value of ``F`` through ``thresholds``/``values`` (``n`` increasing thresholds,
@@ -60,7 +63,7 @@ ROBOT_FORMAT = "cplus.robot/1"
 SENSOR_PORTS = ("S1", "S2", "S3", "S4")
 MOTOR_PORTS = ("A", "B", "C")
 SENSOR_TYPES = ("touch", "light", "light_ambient", "sound")
-EVENT_SOURCES = ("brick", "sensor", "input", "inferred")
+EVENT_SOURCES = ("brick", "sensor", "input", "inferred", "stop")
 _INT32 = (-(2 ** 31), 2 ** 31 - 1)
 INT16 = (-(2 ** 15), 2 ** 15 - 1)
 """A behaviour's arguments travel as int16 (the ACT message): checked at load, literal or not."""
@@ -99,6 +102,7 @@ class ActionBinding:
     behaviour: int
     args: tuple[int | str, ...]
     location: Location
+    stop: GroundConst | None = None    # the event that says it was stopped part-way (None: it finishes)
 
     def call_args(self, act: Act) -> tuple[int, ...]:
         """The behaviour's arguments for one occurrence of the action."""
@@ -118,7 +122,7 @@ class ActionBinding:
 
 @dataclass(frozen=True)
 class EventBinding:
-    """An event and where it comes from (``source``: brick, sensor, input or inferred)."""
+    """An event and where it comes from (``source``: brick, sensor, input, inferred or stop)."""
 
     gc: GroundConst
     source: str
@@ -358,6 +362,7 @@ class _Reader(KeyPathReader):
         bricks = self.bricks()
         actions = self.action_bindings(bricks)
         events = self.event_bindings(bricks, actions)
+        actions = self.stop_events(actions, events)
         self.everything_bound(actions, events)
         sensed = self.sensed_bindings(bricks)
         return RobotBinding(self.source.path, bricks, actions, events, sensed)
@@ -391,7 +396,7 @@ class _Reader(KeyPathReader):
         out: dict[GroundConst, ActionBinding] = {}
         for key in self.table(("actions",), required=False):
             base: KeyPath = ("actions", key)
-            self.table(base, ("brick", "behaviour", "args"))
+            self.table(base, ("brick", "behaviour", "args", "stop"))
             gcs = self.constants(base, "action")
             brick = self.brick_ref(base + ("brick",), bricks)
             behaviour = self.integer(base + ("behaviour",), 1, 255)
@@ -455,7 +460,8 @@ class _Reader(KeyPathReader):
             gcs = self.constants(base, "action")
             source = self.string(base + ("source",), EVENT_SOURCES)
             fields: dict[str, Any] = {}
-            wanted = {"brick": ("brick", "event"), "sensor": ("brick", "port"), "input": (), "inferred": ()}[source]
+            wanted = {"brick": ("brick", "event"), "sensor": ("brick", "port"), "input": (), "inferred": (),
+                      "stop": ()}[source]
             for name in ("brick", "event", "port", "below", "above"):
                 if name in spec and name not in wanted and not (source == "sensor" and name in ("below", "above")):
                     raise self.fail(base + (name,), f"'{name}' has no meaning for an event from source '{source}'")
@@ -488,6 +494,23 @@ class _Reader(KeyPathReader):
                     raise self.fail(base, f"{gc.text} is bound twice in [events]")
                 out[gc] = EventBinding(gc, source, self.loc(base), **fields)
         return out
+
+    def stop_events(self, actions: dict[GroundConst, ActionBinding],
+                    events: Mapping[GroundConst, EventBinding]) -> dict[GroundConst, ActionBinding]:
+        """Each action's ``stop``: an event without arguments bound with source ``"stop"``."""
+        from dataclasses import replace
+        stops = {gc.text: gc for gc, e in events.items() if e.source == "stop"}
+        for key in self.table(("actions",), required=False):
+            path: KeyPath = ("actions", key, "stop")
+            if not self.has(path):
+                continue
+            name = self.string(path)
+            if name not in stops:
+                raise self.fail(path, f"stop = {name!r}: bind the event {name} with source = \"stop\" in [events] "
+                                f"(events from source stop: {', '.join(sorted(stops)) or 'none'})")
+            for gc in self.constants(("actions", key), "action"):
+                actions[gc] = replace(actions[gc], stop=stops[name])
+        return actions
 
     def everything_bound(self, actions: Mapping, events: Mapping) -> None:
         for gc in self.actions:

@@ -1,7 +1,9 @@
 """Executors of the online loop that need no hardware: a simulated robot.
 
 :class:`SimulatedExecutor` is a world that does what the model predicts, except where told
-otherwise. Each action takes a configurable (simulated or real) time. The sensed fluents
+otherwise. Each action takes a configurable (simulated or real) time; a step cut short
+(:attr:`~cplus.robot.online.loop.Step.stop`, ``--preempt stop``) ends at once with none of its
+actions done: the simulated robot stays where it was. The sensed fluents
 report their values in the simulated world. Faults can be scheduled by cycle: an event that
 happens, observed or not (a button press, a missed landmark); a sensor that reads a wrong
 value; an action that fails; a robot that stops answering. The loop's tests use it, and so
@@ -15,7 +17,7 @@ from collections.abc import Iterable, Mapping
 from cplus.robot.online.estimation import OnlineModel, Roles, State, json_value
 from cplus.robot.online.loop import Executor, Outcome, RobotLost, Step
 from cplus.signature import GroundConst
-from nxt_link.clock import MONOTONIC, Clock
+from nxt_link.clock import MONOTONIC, Clock, MonotonicClock
 
 __all__ = ["SimulatedExecutor"]
 
@@ -83,7 +85,10 @@ class SimulatedExecutor(Executor):
         if self.lost_at is not None and step.cycle >= self.lost_at:
             raise RobotLost(f"{self.name}: no answer at cycle {step.cycle} (simulated)")
         seconds = max((self.durations.get(a.name, self.default_s) for a in step.acts), default=self.default_s)
-        self.clock.sleep(seconds)
+        if not self._sleep(seconds, step):
+            shown = ", ".join(a.text for a in step.acts)
+            return Outcome(ran=[], notes=[f"stopped before {shown} was done (the simulated robot stays where it "
+                                          "was)"], seconds=seconds)
         if step.cycle in self.failures:
             return Outcome(failure=self.failures[step.cycle], seconds=seconds)
         happen = self.events.get(step.cycle, [])
@@ -105,6 +110,34 @@ class SimulatedExecutor(Executor):
         observed = [gc for gc in happen if gc in self.model.roles.observed]
         raw = {f"{self.name}.{gc.text}": json_value(gc, v) for gc, v in sensed.items()}
         return Outcome(sensed, observed, raw, seconds=seconds)
+
+
+    _SLICE_S = 0.01
+
+    def _sleep(self, seconds: float, step: Step) -> bool:
+        """The step's time, in slices so that a cut (``step.stop``) is heard within one; False
+        when it was cut short."""
+        stop = step.stop
+        if stop is None or not step.acts:
+            self.clock.sleep(seconds)
+            return True
+        if not _real(self.clock):            # simulated time: one sleep (its times stay exact)
+            if stop.is_set():
+                return False
+            self.clock.sleep(seconds)
+            return True
+        left = seconds
+        while left > 0:
+            if stop.is_set():
+                return False
+            self.clock.sleep(min(self._SLICE_S, left))
+            left -= self._SLICE_S
+        return True                       # its time is over: done
+
+
+def _real(clock: Clock) -> bool:
+    """Whether ``clock`` is the wall clock (a server's clock says so with ``real``)."""
+    return isinstance(clock, MonotonicClock) or bool(getattr(clock, "real", False))
 
 
 def _internal(value: object) -> object:

@@ -88,13 +88,17 @@ class Step:
 
     ``acts`` are the agent's actions (empty: an idle step); ``state`` is the state the loop
     believes the robot is in, ``predicted`` what the plan expects afterwards (None on an idle
-    step): a real robot ignores both, a simulated one uses them.
+    step): a real robot ignores both, a simulated one uses them. ``stop`` is set when the
+    step is to be cut short (:meth:`OnlineLoop.interrupt`: a goal preempted with ``--preempt
+    stop``): an executor that can stop an action part-way does so and reports which actions
+    ran (:attr:`Outcome.ran`); one that cannot lets them finish.
     """
 
     cycle: int
     acts: Sequence[Act]
     state: State
     predicted: State | None
+    stop: threading.Event | None = None
 
 
 @dataclass
@@ -105,7 +109,9 @@ class Outcome:
     executor's robot saw during it (a button); ``raw`` keeps the readings behind ``sensed``
     (``{"robot.landmark": 3}``); ``failure`` says why an action could not be done (a behaviour
     reported it was stuck); ``notes`` are things worth a line in the log (an event with no
-    binding, ignored).
+    binding, ignored). ``ran``: the actions that were executed, when not all of them were (an
+    action refused or stopped before it started is not; one stopped part-way is, with the
+    event that says so among ``events``); None: all of them.
     """
 
     sensed: dict[GroundConst, object] = field(default_factory=dict)
@@ -114,6 +120,7 @@ class Outcome:
     failure: str | None = None
     notes: list[str] = field(default_factory=list)
     seconds: float = 0.0
+    ran: list[Act] | None = None
 
 
 class Executor(ABC):
@@ -166,6 +173,15 @@ class EventSource(ABC):
         """True when events are scheduled for ``cycle`` or later: an idle step then ends at
         once, so that a script runs deterministically. Live sources say False."""
         return False
+
+    def ready(self, cycle: int) -> bool | None:
+        """Whether :meth:`poll` would bring events for ``cycle`` now, looked at without taking
+        them; None (the default): the source cannot tell without taking them, and the idle
+        step polls it and keeps what came for the transition. A source that can look
+        overrides it, so that each transition polls it exactly once: what it hands over is
+        then committed with the transition that ends there, and what arrives later (a
+        cancellation of what was just handed over) belongs to the next one."""
+        return None
 
     def wait(self, timeout: float) -> None:
         """Block until something may have arrived, at most ``timeout`` seconds."""
@@ -345,16 +361,21 @@ class JsonLinesLog(Observer):
         finally:
             self._lock.release()
 
-    def on_start(self, loop: OnlineLoop) -> None:
+    def start_record(self, loop: OnlineLoop) -> dict:
+        """The run's start record (the first line of a run; a log continued after a restart
+        holds several runs, each from its own start record)."""
         roles = loop.model.roles
         started = datetime.now(UTC).isoformat(timespec="seconds")
+        return {"record": "start", "format": ONLINE_FORMAT, "started": started, "domain": loop.model.domain.path,
+                "goal": loop.model.query.label, "max_plan_length": loop.model.goal_query.hi,
+                "agent": sorted(gc.text for gc in roles.agent),
+                "observed": sorted(gc.text for gc in roles.observed),
+                "inferred": sorted(gc.text for gc in roles.inferred),
+                "executor": loop.executor.description, **self.extra}
+
+    def on_start(self, loop: OnlineLoop) -> None:
         self._t0 = time.monotonic()
-        self._write({"record": "start", "format": ONLINE_FORMAT, "started": started, "domain": loop.model.domain.path,
-                     "goal": loop.model.query.label, "max_plan_length": loop.model.goal_query.hi,
-                     "agent": sorted(gc.text for gc in roles.agent),
-                     "observed": sorted(gc.text for gc in roles.observed),
-                     "inferred": sorted(gc.text for gc in roles.inferred),
-                     "executor": loop.executor.description, **self.extra})
+        self._write(self.start_record(loop))
 
     def on_cycle(self, record: CycleRecord) -> None:
         line = record.to_json()
@@ -392,6 +413,9 @@ class OnlineLoop:
         self.clock = clock
         self.idle_poll_s = idle_poll_s
         self._stop = threading.Event()
+        self._cut = threading.Event()           # the step under way is to be cut short
+        self._acting = False
+        self._act_lock = threading.Lock()       # a leaf: guards _acting
         self._early: dict[EventSource, list[str]] = {}
         self._t0 = 0.0
         self.records: list[CycleRecord] = []
@@ -402,6 +426,16 @@ class OnlineLoop:
     def stop(self) -> None:
         """Ask the run to end between two cycles (thread-safe); it ends as ``stopped``."""
         self._stop.set()
+
+    def interrupt(self) -> bool:
+        """Cut the step under way short (thread-safe, never blocks): its :attr:`Step.stop` is
+        set, and an executor that can stop its actions part-way does so (the motors to 0),
+        reports what it measured, and the loop estimates the state from that and plans on.
+        False when no step is under way (nothing to cut short)."""
+        with self._act_lock:
+            if self._acting:
+                self._cut.set()
+            return self._acting
 
     # ------------------------------------------------------------------ the run
     def run(self) -> RunResult:
@@ -475,9 +509,19 @@ class OnlineLoop:
             for obs in self.observers:
                 obs.on_act(record)
             t_act = self.clock.now()
+            outcome: Outcome | None
             try:
-                outcome = self.executor.execute(Step(cycle, acts, state, predicted)) if plan.length \
-                    else self._idle(cycle)
+                if plan.length:
+                    self._cut.clear()
+                    with self._act_lock:
+                        self._acting = True
+                    try:
+                        outcome = self.executor.execute(Step(cycle, acts, state, predicted, self._cut))
+                    finally:
+                        with self._act_lock:
+                            self._acting = False
+                else:
+                    outcome = self._idle(cycle)
             except RobotLost as exc:
                 record.failure = str(exc)
                 record.act_s = self.clock.now() - t_act
@@ -492,6 +536,10 @@ class OnlineLoop:
             record.act_s = self.clock.now() - t_act
             record.failure = outcome.failure
             record.notes.extend(outcome.notes)
+            sent = list(acts)
+            if outcome.ran is not None:      # the log says what ran, not what was sent
+                acts = list(outcome.ran)
+                record.executed = list(acts)
             self._record(record)
             # observe
             cycle += 1
@@ -502,7 +550,7 @@ class OnlineLoop:
             if outcome.failure is not None:
                 record.decision_s = time.perf_counter() - t
                 self._record(record)
-                what = ", ".join(a.text for a in acts) or "the idle step"
+                what = ", ".join(a.text for a in sent) or "the idle step"
                 return self._end(OnlineStatus.CONTRADICTED, f"{what} failed at cycle {cycle - 1}: {outcome.failure}",
                                  unexplained=[f"{what} failed: {outcome.failure}"])
             # estimate
@@ -559,10 +607,14 @@ class OnlineLoop:
             else:
                 self.clock.sleep(self.idle_poll_s)
             for source in live:
-                events = source.poll(cycle + 1)
-                if events:
-                    self._early[source] = events
+                ready = source.ready(cycle + 1)
+                if ready:
                     return outcome
+                if ready is None:
+                    events = source.poll(cycle + 1)
+                    if events:
+                        self._early[source] = events
+                        return outcome
         return None
 
     def _unknown(self, record: CycleRecord, est: Estimate, where: str) -> RunResult:

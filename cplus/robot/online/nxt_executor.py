@@ -17,6 +17,15 @@ takes part in it until it closes it, and the loop should measure its cycles on t
 
 A behaviour that reports failure (stuck, line lost) is the step's ``failure``. A brick that
 stops answering is :class:`~cplus.robot.online.loop.RobotLost`.
+
+A step cut short (:attr:`~cplus.robot.online.loop.Step.stop`, ``cplus serve --preempt stop``)
+stops each action the binding allows to stop (``stop = "halted"`` in its ``[actions]``
+table): the brick is told to ABORT within a poll (every behaviour stops, the motors go to
+power 0 and coast), the action counts as executed together with its stop event (``halted``),
+and the domain says where that leaves the robot (between two offices, for the mail robot on
+its line). The actions after it are not sent; an action without ``stop`` finishes.
+:attr:`NxtExecutor.stopped_at` keeps when the last ABORT was acknowledged (the bricks'
+clock).
 """
 from __future__ import annotations
 
@@ -28,7 +37,13 @@ import nxt_link
 from cplus.robot.online.binding import BindingError, RobotBinding
 from cplus.robot.online.estimation import Act, OnlineModel
 from cplus.robot.online.loop import Executor, Outcome, RobotLost, Step
-from nxt_link.behaviours import BehaviourClient, BehaviourError, BehaviourFailed, BehaviourTiming
+from nxt_link.behaviours import (
+    BehaviourClient,
+    BehaviourError,
+    BehaviourFailed,
+    BehaviourInterrupted,
+    BehaviourTiming,
+)
 from nxt_link.clock import MONOTONIC, Clock, SimClock, clock_of_device, join_threads, start_thread
 from nxt_link.errors import LinkError
 from nxt_link.inprocess import EmulatedBricks
@@ -108,6 +123,7 @@ class NxtExecutor(Executor):
         self.on_link_event = on_link_event
         self.bricks: dict[str, _Brick] = {}
         self.servers: dict[str, object] = {}
+        self.stopped_at: float | None = None      # when the last action stopped part-way was (bricks' clock)
         self._stack = ExitStack()
         names = list(binding.bricks)
         if self.transports:
@@ -193,18 +209,22 @@ class NxtExecutor(Executor):
         by_brick: dict[str, list[Act]] = {}
         for act in step.acts:
             by_brick.setdefault(self.binding.actions[act.gc].brick, []).append(act)
+        out.ran = []
         if len(by_brick) <= 1:
             for name, acts in by_brick.items():
-                self._run(name, acts, out)
+                self._run(name, acts, out, step)
         else:
             # one thread per brick (participants of a simulated clock); their outcomes are
             # merged in the bricks' order, whatever order they finished in
             errors: dict[str, BaseException] = {}
             parts = {name: Outcome() for name in by_brick}
 
+            for part in parts.values():
+                part.ran = []
+
             def work(name: str, acts: list[Act]) -> None:
                 try:
-                    self._run(name, acts, parts[name])
+                    self._run(name, acts, parts[name], step)
                 except BaseException as exc:  # noqa: BLE001 - re-raised in the caller's thread
                     errors[name] = exc
             threads = [start_thread(self.clock, f"act-{name}", work, item) for name, item in
@@ -217,6 +237,10 @@ class NxtExecutor(Executor):
         self._poll_events(out)
         self._read_ports(out)
         out.seconds = self.clock.now() - t0
+        if out.ran is not None and len(out.ran) == len(step.acts):
+            out.ran = None                       # all of them
+        elif out.ran is not None:
+            out.ran = [a for a in step.acts if a in out.ran]      # in the step's order
         return out
 
     def poll(self) -> Outcome:
@@ -225,13 +249,27 @@ class NxtExecutor(Executor):
         self._read_ports(out)
         return out
 
-    def _run(self, name: str, acts: list[Act], out: Outcome) -> None:
+    def _run(self, name: str, acts: list[Act], out: Outcome, step: Step) -> None:
         b = self.bricks[name]
+        stop = step.stop
         for act in acts:
             bound = self.binding.actions[act.gc]
+            if stop is not None and stop.is_set():
+                return                          # cut short: the rest is not sent
+            cut = stop.is_set if stop is not None and bound.stop is not None else None
             try:
-                result = b.client.act(bound.behaviour, bound.call_args(act))
-            except BehaviourFailed as exc:
+                result = b.client.act(bound.behaviour, bound.call_args(act), interrupt=cut)
+            except BehaviourInterrupted as exc:
+                assert bound.stop is not None and out.ran is not None
+                self.stopped_at = exc.stopped_at
+                out.ran.append(act)
+                out.events.append(bound.stop)
+                out.notes.append(f"{act.text} stopped part-way on brick {name} (motors at power 0): "
+                                 f"{bound.stop.text}")
+                return
+            except BehaviourFailed as exc:      # it ran, and failed
+                assert out.ran is not None
+                out.ran.append(act)
                 self._sensing(name, exc.result.sensing, out)
                 out.failure = f"{act.text} on brick {name}: {exc.result.status_name} ({exc})"
                 return
@@ -240,6 +278,8 @@ class NxtExecutor(Executor):
                 return
             except LinkError as exc:
                 raise RobotLost(f"brick {name}: {exc}") from None
+            assert out.ran is not None
+            out.ran.append(act)
             self._sensing(name, result.sensing, out)
 
     def _sensing(self, name: str, sensing: Mapping[str, int], out: Outcome) -> None:
@@ -292,6 +332,8 @@ class NxtExecutor(Executor):
 
 
 def _merge(into: Outcome, part: Outcome) -> None:
+    if into.ran is not None:
+        into.ran.extend(part.ran or [])
     into.sensed.update(part.sensed)
     into.raw.update(part.raw)
     into.notes.extend(part.notes)

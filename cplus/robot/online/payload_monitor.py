@@ -16,8 +16,10 @@ one joint trajectory, and the bricks follow it with their P-controllers
    link). A brick drives all its motors on one clock, so a motor that does not fit the tick
    of the others is not following. When its error exceeds :data:`TRACKING_THRESHOLD_DEG`, the
    cause is a stalled motor, a caught cable or a hand in the way;
-3. then both bricks are stopped at once (the protocol's STOP; the motors coast) and every
-   motor angle is read. Forward kinematics gives each end-effector's position, which is
+3. then both bricks are stopped at once (the protocol's STOP, :func:`nxt_link.execute_streams`
+   does it when the monitor raises), every motor is braked (power 0, the short-circuit brake:
+   a coasting carriage runs on for tens of degrees) and the angles are read once the arms
+   stand still (:func:`stop_and_measure`). Forward kinematics gives each end-effector's position, which is
    mapped to the nearest *grid state*: the closest grid points the arms can reach, such that,
    with the payload ends that were held moving with their robots and the step's other effects
    (its cost) counted, the domain's static laws allow the state (a horizon-0 query,
@@ -116,6 +118,38 @@ class TrackingMonitor:
         self.worst[p.brick] = max(self.worst[p.brick], best_err)
         if best_err > self.threshold:
             raise TrackingFault(p.brick, best_port, best_tick, best_err)
+
+
+STILL_DEG = 1
+"""Two readings of a motor this close, :data:`SETTLE_INTERVAL_S` apart, and it stands still."""
+SETTLE_INTERVAL_S = 0.05
+SETTLE_LIMIT_S = 2.0
+"""How long the arms may take to stand still after the brake (they stop within a tenth of a
+second; a motor that is still pushed, by a hand or a falling arm, is read as it is then)."""
+
+
+def stop_and_measure(bricks: Mapping[str, nxt_link.Brick], ports: Mapping[str, Sequence[str]],
+                     clock: Clock) -> dict[str, tuple[int, ...]]:
+    """Brake every motor of ``ports`` (brick name -> its ports) at power 0 and return the
+    angles once two readings :data:`SETTLE_INTERVAL_S` apart agree (the arms stand still), or
+    after :data:`SETTLE_LIMIT_S`: what the state is re-estimated from must be where the arms
+    stopped, not where they were passing when the fault was seen."""
+    from nxt_link.telegram import OutputMode, RegulationMode, RunState
+    for name, brick_ports in ports.items():
+        for port in brick_ports:
+            bricks[name].set_output_state("ABC".index(port), 0, OutputMode.MOTORON | OutputMode.BRAKE,
+                                          RegulationMode.IDLE, 0, RunState.RUNNING, 0)
+    angles = {name: read_angles(bricks[name], p) for name, p in ports.items()}
+    waited = 0.0
+    while waited < SETTLE_LIMIT_S:
+        clock.sleep(SETTLE_INTERVAL_S)
+        waited += SETTLE_INTERVAL_S
+        again = {name: read_angles(bricks[name], p) for name, p in ports.items()}
+        still = all(abs(a - b) <= STILL_DEG for name in ports for a, b in zip(angles[name], again[name]))
+        angles = again
+        if still:
+            break
+    return angles
 
 
 def read_angles(brick: nxt_link.Brick, ports: Sequence[str]) -> tuple[int, ...]:
@@ -363,6 +397,8 @@ def run_arms(task: RobotTask, label: str, executor: ArmsExecutor, *, observers: 
             except TrackingFault as exc:
                 fault = exc
             except (StreamError, SetpointError) as exc:
+                if isinstance(exc, SetpointError):
+                    rec.executed = []             # refused before anything moved: nothing ran
                 rec.failure = str(exc)
                 rec.act_s = clock.now() - t_act
                 record(rec)
@@ -372,9 +408,12 @@ def run_arms(task: RobotTask, label: str, executor: ArmsExecutor, *, observers: 
                 rec.act_s = clock.now() - t_act
                 record(rec)
                 return end(OnlineStatus.ROBOT_LOST, str(exc), state)
-            rec.act_s = clock.now() - t_act
             t1 = time.perf_counter()
-            angles = {r.name: read_angles(executor.bricks[r.name], r.ports) for r in traj.robots}
+            if fault is not None:
+                angles = stop_and_measure(executor.bricks, {r.name: r.ports for r in traj.robots}, clock)
+            else:
+                angles = {r.name: read_angles(executor.bricks[r.name], r.ports) for r in traj.robots}
+            rec.act_s = clock.now() - t_act
             rec.raw = {f"{name}.{port}": a for r in traj.robots for name in [r.name]
                        for port, a in zip(r.ports, angles[name])}
             positions = {r.name: tuple(float(v) for v in origin.robot(r.name).xy_from_motor_deg(angles[r.name]))

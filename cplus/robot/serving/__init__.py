@@ -7,6 +7,7 @@ the goals that are open.
 * :class:`GoalBoard` — each goal's life, from pending to a final status (:mod:`.goals`);
 * :class:`StandingModel` — one solver for the run, goals as assumptions (:mod:`.standing`);
 * the requests a domain accepts — ``requests.toml`` (:mod:`.vocabulary`);
+* the log — ``cplus.online/1`` with goal records, durable and continued (:mod:`.serve_log`);
 * channels — a script (:mod:`.script`), a JSON-lines socket (:mod:`.socket_channel`), ROS actionlib
   (:mod:`.ros_bridge`, imported only when asked for: ROS is optional).
 
@@ -15,8 +16,9 @@ This package builds on :mod:`cplus.robot.online`, never the other way round.
 from __future__ import annotations
 
 from cplus.robot.serving.goals import Goal, GoalBoard, GoalStatus, GoalWatcher
-from cplus.robot.serving.reactive import ServeLog, Server, ServerSettings, serve_roles
+from cplus.robot.serving.reactive import Server, ServerSettings, serve_roles
 from cplus.robot.serving.script import RequestScript, ScriptEntry, ScriptError, load_script, parse_script
+from cplus.robot.serving.serve_log import SERVE_LOG, LogHistory, LogRefused, ServeLog, open_log
 from cplus.robot.serving.socket_channel import SocketChannel, parse_listen
 from cplus.robot.serving.standing import DEFAULT_BUDGET, GoalLiteral, StandingModel
 from cplus.robot.serving.vocabulary import (
@@ -28,7 +30,8 @@ from cplus.robot.serving.vocabulary import (
     requests_beside,
 )
 
-__all__ = ["DEFAULT_BUDGET", "Goal", "GoalBoard", "GoalLiteral", "GoalStatus", "GoalWatcher", "Rejected",
+__all__ = ["DEFAULT_BUDGET", "SERVE_LOG", "Goal", "GoalBoard", "GoalLiteral", "GoalStatus", "GoalWatcher",
+           "LogHistory", "LogRefused", "Rejected",
            "RequestScript", "RequestVocabulary", "RequestsError", "ScriptEntry", "ScriptError", "ServeLog", "Server", "ServerSettings",
-           "SocketChannel", "StandingModel", "load_requests", "load_script", "parse_listen", "parse_requests",
+           "SocketChannel", "StandingModel", "load_requests", "load_script", "open_log", "parse_listen", "parse_requests",
            "parse_script", "requests_beside", "serve_roles"]

@@ -31,14 +31,17 @@ as in ROSoClingo's Table I).
 **Threads and locks.** Clients submit from their channels' threads (the socket's I/O thread,
 actionlib's callbacks, the loop's thread for a script), the loop polls and observes from its
 own, and watchers are told from the board's *dispatcher* thread. There is one lock,
-``GoalBoard._lock``, and it is a leaf: it is held only while the board's own bookkeeping
-changes, never while calling a watcher, a channel, actionlib, a socket or the log. A change
+``GoalBoard._lock``: it is held only while the board's own bookkeeping changes, never while
+calling a watcher, a channel, actionlib or a socket. The one thing called under it is the
+:class:`GoalRecorder` (the log), which writes the change before anyone can hear of it, takes
+only its own lock (a leaf) and never calls the board; the dispatcher has it ``sync`` (fsync)
+with no lock held before it delivers a final status. A change
 queues a notification (with a copy of the goal as it is then) in the board's outbox; the
 dispatcher delivers them in order with no lock held, so a watcher may call back into the board,
 and a component whose own lock is held while it calls the board (actionlib holds its
 ``action_server.lock`` in its goal and cancel callbacks) never waits for the board's watchers.
-The lock order of the server is therefore: a channel's own lock (actionlib's) → ``_lock``;
-nothing is taken under ``_lock``. A watcher must not block: a slow one delays every other's
+The lock order of the server is therefore: a channel's own lock (actionlib's) → ``_lock`` →
+the log's lock; nothing else is taken under ``_lock``. A watcher must not block: a slow one delays every other's
 news (the socket queues its lines per client, and never waits for a client).
 
 **Bounds.** Nothing grows with time or with what clients send: at most
@@ -69,7 +72,7 @@ from cplus.signature import render_value
 _log = logging.getLogger(__name__)
 """A watcher's failure is logged here: the library prints nothing (the command shows warnings)."""
 
-__all__ = ["FINAL", "Feedback", "Goal", "GoalBoard", "GoalStatus", "GoalWatcher", "Limits"]
+__all__ = ["FINAL", "Feedback", "Goal", "GoalBoard", "GoalRecorder", "GoalStatus", "GoalWatcher", "Limits"]
 
 
 class GoalStatus(StrEnum):
@@ -135,6 +138,19 @@ class GoalWatcher:
         """A cycle of work happened while the goal was in progress."""
 
 
+class GoalRecorder:
+    """Where every goal change is recorded when it happens (a server's log,
+    :class:`cplus.robot.serving.serve_log.ServeLog`), before anyone can be told of it."""
+
+    def goal_changed(self, goal: Goal) -> None:
+        """``goal`` changed (called under the board's lock, in the order of the changes: write
+        and flush, take no lock but the recorder's own, never call the board)."""
+
+    def sync(self) -> None:
+        """Make the changes recorded so far durable (called with no lock of the board held,
+        before a final status is told to anyone)."""
+
+
 @dataclass
 class Goal:
     """One request and what became of it. ``slot`` is the domain object it occupies while in
@@ -190,7 +206,7 @@ class GoalBoard(EventSource, Observer):
     """
 
     def __init__(self, vocabulary: RequestVocabulary, clock: Callable[[], float] = time.perf_counter,
-                 limits: Limits | None = None) -> None:
+                 limits: Limits | None = None, first_id: int = 1) -> None:
         self.vocabulary = vocabulary
         self.clock = clock
         self.limits = limits or Limits()
@@ -198,7 +214,10 @@ class GoalBoard(EventSource, Observer):
         self._arrived = threading.Condition(self._lock)    # the loop waits here while idle
         self._news = threading.Condition(self._lock)       # the dispatcher waits here
         self.goals: dict[int, Goal] = {}           # every goal open, and the last final ones
-        self._next_id = 1
+        self.first_id = first_id                   # ids before it are an earlier run's (a log continued)
+        self._next_id = first_id
+        self.recorder: GoalRecorder | None = None  # the log: told of each change under the lock
+        self.on_preempt: Callable[[], object] | None = None   # an active goal was cancelled (--preempt stop)
         self._queue: deque[Goal] = deque()         # pending, oldest first
         self._cancels: list[Goal] = []             # active goals whose cancellation is not delivered
         self._holder: dict[object, Goal] = {}      # slot -> goal in flight
@@ -207,7 +226,6 @@ class GoalBoard(EventSource, Observer):
         self._by_client: dict[Hashable, int] = {}  # client -> its goals not final
         self._finals: deque[int] = deque()         # final goals still remembered, oldest first
         self._watchers: tuple[GoalWatcher, ...] = ()
-        self._changed: dict[int, Goal] = {}        # since the last log line
         self._scripts: list[Callable[[int], None]] = []
         self._script_left: list[Callable[[], bool]] = []
         self._live = 0
@@ -303,8 +321,10 @@ class GoalBoard(EventSource, Observer):
 
     def cancel(self, goal_id: int, origin: str = "") -> Goal:
         """Cancel a goal: a pending one is recalled at once; an active one is preempting until
-        the cancellation's events have done their work. A final goal stays as it is.
-        Raises KeyError for an unknown (or forgotten) id. Thread-safe."""
+        the cancellation's events have done their work (and :attr:`on_preempt` is called, with
+        no lock held: ``--preempt stop`` cuts the robot's step short). A final goal stays as it
+        is. Raises KeyError for an unknown (or forgotten) id. Thread-safe."""
+        preempted = False
         with self._lock:
             goal = self.goals[goal_id]
             if goal.status is GoalStatus.PENDING:
@@ -315,7 +335,10 @@ class GoalBoard(EventSource, Observer):
                 self._cancels.append(goal)
                 self._set(goal, GoalStatus.PREEMPTING)
                 self._arrived.notify_all()
+                preempted = True
         self._started()
+        if preempted and self.on_preempt is not None:
+            self.on_preempt()
         return goal
 
     def get(self, goal_id: int) -> Goal | None:
@@ -329,7 +352,8 @@ class GoalBoard(EventSource, Observer):
             return None if goal is None else goal.to_json()
 
     def forgotten(self, goal_id: int) -> bool:
-        """True for a goal that existed and ended so long ago that it is no longer remembered."""
+        """True for a goal that existed and ended so long ago that it is no longer remembered
+        (in this run, or in an earlier run of a log this one continues)."""
         with self._lock:
             return 0 < goal_id < self._next_id and goal_id not in self.goals
 
@@ -384,9 +408,23 @@ class GoalBoard(EventSource, Observer):
         with self._lock:
             return any(left() for left in self._script_left)
 
+    def ready(self, cycle: int) -> bool:
+        """Whether :meth:`poll` would hand the loop something now (a request with a free slot,
+        a cancellation), looked at without taking it: the loop's idle step ends on it and the
+        transition's one poll takes it, so that a request and a cancellation of its goal never
+        share a transition (a cancellation that comes before the poll recalls the request)."""
+        with self._lock:
+            return self._has_work()
+
+    def _has_work(self) -> bool:
+        """Under the lock: a cancellation to deliver, or a request that a slot is free for."""
+        if any(not g.final for g in self._cancels):
+            return True
+        return bool(self._queue) and any(slot not in self._holder for slot in self.vocabulary.slots)
+
     def wait(self, timeout: float) -> None:
         with self._lock:
-            if not self._queue and not self._cancels and not self._woken:
+            if not self._has_work() and not self._woken:
                 self._arrived.wait(timeout)
             self._woken = False
 
@@ -474,18 +512,6 @@ class GoalBoard(EventSource, Observer):
         self._started()
 
     # ------------------------------------------------------------------ the log
-    def log_goals(self, timeout: float = -1) -> list[dict]:
-        """For the log's cycle line: every goal whose status changed since the last line (as it
-        is now: its last status), so that a line is as long as what happened, not as the
-        number of goals open."""
-        if not self._lock.acquire(timeout=timeout):
-            return []
-        try:
-            changed, self._changed = self._changed, {}
-            return [changed[i].to_json() for i in sorted(changed)]
-        finally:
-            self._lock.release()
-
     def remembered(self, timeout: float = -1) -> list[dict]:
         """Every goal still remembered (those open, and the last final ones), for the end record."""
         if not self._lock.acquire(timeout=timeout):
@@ -518,7 +544,8 @@ class GoalBoard(EventSource, Observer):
         goal.status = status
         if reason:
             goal.reason = reason
-        self._changed[goal.id] = goal
+        if self.recorder is not None:              # before anyone can hear of it
+            self.recorder.goal_changed(goal)
         if status in FINAL:
             if status is not GoalStatus.REJECTED:  # a rejected goal never counted
                 self._open -= 1
@@ -574,6 +601,9 @@ class GoalBoard(EventSource, Observer):
                 batch = list(self._outbox)
                 self._outbox.clear()
                 self._delivering = True
+                recorder = self.recorder
+            if recorder is not None and any(kind == "status" and what in FINAL for kind, _, what, _ in batch):
+                recorder.sync()                    # a result is told once it is durable
             for kind, goal, what, audience in batch:
                 for w in audience:
                     try:

@@ -16,9 +16,12 @@ the board's dispatcher tells watchers (:mod:`.goals`); the socket has one I/O th
 (:mod:`.socket_channel`); rospy has its own (:mod:`.ros_bridge`). Every lock of the server, and the
 one order in which they may be held::
 
-    actionlib's action_server.lock  ─┐
-    the log's lock (JsonLinesLog)   ─┴─>  GoalBoard._lock      (nothing is taken under it)
+    actionlib's action_server.lock  ──>  GoalBoard._lock  ──>  the log's lock (ServeLog: a leaf)
+    the loop's _act_lock                                        (a leaf: nothing under it)
     a socket client's _Client._lock                             (a leaf: nothing under it)
+
+(the log writes each goal change under the board's lock, and never calls the board with its
+own lock held: :mod:`.serve_log`)
 
 No lock is held while calling into another component: the board queues notifications and the
 dispatcher delivers them with no lock held; a watcher (a socket client, an actionlib goal
@@ -49,7 +52,6 @@ Python API::
 """
 from __future__ import annotations
 
-import json
 import threading
 import time
 from collections.abc import Callable, Iterable
@@ -58,7 +60,6 @@ from typing import TextIO
 
 from cplus.robot.online import (
     Executor,
-    JsonLinesLog,
     Observer,
     OnlineLoop,
     OnlineStatus,
@@ -69,13 +70,14 @@ from cplus.robot.online import (
 )
 from cplus.robot.serving.goals import Goal, GoalBoard, Limits
 from cplus.robot.serving.script import RequestScript
+from cplus.robot.serving.serve_log import LogHistory, ServeLog
 from cplus.robot.serving.socket_channel import SocketChannel, SocketLimits
 from cplus.robot.serving.standing import DEFAULT_BUDGET, StandingModel
 from cplus.robot.serving.vocabulary import RequestsError, RequestVocabulary
 from cplus.sat.solver import DEFAULT_SOLVER
 from nxt_link.clock import MONOTONIC, Clock, MonotonicClock
 
-__all__ = ["SERVE_LOG", "Server", "ServerSettings", "ServeLog", "serve_roles"]
+__all__ = ["Server", "ServerSettings", "serve_roles"]
 
 
 def serve_roles(domain, vocabulary: RequestVocabulary, binding=None) -> Roles:
@@ -93,55 +95,6 @@ def serve_roles(domain, vocabulary: RequestVocabulary, binding=None) -> Roles:
             raise RequestsError(f"{gc.text} is an event of the requests in {vocabulary.path}, so {binding.path} must "
                                 f"bind it with source = \"input\" ([events.{gc.decl.name}])", where)
     return roles
-
-
-SERVE_LOG = "cplus.serve/2"
-"""What a server adds to the ``cplus.online/1`` log (the start record's ``serve_format``):
-version 2 lists in each cycle record the goals whose status changed since the record before
-(version 1, unnamed, listed every open goal in every record: a log that grew with the goals
-open times the cycles)."""
-
-
-class ServeLog(JsonLinesLog):
-    """The ``cplus.online/1`` log of a server: each cycle's record also names the goals that
-    changed since the record before (``goals``), and the end record every goal still
-    remembered with the counts of all (``goal_counts``).
-
-    Lines are written under the log's lock (:class:`JsonLinesLog`), so that the watchdog's end
-    record (:meth:`end_now`) is never interleaved with a line of the loop's, and after an end
-    record nothing more is written. Lock order: the log's lock, then the board's (never the
-    other way round: the board never calls the log)."""
-
-    def __init__(self, stream: TextIO, board: GoalBoard, extra=None) -> None:
-        super().__init__(stream, {**(extra or {}), "serve_format": SERVE_LOG},
-                         annotate=lambda record, line: line.update(goals=board.log_goals()))
-        self.board = board
-
-    def on_end(self, result: RunResult) -> None:
-        line = result.to_json()
-        line["goals"] = self.board.remembered()
-        line["goal_counts"] = self.board.summary()
-        self._write(line, end=True)
-
-    def end_now(self, line: dict, timeout: float) -> bool:
-        """Write ``line`` as the end record now (``"forced": true``, with the goals), unless the
-        loop already wrote one (:meth:`JsonLinesLog.end_forced` for a server: the watchdog's
-        end of a run that did not stop in time); False when the lock could not be had in time
-        (a write is stuck: the lines stay as they are)."""
-        if not self._lock.acquire(timeout=max(timeout, 0.0)):
-            return False
-        try:
-            if not self._ended:
-                line = dict(line, forced=True, goals=self.board.remembered(timeout),
-                            goal_counts=self.board.summary(timeout))
-                self.stream.write(json.dumps(line, separators=(",", ":")) + "\n")
-                self.stream.flush()
-                self._ended = True
-            return True
-        except (OSError, ValueError):         # the file is gone or closed: nothing more to save
-            return False
-        finally:
-            self._lock.release()
 
 
 class _StopClock:
@@ -180,6 +133,12 @@ class ServerSettings:
         limits: how many goals may be open, per client and in all (:class:`Limits`).
         socket: what the socket takes from its clients (:class:`SocketLimits`).
         keep_records: cycle records kept in memory (the log has them all).
+        first_goal_id: the first goal's id (one above the last of the log a run continues).
+        preempt: what a cancellation of an active goal does to the robot's step under way:
+            ``"finish"`` lets it end (the step's actions are done, then the cancellation's
+            events take effect); ``"stop"`` cuts it short (the executor stops its actions
+            part-way where it can: motors to 0, the state estimated from what was measured,
+            and the loop plans on from there).
     """
 
     goal: str | None = None
@@ -193,6 +152,8 @@ class ServerSettings:
     limits: Limits = Limits()
     socket: SocketLimits = SocketLimits()
     keep_records: int = 1000
+    first_goal_id: int = 1
+    preempt: str = "finish"
 
 
 class Server:
@@ -224,7 +185,7 @@ class Server:
         self.vocabulary = vocabulary
         self._stopping = threading.Event()
         clock = _StopClock(settings.clock, self._stopping)
-        self.board = GoalBoard(vocabulary, limits=settings.limits)
+        self.board = GoalBoard(vocabulary, limits=settings.limits, first_id=settings.first_goal_id)
         label = settings.goal or domain.labels[0]
         self.model = StandingModel(domain, label, serve_roles(domain, vocabulary, binding),
                                    max_horizon=settings.max_horizon, budget=settings.budget, agenda=self.board.agenda,
@@ -237,7 +198,19 @@ class Server:
         self.channels: list = []
         self.loop = OnlineLoop(self.model, executor, [self.board], [self.board, *observers], when_done="wait",
                                clock=clock, idle_poll_s=settings.idle_poll_s, keep_records=settings.keep_records)
+        if settings.preempt not in ("finish", "stop"):
+            raise ValueError(f"preempt must be 'finish' or 'stop', not {settings.preempt!r}")
+        if settings.preempt == "stop":
+            self.board.on_preempt = self.loop.interrupt
         self._t0 = time.monotonic()
+
+    def log_to(self, stream: TextIO, extra: dict | None = None, history: LogHistory | None = None) -> ServeLog:
+        """Write the run's log to ``stream`` (:mod:`.serve_log`): its start record now, then
+        every goal change as it happens and every cycle. ``history``: the log it continues
+        (:func:`~cplus.robot.serving.serve_log.open_log`)."""
+        log = ServeLog(stream, self.board, extra, loop=self.loop, history=history)
+        self.loop.observers.append(log)
+        return log
 
     def add_script(self, script: RequestScript) -> None:
         script.attach(self.board)

@@ -26,6 +26,18 @@ the message package is on ``PYTHONPATH`` (:data:`MSG_PATH`)::
     rostopic echo /cplus_serve/feedback
     rostopic pub -1 /cplus_serve/cancel actionlib_msgs/GoalID '{id: ""}'    # every goal
 
+**The master restarting.** ROS 1 nodes register with the master once; a master that is
+restarted (roscore killed and started again, a respawned roscore) knows none of them, so new
+clients find no action server, while the connections already made go on. The channel
+therefore watches its registration (:class:`MasterWatch`: the master's ``lookupNode`` for this
+node, every :data:`MASTER_CHECK_S`), and when the master does not know the node it registers
+every publisher, subscriber and service of the node again, as rospy does at start-up (the
+master's ``registerPublisher``/``registerSubscriber``/``registerService``, and the node's own
+``publisherUpdate`` with the publishers the master names), and says so in one line. The goals
+in flight go on over their connections; nothing of the server's state lives in the master
+(it keeps no parameters), so registering again is safe; exiting for roslaunch's ``respawn``
+would abort every goal in flight and stop the robot for nothing.
+
 The states of a goal here are actionlib's: a request the domain cannot express is REJECTED
 with the reason as the status text; a pending goal becomes ACTIVE when the loop takes it; a
 cancellation is PREEMPTING until the cancellation's events have done their work (a package on
@@ -37,16 +49,22 @@ import os
 import sys
 import threading
 import time
+import xmlrpc.client
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
 from cplus.robot.serving.goals import Feedback, Goal, GoalBoard, GoalStatus, GoalWatcher
 
-__all__ = ["DEBIAN_DIST", "INSTALL_HINT", "MSG_PATH", "ActionChannel", "RosSetup", "RosUnavailable", "import_ros"]
+__all__ = ["DEBIAN_DIST", "INSTALL_HINT", "MASTER_CHECK_S", "MSG_PATH", "ActionChannel", "MasterWatch", "RosSetup",
+           "RosUnavailable", "import_ros"]
 
 DEBIAN_DIST = "/usr/lib/python3/dist-packages"
 MSG_PATH = os.path.join(os.path.dirname(os.path.abspath(__file__)), "ros")
 """The directory that holds the ``cplus_msgs`` package (for ``PYTHONPATH``)."""
+MASTER_CHECK_S = 0.5
+"""How often the channel asks the master whether it still knows this node (a restarted master
+is seen, and the node registered again, within about a second)."""
 INSTALL_HINT = ("apt-get install ros-core python3-rospy python3-actionlib python3-genpy python3-genmsg "
                 "python3-actionlib-msgs")
 
@@ -110,6 +128,78 @@ class RosSetup:
         return cls(modules, uri)
 
 
+class MasterWatch:
+    """Keeps this node registered with the ROS master, through restarts of the master.
+
+    A thread asks the master every :data:`MASTER_CHECK_S` whether it knows the node
+    (``lookupNode``); when it does not (a restarted master), every topic and service of the
+    node is registered again (:meth:`register`). ``say`` hears one line when the master stops
+    answering and when the node is registered again. :meth:`stop` ends the thread."""
+
+    def __init__(self, rospy, master_uri: str, say: Callable[[str], None] = lambda text: None) -> None:
+        self.rospy = rospy
+        self.say = say
+        self.master_uri = master_uri
+        self.registrations = 0           # how many times the node was registered again
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._watch, name="cplus-serve-ros-master", daemon=True)
+
+    def start(self) -> None:
+        self._thread.start()
+
+    def stop(self, timeout: float = 0.05) -> None:
+        """End the watch: at once when it waits for its next check; a check under way (an
+        XML-RPC call to a slow master) is not waited for (the thread is a daemon, and the
+        server's stop must stay within its grace period)."""
+        self._stop.set()
+        if self._thread.is_alive():
+            self._thread.join(timeout)
+
+    def _watch(self) -> None:
+        rospy = self.rospy
+        caller = rospy.get_caller_id()
+        node_uri = rospy.get_node_uri()
+        silent = False
+        while not self._stop.wait(MASTER_CHECK_S):
+            master = xmlrpc.client.ServerProxy(self.master_uri)
+            try:
+                answer: Any = master.lookupNode(caller, caller)
+                code, _, uri = answer
+            except (OSError, xmlrpc.client.Error):
+                if not silent:
+                    self.say(f"the ROS master at {self.master_uri} does not answer; goals in flight go on, new ROS "
+                             "clients wait for it")
+                    silent = True
+                continue
+            if code == 1 and uri == node_uri:
+                silent = False
+                continue
+            try:
+                self.register(master, caller, node_uri)
+            except (OSError, xmlrpc.client.Error):
+                continue                   # tried again at the next check
+            silent = False
+            self.registrations += 1
+            self.say(f"the ROS master at {self.master_uri} did not know this node (restarted): registered its "
+                     "action server again")
+
+    def register(self, master, caller: str, node_uri: str) -> None:
+        """Register every publisher, subscriber and service of this node with ``master``, and
+        tell the node the publishers of the topics it subscribes to (as rospy's RegManager
+        does when the node starts)."""
+        from rospy.impl.registration import get_service_manager, get_topic_manager
+        tm, sm = get_topic_manager(), get_service_manager()
+        node = xmlrpc.client.ServerProxy(node_uri)
+        for topic, data_type in tm.get_publications():
+            master.registerPublisher(caller, topic, data_type, node_uri)
+        for topic, data_type in tm.get_subscriptions():
+            code, _, publishers = master.registerSubscriber(caller, topic, data_type, node_uri)
+            if code == 1 and publishers:
+                node.publisherUpdate("/master", topic, publishers)
+        for service, service_uri in sm.get_services():
+            master.registerService(caller, service, service_uri, node_uri)
+
+
 class _RosGoal(GoalWatcher):
     """One actionlib goal handle, told what happens to the server's goal (from the board's
     dispatcher, with no lock of the server's held: the handle's methods take actionlib's
@@ -168,7 +258,8 @@ class ActionChannel:
 
     action_type = "cplus_msgs/Serve"
 
-    def __init__(self, board: GoalBoard, name: str, setup: RosSetup, node: str = "cplus_serve") -> None:
+    def __init__(self, board: GoalBoard, name: str, setup: RosSetup, node: str = "cplus_serve",
+                 say: Callable[[str], None] = lambda text: None) -> None:
         self.board = board
         self.namespace = "/" + name.strip("/")
         self.setup = setup
@@ -182,6 +273,8 @@ class ActionChannel:
         self._lock = threading.Lock()
         self._server = None
         self._open = False
+        self.say = say
+        self.watch: MasterWatch | None = None
 
     def start(self) -> None:
         """Register the node with the master and start the action server."""
@@ -194,6 +287,8 @@ class ActionChannel:
         self._server = server
         self.board.open_channel()
         self._open = True
+        self.watch = MasterWatch(rospy, self.setup.master_uri, self.say)
+        self.watch.start()
 
     def _on_goal(self, handle) -> None:
         """actionlib's goal callback (its lock held): the board is called, and nothing waits."""
@@ -224,6 +319,8 @@ class ActionChannel:
     def close(self, timeout: float = 1.5) -> None:
         """Stop taking goals (the run ended: open goals were aborted and told) and leave ROS,
         within ``timeout`` seconds."""
+        if self.watch is not None:
+            self.watch.stop()
         if self._open:
             self._open = False
             self.board.close_channel()

@@ -9,8 +9,9 @@ It feeds a :class:`~cplus.robot.serving.goals.GoalBoard`, as the socket
     {"cycle": 1, "request": "deliver(office3,office2)"}
     {"cycle": 3, "cancel": 1}
 
-Goal ids are 1, 2, ... in the order requests arrive, so a script cancels its own requests by
-their rank. An entry at cycle ``k`` arrives before the actions of cycle ``k`` are chosen and
+A script cancels its own requests by their rank: ``{"cancel": 2}`` is the script's second
+request, whatever id the server gave it (ids are 1, 2, ... in the order requests arrive from
+every channel, and go on from a continued log's last one). An entry at cycle ``k`` arrives before the actions of cycle ``k`` are chosen and
 takes effect at cycle ``k`` (the transition that ended there). Scripted runs are
 deterministic: the loop never waits for a script. The file is checked before anything runs
 (``script.jsonl:3:1: error: ...``); a request the domain cannot express is rejected when it
@@ -59,6 +60,7 @@ class RequestScript:
         self.name = name
         self.board: GoalBoard | None = None
         self.watcher: GoalWatcher | None = None
+        self.ids: list[int] = []          # the goal id of each of its requests, in their order
 
     def attach(self, board: GoalBoard, watcher: GoalWatcher | None = None) -> None:
         self.board = board
@@ -72,13 +74,13 @@ class RequestScript:
         while self.entries and self.entries[0].cycle <= cycle:
             e = self.entries.pop(0)
             if e.request is not None:
-                board.submit(e.request, self.watcher, f"{self.name}:{e.line}")
+                self.ids.append(board.submit(e.request, self.watcher, f"{self.name}:{e.line}").id)
             else:
-                assert e.cancel is not None
+                assert e.cancel is not None and e.cancel <= len(self.ids)   # checked at load time
                 try:
-                    board.cancel(e.cancel, f"{self.name}:{e.line}")
+                    board.cancel(self.ids[e.cancel - 1], f"{self.name}:{e.line}")
                 except KeyError:
-                    pass                  # checked at load time; another channel's ids came first
+                    pass                  # ended and forgotten meanwhile
 
 
 def load_script(path: str) -> RequestScript:

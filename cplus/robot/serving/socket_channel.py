@@ -23,8 +23,11 @@ anything else                                ``{"type": "error", "message": ...}
 ============================================ =================================================
 
 Each line is answered at once and in order (a request with its acknowledgement, before any
-news of that goal; a cancellation with its answer, before the goal's ``result`` it causes). A client that disconnects leaves its goals running (a mail robot does not
-drop a package because the person who asked hung up); their results are in the log.
+news of that goal; a cancellation with its answer, before the goal's ``result`` it causes).
+A client that shuts its writing side (``nc -q``, ``socat -t``, ``shutdown(SHUT_WR)``) has its
+lines answered and hears its goals until they end; then the server hangs up. A client that
+disconnects leaves its goals running (a mail robot does not drop a package because the person
+who asked hung up); their results are in the log.
 
 One I/O thread serves every connection (:class:`SocketChannel`), and no client can make the
 server or another client wait (:class:`SocketLimits`): at most 64 connections (one more is
@@ -128,10 +131,12 @@ class _Client(GoalWatcher):
         self.pos = 0                      # where the unhandled part of inbuf starts
         self.discarding = False           # inside a line too long, until its newline
         self.partial_since: float | None = None
-        self.eof = False                  # it hung up: closed once its last lines are answered
+        self.eof = False                  # it shut its writing side: closed once its goals have ended
+        self.hangup = False               # to be closed once its last lines are sent (told why)
         self.dead = False                 # the connection failed: hang up
         self.mask = 0                     # what the selector watches for it
         self._acked: set[int] = set()     # goals in flight whose acknowledgement is out (under _lock)
+        self._open: set[int] = set()      # its own goals not final yet (under _lock)
         self._early: dict[int, list[dict]] = {}   # news before the acknowledgement (under _lock)
 
     # ------------------------------------------------------------- from any thread
@@ -177,7 +182,15 @@ class _Client(GoalWatcher):
 
     def acknowledge(self, ack: dict, final: bool) -> None:
         """The I/O thread's answer to a request, then the goal's news that came before it."""
+        if not final:
+            with self._lock:
+                self._open.add(ack["id"])
         self._answer_first({"type": "goal", **ack}, ack["id"], not final)
+
+    def goals_open(self) -> bool:
+        """Whether a goal this client asked for has not ended yet (its lines are still to come)."""
+        with self._lock:
+            return bool(self._open)
 
     def _answer_first(self, answer: dict, gid: int, in_flight: bool) -> None:
         """Send ``answer``, then the news of goal ``gid`` held back until it was out; from now
@@ -190,6 +203,7 @@ class _Client(GoalWatcher):
                 wake = self._send(obj, now=False) or wake
                 if obj["type"] == "result":
                     self._acked.discard(gid)
+                    self._open.discard(gid)
         if wake:
             self.channel._wake()
 
@@ -211,6 +225,8 @@ class _Client(GoalWatcher):
                 wake = self._send(obj)
                 if final:
                     self._acked.discard(goal.id)
+                    self._open.discard(goal.id)
+                    wake = wake or self.eof      # a half-closed client is closed once its goals end
             else:
                 self._early.setdefault(goal.id, []).append(obj)
         if wake:
@@ -333,6 +349,9 @@ class _Client(GoalWatcher):
 
 
 def _unknown(board: GoalBoard, goal_id: int) -> str:
+    if 0 < goal_id < board.first_id:
+        return (f"goal {goal_id} belongs to an earlier run of the server (this run's goals start at "
+                f"{board.first_id}; the log has its result)")
     if board.forgotten(goal_id):
         return (f"goal {goal_id} ended long ago and is forgotten (the server remembers the last "
                 f"{board.limits.kept_final} final goals; the log has its result)")
@@ -499,6 +518,9 @@ class SocketChannel:
         if data:
             client.inbuf += data
         else:
+            # the client shut its writing side (nc -q, socat -t, shutdown(SHUT_WR)) or hung up:
+            # its lines are answered and its goals' news sent until they end; a client that hung
+            # up altogether is seen when a send to it fails
             client.eof = True             # a last line without its newline still counts
             if client.unhandled() and not client.discarding:
                 client.inbuf += b"\n"
@@ -529,10 +551,11 @@ class SocketChannel:
                 elif now - client.partial_since > limits.line_timeout:
                     client.answer({"type": "error", "message": f"a line left without its newline for "
                                                               f"{limits.line_timeout:g} s: disconnected"})
-                    client.eof, client.inbuf, client.pos = True, bytearray(), 0
+                    client.eof, client.hangup, client.inbuf, client.pos = True, True, bytearray(), 0
             else:
                 client.partial_since = None
-            if client.overflow or client.dead or (client.eof and not client.out):
+            if client.overflow or client.dead or (client.eof and not client.out and not client.unhandled()
+                                                  and (client.hangup or not client.goals_open())):
                 self._drop(client)
                 continue
             want = 0
