@@ -97,10 +97,7 @@ NOT_RUN: dict[str, str] = {
 }
 """Command (or a python block's first lines) -> why it is not run."""
 
-KNOWN_BROKEN: dict[str, str] = {
-    "cplus online domains/payload/payload.cp --stall r1:A@2+1 --log arms.jsonl; "
-    "cplus replay arms.jsonl --animate arms.gif": "fixed on branch serve",
-}
+KNOWN_BROKEN: dict[str, str] = {}
 """Command -> the branch that fixes it: expected to fail here, and the block is an xfail with
 that reason (the block's other commands still run); once it runs, the test fails until the
 entry goes."""
