@@ -23,8 +23,8 @@ from __future__ import annotations
 import argparse
 import json
 import math
-import re
 import os
+import re
 import sys
 from typing import Any, NamedTuple
 
