@@ -29,6 +29,7 @@ from dataclasses import dataclass, field
 
 from nxt_link import stream_protocol as sp
 from nxt_link.brick import Brick, LinkEvent
+from nxt_link.clock import Deadline
 from nxt_link.errors import (
     ExecutionFailed,
     ExecutionInterrupted,
@@ -313,7 +314,7 @@ class _Execution:
             raise  # refused before anything moved
         except KeyboardInterrupt as exc:   # Ctrl-C, or a SIGTERM raised as one (its text says which)
             stopped = self._stopped(str(exc) or "interrupted")
-            self._stop_all(failed=None, confirm_s=1.0)
+            self._stop_all(failed=None, confirm_s=1.0, shared=True)
             raise ExecutionInterrupted(self._log(stopped)) from None
         except LinkError as exc:
             stopped = self._stopped(str(exc))
@@ -392,16 +393,22 @@ class _Execution:
     def _stopped(self, reason: str) -> Stopped:
         return Stopped(round(self.clock.now() - self.t0, 4), reason, self.current)
 
-    def _stop_all(self, failed: str | None, confirm_s: float) -> None:
-        """STOP to every opened brick but ``failed`` at once, then make sure they got it."""
+    def _stop_all(self, failed: str | None, confirm_s: float, *, shared: bool = False) -> None:
+        """STOP to every opened brick but ``failed`` at once, then make sure they got it:
+        each within ``confirm_s``, or (``shared``) all of them within ``confirm_s`` together,
+        each brick in turn getting an equal share of what is left (a brick that answers
+        leaves its share to the next), so that Ctrl-C ends within its limit however many
+        bricks are silent."""
         others = [n for n in self.opened if n != failed]
         for name in others:
             try:
                 self.sessions[name].post_stop()
             except LinkError:
                 pass  # stop() below tries again
-        for name in others:
-            self.sessions[name].stop(confirm_s)
+        deadline = Deadline(self.clock, confirm_s)
+        for k, name in enumerate(others):
+            share = confirm_s if not shared else (deadline.remaining() or 0.0) / (len(others) - k)
+            self.sessions[name].stop(share)
 
     def _abort(self, exc: LinkError) -> None:
         """Stop every brick (the others first), then read back what they logged."""
