@@ -207,7 +207,9 @@ def validate_streams(streams: Sequence[SetpointStream], brick_names: Sequence[st
 def execute_streams(streams: Sequence[SetpointStream], bricks: Mapping[str, Brick], *,
                     options: ExecutionOptions | None = None,
                     on_progress: Callable[[Progress], None] | None = None,
-                    session_ids: Mapping[str, int] | None = None) -> ExecutionLog:
+                    session_ids: Mapping[str, int] | None = None,
+                    on_snapshot: Callable[[Callable[[str], ExecutionLog]], None] | None = None
+                    ) -> ExecutionLog:
     """Execute ``streams`` on ``bricks`` together and return what they did.
 
     Args:
@@ -217,6 +219,10 @@ def execute_streams(streams: Sequence[SetpointStream], bricks: Mapping[str, Bric
         options: controller, timeouts, limits.
         on_progress: receives a :class:`Progress` at every step of every phase.
         session_ids: fixed session ids per brick (tests); random by default.
+        on_snapshot: receives, before anything moves, ``snapshot(reason)``: the log gathered
+            so far, marked stopped now for ``reason``. It is for a shutdown watchdog that
+            must write the log from another thread while this one is stuck on a link (a
+            reconnect); best effort, since it reads what this thread may still be writing.
 
     Returns:
         The complete :class:`~nxt_link.execlog.ExecutionLog`: per brick the
@@ -243,7 +249,10 @@ def execute_streams(streams: Sequence[SetpointStream], bricks: Mapping[str, Bric
     """
     opts = options or ExecutionOptions()
     validate_streams(streams, list(bricks), opts.max_speed_deg_s)
-    return _Execution(streams, bricks, opts, on_progress, session_ids or {}).run()
+    execution = _Execution(streams, bricks, opts, on_progress, session_ids or {})
+    if on_snapshot is not None:
+        on_snapshot(execution.snapshot)
+    return execution.run()
 
 
 class _Execution:
@@ -392,6 +401,11 @@ class _Execution:
 
     def _stopped(self, reason: str) -> Stopped:
         return Stopped(round(self.clock.now() - self.t0, 4), reason, self.current)
+
+    def snapshot(self, reason: str) -> ExecutionLog:
+        """The log so far, stopped now for ``reason`` (from another thread: see
+        :func:`execute_streams`' ``on_snapshot``)."""
+        return self._log(self._stopped(reason))
 
     def _stop_all(self, failed: str | None, confirm_s: float, *, shared: bool = False) -> None:
         """STOP to every opened brick but ``failed`` at once, then make sure they got it:

@@ -156,6 +156,27 @@ def test_sigterm_stops_execute_with_143_motors_off_and_the_log_written(arm_brick
     assert data["complete"] is False and data["stopped"]["reason"] == "stopped by SIGTERM"
 
 
+def test_a_stop_stuck_on_a_lost_link_is_forced_and_still_writes_the_log(arm_bricks, slow_trajectory, tmp_path):
+    """r1's link is gone when SIGTERM comes (its pty closed: the client keeps reopening it for
+    10 s): the orderly stop cannot finish, so the watchdog coasts r2's motors, writes the log
+    gathered so far, marked stopped and forced, and ends with 143."""
+    log = tmp_path / "exec.json"
+    proc = start(["execute", str(slow_trajectory), "--log", str(log), "--no-latency",
+                  *[a for name, s in arm_bricks.items() for a in ("--brick", f"{name}={s.path}")]])
+    read_until(proc, "running")
+    arm_bricks["r1"].stop()                  # the link is lost ...
+    proc.send_signal(signal.SIGTERM)         # ... and the operator stops the run
+    code, err, took = finish(proc)
+    assert code == 143, err
+    assert within_the_promise(took) and "Traceback" not in err
+    assert "the orderly stop took more than 1.5 s" in err
+    assert motors_stopped(arm_bricks["r2"])
+    data = json.loads(log.read_text())
+    assert data["complete"] is False
+    assert data["stopped"]["reason"] == "stopped by SIGTERM, forced after 1.5 s (motors commanded off)"
+    assert [b["name"] for b in data["bricks"]] == ["r1", "r2"]
+
+
 STUCK = """
 import sys, time
 from cplus.cli.signals import Shutdown
