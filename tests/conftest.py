@@ -15,10 +15,13 @@
   when the run starts (at least 1), exported here so that pytest-xdist's workers and the
   tests' processes share it. Every test's pytest-timeout limit is scaled by it too, and the
   header of the run says what it is.
+* SIGINT: a run started in the background has it ignored, and would hand that on to the
+  commands the tests interrupt; it is handled again here (see ``pytest_configure``).
 """
 from __future__ import annotations
 
 import os
+import signal
 from pathlib import Path
 
 import pytest
@@ -39,6 +42,13 @@ def pytest_addoption(parser: pytest.Parser) -> None:
 
 
 def pytest_configure(config: pytest.Config) -> None:
+    # A run started in the background (`pytest ... &`, `nohup`) has SIGINT ignored, as the
+    # shell does for background jobs, and an ignored signal stays ignored across fork and exec:
+    # every command the tests start would ignore the Ctrl-C a test sends it, and that test
+    # would wait for it until its time limit. Handled here, the children start with SIGINT at
+    # its default (a handler does not survive exec); a background run gets no Ctrl-C anyway.
+    if signal.getsignal(signal.SIGINT) is signal.SIG_IGN:
+        signal.signal(signal.SIGINT, signal.default_int_handler)
     if walltime.ENV not in os.environ:   # before xdist starts its workers: they inherit it
         os.environ[walltime.ENV] = str(walltime.machine_scale())
     try:
