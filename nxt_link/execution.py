@@ -29,6 +29,7 @@ from dataclasses import dataclass, field
 
 from nxt_link import stream_protocol as sp
 from nxt_link.brick import Brick, LinkEvent
+from nxt_link.clock import Deadline
 from nxt_link.errors import (
     ExecutionFailed,
     ExecutionInterrupted,
@@ -206,7 +207,9 @@ def validate_streams(streams: Sequence[SetpointStream], brick_names: Sequence[st
 def execute_streams(streams: Sequence[SetpointStream], bricks: Mapping[str, Brick], *,
                     options: ExecutionOptions | None = None,
                     on_progress: Callable[[Progress], None] | None = None,
-                    session_ids: Mapping[str, int] | None = None) -> ExecutionLog:
+                    session_ids: Mapping[str, int] | None = None,
+                    on_snapshot: Callable[[Callable[[str], ExecutionLog]], None] | None = None
+                    ) -> ExecutionLog:
     """Execute ``streams`` on ``bricks`` together and return what they did.
 
     Args:
@@ -218,6 +221,10 @@ def execute_streams(streams: Sequence[SetpointStream], bricks: Mapping[str, Bric
             exception it raises stops every brick at once (STOP, acknowledged) and is
             raised to the caller.
         session_ids: fixed session ids per brick (tests); random by default.
+        on_snapshot: receives, before anything moves, ``snapshot(reason)``: the log gathered
+            so far, marked stopped now for ``reason``. It is for a shutdown watchdog that
+            must write the log from another thread while this one is stuck on a link (a
+            reconnect); best effort, since it reads what this thread may still be writing.
 
     Returns:
         The complete :class:`~nxt_link.execlog.ExecutionLog`: per brick the
@@ -244,7 +251,10 @@ def execute_streams(streams: Sequence[SetpointStream], bricks: Mapping[str, Bric
     """
     opts = options or ExecutionOptions()
     validate_streams(streams, list(bricks), opts.max_speed_deg_s)
-    return _Execution(streams, bricks, opts, on_progress, session_ids or {}).run()
+    execution = _Execution(streams, bricks, opts, on_progress, session_ids or {})
+    if on_snapshot is not None:
+        on_snapshot(execution.snapshot)
+    return execution.run()
 
 
 class _Execution:
@@ -315,7 +325,7 @@ class _Execution:
             raise  # refused before anything moved
         except KeyboardInterrupt as exc:   # Ctrl-C, or a SIGTERM raised as one (its text says which)
             stopped = self._stopped(str(exc) or "interrupted")
-            self._stop_all(failed=None, confirm_s=1.0)
+            self._stop_all(failed=None, confirm_s=1.0, shared=True)
             raise ExecutionInterrupted(self._log(stopped)) from None
         except LinkError as exc:
             stopped = self._stopped(str(exc))
@@ -399,16 +409,27 @@ class _Execution:
     def _stopped(self, reason: str) -> Stopped:
         return Stopped(round(self.clock.now() - self.t0, 4), reason, self.current)
 
-    def _stop_all(self, failed: str | None, confirm_s: float) -> None:
-        """STOP to every opened brick but ``failed`` at once, then make sure they got it."""
+    def snapshot(self, reason: str) -> ExecutionLog:
+        """The log so far, stopped now for ``reason`` (from another thread: see
+        :func:`execute_streams`' ``on_snapshot``)."""
+        return self._log(self._stopped(reason))
+
+    def _stop_all(self, failed: str | None, confirm_s: float, *, shared: bool = False) -> None:
+        """STOP to every opened brick but ``failed`` at once, then make sure they got it:
+        each within ``confirm_s``, or (``shared``) all of them within ``confirm_s`` together,
+        each brick in turn getting an equal share of what is left (a brick that answers
+        leaves its share to the next), so that Ctrl-C ends within its limit however many
+        bricks are silent."""
         others = [n for n in self.opened if n != failed]
         for name in others:
             try:
                 self.sessions[name].post_stop()
             except LinkError:
                 pass  # stop() below tries again
-        for name in others:
-            self.sessions[name].stop(confirm_s)
+        deadline = Deadline(self.clock, confirm_s)
+        for k, name in enumerate(others):
+            share = confirm_s if not shared else (deadline.remaining() or 0.0) / (len(others) - k)
+            self.sessions[name].stop(share)
 
     def _abort(self, exc: LinkError) -> None:
         """Stop every brick (the others first), then read back what they logged."""

@@ -304,13 +304,16 @@ class BrickSession:
             self.retransmissions += 1
             self._silent(start)
 
-    def _await(self, accept: Callable[[sp.Response], bool]) -> sp.Response | None:
+    def _await(self, accept: Callable[[sp.Response], bool], *, within: float | None = None,
+               once: bool = False) -> sp.Response | None:
         """Poll until a response passes ``accept``; None once the acknowledgement timeout
-        runs out or the mailbox shows that the request or its response was lost."""
-        deadline = Deadline(self.clock, self.timing.ack_timeout_s)
+        (or ``within``, when shorter) runs out or the mailbox shows that the request or its
+        response was lost. ``once``: each read is a single attempt (see :meth:`_poll`)."""
+        wait = self.timing.ack_timeout_s if within is None else min(within, self.timing.ack_timeout_s)
+        deadline = Deadline(self.clock, wait)
         posted = self._last_post
         while not deadline.expired():
-            resp = self._poll()
+            resp = self._poll(once=once)
             if resp is None:
                 if self._lost_since(posted):
                     return None
@@ -738,6 +741,12 @@ class BrickSession:
         Sends STOP until the brick acknowledges it, at most ``timeout_s`` (default
         ``max_silent_s``); the acknowledgement updates :attr:`logged`. Returns whether
         the brick acknowledged; never raises a link error.
+
+        Every wait is bounded by what is left of ``timeout_s`` and each read is a single
+        attempt, so a silent brick holds the stop up by at most one reply timeout beyond
+        ``timeout_s`` (a Ctrl-C must end within its limit), not by a read's retries. What
+        the link itself may take (a reconnect) is not bounded here: that is the shutdown
+        watchdog's case.
         """
         deadline = Deadline(self.clock, self.timing.max_silent_s if timeout_s is None
                             else timeout_s)
@@ -747,7 +756,8 @@ class BrickSession:
                 rid = self._new_id()
                 ids.add(rid)
                 self._post(sp.Stop(self.session, rid))
-                resp = self._await(lambda r: isinstance(r, sp.Ack) and r.seq in ids)
+                resp = self._await(lambda r: isinstance(r, sp.Ack) and r.seq in ids,
+                                   within=deadline.remaining(), once=True)
                 if isinstance(resp, sp.Ack):
                     self.phase = "stopped"
                     self._event("stopped", f"{resp.logged} rows logged")

@@ -11,6 +11,7 @@ from pathlib import Path
 import pytest
 from hypothesis import given
 from hypothesis import strategies as st
+from walltime import wall
 
 from cplus.cli import main
 from cplus.errors import Source
@@ -319,7 +320,7 @@ def _end(proc) -> tuple[int, str]:
     import signal
     proc.send_signal(signal.SIGTERM)
     try:
-        _, err = proc.communicate(timeout=20)
+        _, err = proc.communicate(timeout=wall(20))
     finally:
         if proc.poll() is None:
             proc.kill()
@@ -354,7 +355,7 @@ def test_brick_link_replaces_a_stale_link_refuses_a_live_one_and_removes_only_it
     assert first.stdout.readline().strip() == str(link)         # type: ignore[union-attr]
     assert os.readlink(link).startswith("/dev/pts/") and os.path.exists(os.readlink(link))
     second = _brick(["--name", "r2", "--link", str(link)])
-    _, err = second.communicate(timeout=20)
+    _, err = second.communicate(timeout=wall(20))
     assert second.returncode == 2 and f"--link {link}: it is the link of /dev/pts/" in err and "in use" in err
     assert os.path.exists(os.readlink(link))                    # the first brick's link is untouched
     code, _ = _end(first)

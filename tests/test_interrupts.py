@@ -11,6 +11,7 @@ import sys
 from pathlib import Path
 
 import pytest
+from walltime import wall
 
 from trajectory import StepState, build_trajectory, parse_scene, save_json
 from trajectory.scene import EXAMPLE_SCENE
@@ -35,7 +36,7 @@ def interrupt_when(argv: list[str], marker: str) -> tuple[int, str]:
             assert line, f"ended before {marker!r}:\n{seen}"
             seen += line
         proc.send_signal(signal.SIGINT)
-        _, err = proc.communicate(timeout=120)
+        _, err = proc.communicate(timeout=wall(120))
     finally:
         if proc.poll() is None:
             proc.kill()

@@ -11,6 +11,7 @@ from pathlib import Path
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from walltime import wall
 
 from cplus.api import Domain
 from cplus.robot.online.estimation import OnlineModel, Roles
@@ -237,7 +238,7 @@ def test_an_idle_loop_waits_for_a_line_typed_later():
     writer.write("requst\nrequest\n")
     writer.flush()
     writer.close()
-    t.join(timeout=20)
+    t.join(timeout=wall(20))
     assert not t.is_alive()
     result = out[0]
     assert result.status is OnlineStatus.GOAL_REACHED

@@ -11,6 +11,7 @@ import sys
 from pathlib import Path
 
 import pytest
+from walltime import wall
 
 from cplus.cli import main
 
@@ -85,7 +86,7 @@ def test_an_address_in_use_is_an_error(capsys):
 
 def cli(args, env=None, timeout=120) -> subprocess.CompletedProcess:
     return subprocess.run([sys.executable, "-m", "cplus", "serve", *args], capture_output=True, text=True,
-                          timeout=timeout, env=env)
+                          timeout=wall(timeout), env=env)
 
 
 def test_ros_absent_is_a_clear_message(tmp_path):
@@ -131,7 +132,7 @@ def test_nothing_imports_ros_but_the_bridge():
     assert offenders == [("cplus/cli/serve.py", "from cplus.robot.serving import ros_bridge")] * 2
     r = subprocess.run([sys.executable, "-c", "import sys, cplus.cli.serve, cplus.robot.serving.reactive; "
                         "print(sorted(m for m in sys.modules if m.split('.')[0] in ('rospy', 'actionlib', 'genpy')))"],
-                       capture_output=True, text=True, timeout=60)
+                       capture_output=True, text=True, timeout=wall(60))
     assert r.stdout.strip() == "[]"
 
 

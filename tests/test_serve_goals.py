@@ -10,6 +10,7 @@ import threading
 from pathlib import Path
 
 import pytest
+from walltime import wall
 
 from cplus.api import Domain
 from cplus.robot.online.loop import OnlineStatus
@@ -195,7 +196,7 @@ def test_stopping_the_server_aborts_the_goals_in_flight(domain):
     while not watcher.feedback_cycles:
         watcher.changed.wait(0.05)
     server.stop()
-    thread.join(10)
+    thread.join(wall(10))
     assert result_box[0].status is OnlineStatus.STOPPED
     assert goal.status is GoalStatus.ABORTED
     assert goal.reason == f"the server stopped (ended on request at cycle {result_box[0].cycles - 1})"

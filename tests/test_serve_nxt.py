@@ -9,6 +9,8 @@ import subprocess
 import sys
 from pathlib import Path
 
+from walltime import wall
+
 ROOT = Path(__file__).resolve().parent.parent
 MAILBOT = ROOT / "domains" / "mailbot"
 
@@ -16,7 +18,7 @@ MAILBOT = ROOT / "domains" / "mailbot"
 def serve(robot: Path, log: Path, script: Path = MAILBOT / "table1.jsonl") -> subprocess.CompletedProcess:
     return subprocess.run([sys.executable, "-m", "cplus", "serve", str(MAILBOT / "line.cp"), "--robot", str(robot),
                            "--script", str(script), "--no-latency", "--log", str(log)],
-                          capture_output=True, text=True, timeout=300)
+                          capture_output=True, text=True, timeout=wall(300))
 
 
 def test_the_papers_scenario_on_the_emulated_nxt_robot(tmp_path):

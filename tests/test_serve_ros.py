@@ -18,6 +18,7 @@ import time
 from pathlib import Path
 
 import pytest
+from walltime import wall
 
 ROOT = Path(__file__).resolve().parent.parent
 MAILBOT = ROOT / "domains" / "mailbot"
@@ -71,7 +72,7 @@ def ros_master(home: Path, port: int | None = None, kill: bool = False):
     proc = subprocess.Popen(["roscore", "-p", str(port)], env=env, stdout=subprocess.DEVNULL,
                             stderr=subprocess.DEVNULL, start_new_session=True)
     try:
-        deadline = time.monotonic() + 60
+        deadline = time.monotonic() + wall(60)
         while True:                                  # the master answers XML-RPC on its port
             assert proc.poll() is None, "roscore exited"
             try:
@@ -89,7 +90,7 @@ def ros_master(home: Path, port: int | None = None, kill: bool = False):
         else:
             os.killpg(proc.pid, signal.SIGINT)
         try:
-            proc.wait(30)
+            proc.wait(wall(30))
         except subprocess.TimeoutExpired:
             os.killpg(proc.pid, signal.SIGKILL)
             proc.wait()
@@ -116,7 +117,7 @@ CLIENT = textwrap.dedent("""
     client.send_goal(ServeGoal(request="deliver(office4,office1)"),
                      feedback_cb=lambda f: feedback.append({"id": f.id, "cycle": f.cycle,
                                                             "executed": list(f.executed), "plan": list(f.plan)}))
-    deadline = time.monotonic() + 60
+    deadline = time.monotonic() + wall(60)
     while not feedback and time.monotonic() < deadline:
         time.sleep(0.02)
     out["active"] = client.get_state() == GoalStatus.ACTIVE
@@ -155,7 +156,7 @@ def test_an_actionlib_client_sends_hears_cancels_and_gets_results(roscore, tmp_p
         assert line.startswith("cplus serve: ROS action server /mailbot (cplus_msgs/Serve) at http://127.0.0.1:")
         env = dict(roscore, PYTHONPATH=os.pathsep.join([MSG_PATH, DIST]))
         r = subprocess.run([*client_python(), "-c", CLIENT, "/mailbot"], env=env, capture_output=True, text=True,
-                           timeout=300)
+                           timeout=wall(300))
         assert r.returncode == 0, r.stderr
         out = json.loads(r.stdout.strip().splitlines()[-1])
         assert out["server"] and out["active"]
@@ -176,13 +177,13 @@ def test_an_actionlib_client_sends_hears_cancels_and_gets_results(roscore, tmp_p
         env = dict(roscore, PYTHONPATH=MSG_PATH)
         pub = subprocess.run(["rostopic", "pub", "-1", "/mailbot/goal", "cplus_msgs/ServeActionGoal",
                               '{goal_id: {id: "from-the-shell"}, goal: {request: "deliver(office1,office2)"}}'],
-                             env=env, capture_output=True, text=True, timeout=120)
+                             env=env, capture_output=True, text=True, timeout=wall(120))
         assert pub.returncode == 0, pub.stderr
         for line in server.stderr:
             if "goal 4 deliver(office1,office2): succeeded" in line:
                 break
         server.send_signal(signal.SIGTERM)
-        server.wait(60)
+        server.wait(wall(60))
     finally:
         if server.poll() is None:
             server.kill()
@@ -208,7 +209,7 @@ STATES = textwrap.dedent("""
     goals = [ac.send_goal(ServeGoal(request=r)) for r in requests]
 
     def wait(pred):
-        deadline = time.monotonic() + 120
+        deadline = time.monotonic() + wall(120)
         while not pred():
             assert time.monotonic() < deadline, [g.get_goal_status() for g in goals]
             time.sleep(0.02)
@@ -257,9 +258,9 @@ def test_recalled_and_pending_at_the_stop_are_the_states_docs_serve_says(roscore
         assert client.stdout is not None
         assert client.stdout.readline() == "ready\n", client.stderr.read() if client.stderr else ""
         server.send_signal(signal.SIGTERM)
-        out_text, err_text = client.communicate(timeout=120)
+        out_text, err_text = client.communicate(timeout=wall(120))
         assert client.returncode == 0, err_text
-        server.wait(60)
+        server.wait(wall(60))
     finally:
         for proc in (client, server):
             if proc is not None and proc.poll() is None:

@@ -15,6 +15,7 @@ import threading
 from pathlib import Path
 
 import pytest
+from walltime import wall
 
 from cplus.api import Domain
 from cplus.robot.online.loop import OnlineStatus
@@ -67,7 +68,7 @@ def server():
     srv.address = address
     yield srv
     srv.stop()
-    thread.join(30)
+    thread.join(wall(30))
     assert box and box[0].status is OnlineStatus.STOPPED
 
 
@@ -189,7 +190,7 @@ def test_an_ipv6_address_is_printed_as_listen_takes_it():
         assert c.line() == {"type": "error", "message": "no goal 1"}
         c.close()
         proc.send_signal(signal.SIGTERM)
-        proc.communicate(timeout=60)
+        proc.communicate(timeout=wall(60))
     finally:
         if proc.poll() is None:
             proc.kill()
@@ -234,7 +235,7 @@ def test_the_command_serves_a_socket_until_sigterm(tmp_path):
         proc.send_signal(signal.SIGTERM)        # the goal in flight is aborted, the client told
         last = c.until("result", 2)[-1]
         assert last["status"] == "aborted" and last["reason"].startswith("the server stopped (ended on request at cycle ")
-        _, rest = proc.communicate(timeout=60)
+        _, rest = proc.communicate(timeout=wall(60))
     finally:
         if proc.poll() is None:
             proc.kill()
@@ -254,7 +255,7 @@ def test_the_python_line_of_docs_serve_talks_to_the_socket(server):
     line = next(x for x in doc.splitlines() if x.startswith("python3 -c 'import json, socket;"))
     assert "| nc -q 30 127.0.0.1 7070" in doc and "| socat -t 30 - TCP:127.0.0.1:7070" in doc
     code = line[len("python3 -c '"):-1].replace("7070", str(server.address[1]))
-    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=wall(120))
     assert r.returncode == 0, r.stderr
     lines = [json.loads(x) for x in r.stdout.splitlines()]
     assert lines[0] == {"type": "goal", "id": 1, "request": "deliver(office3,office2)", "status": "pending"}

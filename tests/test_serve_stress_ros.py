@@ -24,6 +24,7 @@ from pathlib import Path
 
 import pytest
 from test_serve_ros import DIST, MSG_PATH, client_python, needs_ros, ros_master
+from walltime import wall
 
 ROOT = Path(__file__).resolve().parent.parent
 MAILBOT = ROOT / "domains" / "mailbot"
@@ -83,7 +84,7 @@ def serve(env: dict, tmp_path: Path, name: str) -> tuple[subprocess.Popen, Path]
 def run_clients(env: dict, name: str, mode: str, n: int) -> list[dict]:
     cenv = dict(env, PYTHONPATH=os.pathsep.join([MSG_PATH, DIST]))
     r = subprocess.run([*client_python(), "-c", CLIENT, f"/{name}", mode, str(n)], env=cenv, capture_output=True,
-                       text=True, timeout=60 + 35 * n)
+                       text=True, timeout=wall(60 + 35 * n))
     lines = [json.loads(x) for x in r.stdout.splitlines() if x.startswith("{")]
     assert r.returncode == 0, (lines[-3:], r.stderr[-2000:])
     assert len(lines) == n
@@ -94,7 +95,7 @@ def stop(server: subprocess.Popen) -> str:
     """SIGTERM; the server must exit 0 (its stderr is returned)."""
     try:
         server.send_signal(signal.SIGTERM)
-        _, err = server.communicate(timeout=30)
+        _, err = server.communicate(timeout=wall(30))
     finally:
         if server.poll() is None:
             os.killpg(server.pid, signal.SIGKILL)

@@ -32,6 +32,7 @@ import threading
 from pathlib import Path
 
 import pytest
+from walltime import wall
 
 ROOT = Path(__file__).resolve().parent.parent
 MAILBOT = ROOT / "domains" / "mailbot"
@@ -74,12 +75,12 @@ class Served:
     def stop(self, sig: int = signal.SIGTERM) -> int:
         try:
             self.proc.send_signal(sig)
-            self.proc.wait(30)
+            self.proc.wait(wall(30))
         finally:
             if self.proc.poll() is None:
                 os.killpg(self.proc.pid, signal.SIGKILL)
                 self.proc.wait()
-            self._drain.join(30)
+            self._drain.join(wall(30))
         return self.proc.returncode
 
     def log_lines(self) -> list[dict]:
@@ -191,7 +192,7 @@ def test_a_client_that_never_reads_stalls_nobody(tmp_path):
                 pass
         writer = threading.Thread(target=flood, daemon=True)
         writer.start()
-        writer.join(120)
+        writer.join(wall(120))
         assert not writer.is_alive()
         other = Client(server.address)
         ids = []
@@ -297,7 +298,7 @@ def test_a_flood_of_ten_thousand_requests(tmp_path):
         ack = other.line()
         assert ack is not None and ack["type"] == "goal" and ack["status"] == "pending"
         assert other.until("result", ack["id"])[-1]["status"] == "succeeded"
-        reader.join(300)
+        reader.join(wall(300))
         assert len(answers) == 10_000
         refused = [x for x in answers if x["status"] == "rejected"]
         assert refused and all(x["reason"].startswith("this client has 8 goals open") for x in refused)
@@ -350,7 +351,7 @@ def test_signals_at_random_moments(tmp_path, seed):
         code = server.stop(rng.choice([signal.SIGTERM, signal.SIGINT]))
         stop.set()
         for t in clients:
-            t.join(30)
+            t.join(wall(30))
         assert code == 0, "".join(server.err[-20:])
         lines = server.log_lines()
     assert lines[-1]["status"] == "stopped"
@@ -393,7 +394,7 @@ def test_a_loop_that_never_comes_back_is_ended_by_the_watchdog(tmp_path, signals
         server.proc.send_signal(signal.SIGTERM)
         if signals == 2:
             server.proc.send_signal(signal.SIGINT)
-        server.proc.wait(30)
+        server.proc.wait(wall(30))
         c.close()
         assert server.proc.returncode == (143 if signals == 1 else 124)
         lines = server.log_lines()
@@ -426,7 +427,7 @@ def test_a_signal_while_the_main_thread_holds_the_boards_lock(tmp_path):
     with Served(tmp_path, argv=[sys.executable, "-c", INSIDE_LOCK, "serve", DOMAIN]) as server:
         c = Client(server.address)
         c.send({"request": "deliver(office1,office2)"})
-        assert server.proc.wait(30) == 0
+        assert server.proc.wait(wall(30)) == 0
         c.close()
         lines = server.log_lines()
     assert lines[-1]["status"] == "stopped"

@@ -13,6 +13,7 @@ import time
 from pathlib import Path
 
 import pytest
+from walltime import wall
 
 pytestmark = pytest.mark.slow
 
@@ -35,10 +36,11 @@ def read_until(proc: subprocess.Popen, marker: str) -> str:
 
 
 def finish(proc: subprocess.Popen, timeout_s: float = 10.0) -> tuple[int, str, float]:
-    """Wait (bounded) for the process; its code, the rest of stderr, and how long it took."""
+    """Wait (bounded: ``timeout_s`` on an idle machine) for the process; its code, the rest of
+    stderr, and how long it took."""
     t0 = time.monotonic()
     try:
-        _, err = proc.communicate(timeout=timeout_s)
+        _, err = proc.communicate(timeout=wall(timeout_s))
     finally:
         if proc.poll() is None:
             proc.kill()
@@ -46,9 +48,15 @@ def finish(proc: subprocess.Popen, timeout_s: float = 10.0) -> tuple[int, str, f
     return proc.returncode, err, time.monotonic() - t0
 
 
+def within_the_promise(took: float) -> bool:
+    """Ended within the 2 s the docs promise, give or take what the operating system adds
+    (signal delivery, scheduling the test's own wait): half a second on an idle machine."""
+    return took < 2.0 + wall(0.5)
+
+
 def motors_stopped(server, within_s: float = 3.0) -> bool:
     """Every motor of an emulated brick has no power (polled until it holds, bounded)."""
-    deadline = time.monotonic() + within_s
+    deadline = time.monotonic() + wall(within_s)
     while time.monotonic() < deadline:
         if all(out.applied_duty_pct == 0 and out.power == 0 for out in server.emulator.firmware.outputs):
             return True
@@ -80,13 +88,13 @@ def test_sigterm_stops_online_with_143_motors_off_and_the_log_ended(delivery_bri
     proc = start(["online", str(DELIVERY / "delivery.cp"), "--brick", f"robot={delivery_brick.path}",
                   "--log", str(log)])
     read_until(proc, "| send follow")
-    deadline = time.monotonic() + 10
+    deadline = time.monotonic() + wall(10)
     while not motors_running(delivery_brick) and time.monotonic() < deadline:
         time.sleep(0.01)                     # the follow behaviour drives: the robot moves
     proc.send_signal(signal.SIGTERM)
     code, err, took = finish(proc)
     assert code == 143, err
-    assert took < 2.0 + 1.0                  # 2 s, and the interpreter's start-up slack for a loaded machine
+    assert within_the_promise(took)
     assert "Traceback" not in err and "stopped by SIGTERM (the robot was told to stop)" in err
     assert motors_stopped(delivery_brick)
     lines = json_lines(log)
@@ -141,11 +149,32 @@ def test_sigterm_stops_execute_with_143_motors_off_and_the_log_written(arm_brick
     proc.send_signal(signal.SIGTERM)
     code, err, took = finish(proc)
     assert code == 143, err
-    assert took < 3.0 and "Traceback" not in err
+    assert within_the_promise(took) and "Traceback" not in err
     assert err.rstrip().splitlines()[-1] == "cplus execute: stopped by SIGTERM (bricks told to stop)"
     assert all(motors_stopped(s) for s in arm_bricks.values())
     data = json.loads(log.read_text())
     assert data["complete"] is False and data["stopped"]["reason"] == "stopped by SIGTERM"
+
+
+def test_a_stop_stuck_on_a_lost_link_is_forced_and_still_writes_the_log(arm_bricks, slow_trajectory, tmp_path):
+    """r1's link is gone when SIGTERM comes (its pty closed: the client keeps reopening it for
+    10 s): the orderly stop cannot finish, so the watchdog coasts r2's motors, writes the log
+    gathered so far, marked stopped and forced, and ends with 143."""
+    log = tmp_path / "exec.json"
+    proc = start(["execute", str(slow_trajectory), "--log", str(log), "--no-latency",
+                  *[a for name, s in arm_bricks.items() for a in ("--brick", f"{name}={s.path}")]])
+    read_until(proc, "running")
+    arm_bricks["r1"].stop()                  # the link is lost ...
+    proc.send_signal(signal.SIGTERM)         # ... and the operator stops the run
+    code, err, took = finish(proc)
+    assert code == 143, err
+    assert within_the_promise(took) and "Traceback" not in err
+    assert "the orderly stop took more than 1.5 s" in err
+    assert motors_stopped(arm_bricks["r2"])
+    data = json.loads(log.read_text())
+    assert data["complete"] is False
+    assert data["stopped"]["reason"] == "stopped by SIGTERM, forced after 1.5 s (motors commanded off)"
+    assert [b["name"] for b in data["bricks"]] == ["r1", "r2"]
 
 
 STUCK = """
@@ -177,7 +206,7 @@ def test_the_watchdog_ends_a_stuck_stop_within_2_s_with_the_signal_code(tmp_path
     proc, marker = _stuck(tmp_path)
     proc.send_signal(signal.SIGTERM)
     code, err, took = finish(proc)
-    assert code == 143 and took < 2.5, err
+    assert code == 143 and within_the_promise(took), err
     assert "stopping: stopped by SIGTERM" in err and "the orderly stop took more than 1.5 s" in err
     assert marker.read_text() == "motors off"
 
@@ -190,3 +219,59 @@ def test_a_second_signal_ends_a_stuck_stop_at_once_with_124(tmp_path):
     code, err, _ = finish(proc)
     assert code == 124, err
     assert "SIGTERM again: stopping the motors and ending now" in err and marker.read_text() == "motors off"
+
+
+def test_a_nested_shutdown_knows_the_signal_of_the_command_it_runs_in():
+    """`cplus run` runs `cplus execute` inside its own Shutdown: the inner one must see the
+    outer's signal (no plot while stopping, and 143 for SIGTERM, not 130)."""
+    import os
+
+    from cplus.cli.signals import Shutdown, Stopped
+    with Shutdown("outer", grace_s=60) as outer:
+        with Shutdown("inner") as inner:
+            assert inner.signum is None
+            with pytest.raises(Stopped):
+                os.kill(os.getpid(), signal.SIGTERM)
+                time.sleep(5)                # the handler raises at once; never reached
+            assert inner.signum == outer.signum == signal.SIGTERM
+            assert inner.exit_code == outer.exit_code == 143
+
+
+def test_sigterm_stops_run_with_143_and_no_plot(tmp_path):
+    out = tmp_path / "out"
+    proc = start(["run", str(ROOT / "domains" / "payload" / "payload.cp"), "--out", str(out),
+                  "--step-time", "4", "--points-per-step", "20"])   # simulated time: about a second running
+    read_until(proc, "running")
+    proc.send_signal(signal.SIGTERM)
+    code, err, _ = finish(proc)
+    assert code == 143, err
+    assert "Traceback" not in err and "the orderly stop took more than" not in err
+    assert "no plot" in err and not (out / "execution.png").exists()
+    assert err.rstrip().splitlines()[-1] == "cplus execute: stopped by SIGTERM (bricks told to stop)"
+    data = json.loads((out / "execution.json").read_text())
+    assert data["complete"] is False and data["stopped"]["reason"] == "stopped by SIGTERM"
+
+
+COLLECTIONS = """
+import gc, sys
+import cplus.cli, cplus.errors
+sys.argv = ["cplus", *sys.argv[1:]]
+gc.collect()     # the imports' garbage: from here on the command allocates with the collector off
+gc.callbacks.append(lambda phase, info: phase == "start" and print("collected", file=sys.stderr, flush=True))
+cplus.cli.run()
+"""
+
+
+def test_the_command_ends_without_a_pass_of_the_cyclic_collector(slow_trajectory, tmp_path):
+    """The collector is off while a command runs; switched back on at its end, its first pass
+    goes through everything the command made (a tenth of a second of processor time after a
+    robot job, over a second of wall time at load 12), between a stopped command's orderly
+    stop and its exit. The console script leaves it off."""
+    from trajectory.scene import EXAMPLE_SCENE
+    scene = tmp_path / "scene.toml"
+    scene.write_text(EXAMPLE_SCENE)
+    proc = subprocess.run([sys.executable, "-c", COLLECTIONS, "execute", str(slow_trajectory), "--quiet",
+                           "--plot", str(tmp_path / "p.png"), "--scene", str(scene)],
+                          capture_output=True, text=True, cwd=ROOT, timeout=wall(60))
+    assert proc.returncode == 0, proc.stderr
+    assert (tmp_path / "p.png").is_file() and "collected" not in proc.stderr

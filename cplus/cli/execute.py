@@ -18,8 +18,9 @@ import argparse
 import math
 import os
 import sys
-from collections.abc import Mapping
-from dataclasses import dataclass
+import threading
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TextIO
 
@@ -40,7 +41,7 @@ from cplus.cli.common import (
     parse_bricks,
     positive,
 )
-from cplus.cli.signals import Shutdown, exit_code_of, motors_off, reason_of
+from cplus.cli.signals import Shutdown, Stopped, exit_code_of, motors_off, reason_of
 from cplus.robot.execution import (
     EmulatorSettings,
     check_ports,
@@ -233,11 +234,16 @@ class _Outputs:
     traj: trajectory.Trajectory
     scene: trajectory.Scene | None
     err: TextIO
+    lock: threading.Lock = field(default_factory=threading.Lock)  # the watchdog may write too
 
     def write(self, log: nxt_link.ExecutionLog, plot: bool = True) -> bool:
         """Log, report, plot and animation, in that order (the pictures are the slow ones: a run
         stopped by a signal, ``plot=False``, leaves them out so that the stop stays within its
         2 s); returns False (after one line on stderr) if one failed."""
+        with self.lock:
+            return self._write_all(log, plot)
+
+    def _write_all(self, log: nxt_link.ExecutionLog, plot: bool) -> bool:
         args = self.args
         unit_mm = self.scene.grid.unit_mm if self.scene is not None else None
         report = tracking_report(self.traj, log, unit_mm)
@@ -286,6 +292,30 @@ class _Outputs:
     def _wrote(self, path: str) -> None:
         if not self.args.quiet:
             print(f"cplus execute: wrote {path}", file=self.err)
+
+
+class _ForcedLog:
+    """The shutdown watchdog's log: while the bricks run, a stop that misses its deadline (a
+    link stuck reconnecting) still writes the log gathered so far, marked stopped and forced,
+    instead of losing it. Armed by the execution, disarmed once it returns or raises (the
+    orderly path writes the log itself)."""
+
+    def __init__(self, outputs: _Outputs, shutdown: Shutdown) -> None:
+        self.outputs = outputs
+        self.shutdown = shutdown
+        self.snapshot: Callable[[str], nxt_link.ExecutionLog] | None = None
+
+    def arm(self, snapshot: Callable[[str], nxt_link.ExecutionLog]) -> None:
+        self.snapshot = snapshot
+
+    def __call__(self) -> None:
+        snapshot = self.snapshot
+        if snapshot is None:
+            return
+        signum = self.shutdown.signum
+        reason = str(Stopped(signum)) if signum is not None else "interrupted"
+        self.outputs.write(snapshot(f"{reason}, forced after {self.shutdown.grace_s:g} s (motors commanded off)"),
+                           plot=False)
 
 
 def main(args: argparse.Namespace) -> int:
@@ -337,13 +367,22 @@ def main(args: argparse.Namespace) -> int:
 
     with Shutdown(prog) as shutdown:
         opened: list = []
+        forced_log = _ForcedLog(outputs, shutdown)
         shutdown.on_force(lambda: motors_off(opened))
+        shutdown.on_force(forced_log)
+
+        def execute() -> nxt_link.ExecutionLog:
+            try:
+                return execute_trajectory(traj, ports or None, options=execution_options(args),
+                                          emulator=EmulatorSettings(latency=args.latency,
+                                                                    time_scale=args.time_scale, seed=args.seed),
+                                          on_progress=progress, on_bricks=announce, scene=scene,
+                                          on_connected=lambda bricks: opened.extend(bricks.values()),
+                                          on_snapshot=forced_log.arm)
+            finally:
+                forced_log.snapshot = None    # what happens next writes the log itself
         try:
-            log = execute_trajectory(traj, ports or None, options=execution_options(args),
-                                     emulator=EmulatorSettings(latency=args.latency, time_scale=args.time_scale,
-                                                               seed=args.seed),
-                                     on_progress=progress, on_bricks=announce, scene=scene,
-                                     on_connected=lambda bricks: opened.extend(bricks.values()))
+            log = execute()
         except SetpointError as exc:
             print(f"{prog}: refused before anything moved: {exc}", file=err)
             return EXIT_INPUT

@@ -33,8 +33,9 @@ API (for ``cplus serve`` to adopt as well)::
             print(f"cplus online: {reason_of(exc)}")
             return exit_code_of(exc)
 
-``Shutdown`` is re-entrant (``cplus run`` calls ``cplus execute`` inside its own), does nothing
-outside the main thread, and puts the previous handlers back on exit.
+``Shutdown`` is re-entrant (``cplus run`` calls ``cplus execute`` inside its own: the inner one
+shares the outer's handling and reports its signal), does nothing outside the main thread, and
+puts the previous handlers back on exit.
 """
 from __future__ import annotations
 
@@ -90,7 +91,7 @@ class Shutdown:
         self.prog = prog
         self.grace_s = grace_s
         self.err = err
-        self.signum: int | None = None
+        self._signum: int | None = None
         self._stop: list[Callable[[], None]] = []
         self._force: list[Callable[[], None]] = []
         self._done = threading.Event()
@@ -108,6 +109,13 @@ class Shutdown:
         """Run ``callback`` when the orderly stop misses its deadline or at a second signal,
         from another thread, with a time bound: stop the motors, finish the logs."""
         (self._outer or self)._force.append(callback)
+
+    @property
+    def signum(self) -> int | None:
+        """The first signal received, None before one; a nested ``Shutdown`` answers for the
+        command it runs in (``cplus execute`` inside ``cplus run`` must know that ``cplus run``
+        was stopped: no plot, and ``128 + signal`` for its exit code)."""
+        return (self._outer or self)._signum
 
     @property
     def exit_code(self) -> int:
@@ -141,7 +149,7 @@ class Shutdown:
             self._say(f"{_NAMES.get(signum, str(signum))} again: stopping the motors and ending now")
             self._run_force(_SECOND_BUDGET_S)
             self._exit(EXIT_FORCED)
-        self.signum = signum
+        self._signum = signum
         threading.Thread(target=self._watchdog, name="cplus-shutdown-watchdog", daemon=True).start()
         for callback in self._stop:
             try:

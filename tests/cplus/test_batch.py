@@ -17,6 +17,7 @@ import sys
 from pathlib import Path
 
 import pytest
+from walltime import wall
 
 from cplus.batch import BatchError, Progress, ResultsFile, read_jobs, run_local
 from cplus.cli import main
@@ -248,7 +249,7 @@ def test_an_interrupted_batch_resumes(tmp_path):
             assert line, seen
             seen += line
         os.killpg(proc.pid, signal.SIGINT)
-        _, err = proc.communicate(timeout=60)
+        _, err = proc.communicate(timeout=wall(60))
     finally:
         if proc.poll() is None:
             os.killpg(proc.pid, signal.SIGKILL)
@@ -257,7 +258,7 @@ def test_an_interrupted_batch_resumes(tmp_path):
     assert set(ResultsFile(str(tmp_path / "jobs.results.jsonl")).records()) == {"quick"}
     f.write_text(json.dumps({"id": "quick", "domain": str(LAMP), "query": "on"}) + "\n" +
                  json.dumps({"id": "endless", "domain": str(LAMP), "query": "on"}) + "\n")
-    done = subprocess.run(cmd, capture_output=True, text=True, cwd=ROOT, timeout=300)
+    done = subprocess.run(cmd, capture_output=True, text=True, cwd=ROOT, timeout=wall(300))
     assert done.returncode == 0 and "1 of 2 jobs done before" in done.stderr
 
 
@@ -346,7 +347,7 @@ def ray_cluster():
         sel = selectors.DefaultSelector()
         sel.register(head.stdout, selectors.EVENT_READ)
         seen = []
-        limit = time.monotonic() + 300       # a bound on failure only: the event awaited is Ray's line
+        limit = time.monotonic() + wall(300)       # a bound on failure only: the event awaited is Ray's line
         while not any("Ray runtime started" in line for line in seen):
             assert time.monotonic() < limit and head.poll() is None, f"ray start ({head.poll()}): " + "".join(seen[-30:])
             if sel.select(timeout=1):
@@ -357,7 +358,7 @@ def ray_cluster():
     finally:
         try:
             os.killpg(head.pid, signal.SIGTERM)
-            head.wait(timeout=30)
+            head.wait(timeout=wall(30))
         except (ProcessLookupError, subprocess.TimeoutExpired):
             pass
         try:
@@ -376,7 +377,7 @@ def test_a_batch_on_a_ray_cluster_at_its_address(tmp_path, ray_cluster):
     address, env = ray_cluster
     f = jobs_file(tmp_path, [{"id": "ferry", "domain": str(FERRY)}, {"id": "lamp", "domain": str(LAMP), "query": "on"}])
     cmd = [sys.executable, "-m", "cplus", "batch", str(f), f"--ray={address}", "--quiet"]
-    done = subprocess.run(cmd, capture_output=True, text=True, cwd=ROOT, env=env, timeout=300)
+    done = subprocess.run(cmd, capture_output=True, text=True, cwd=ROOT, env=env, timeout=wall(300))
     assert done.returncode == 0, done.stderr
     got = {r["id"]: r for r in records(tmp_path / "jobs.results.jsonl")}
     assert got["ferry"]["status"] == "found" and got["ferry"]["maxstep"] == 17

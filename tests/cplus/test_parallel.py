@@ -20,6 +20,7 @@ import pytest
 from cplus_oracle import first_histories
 from cplus_random import descriptions
 from hypothesis import assume, given, settings
+from walltime import wall
 
 from cplus import Domain
 from cplus.cli import main
@@ -258,7 +259,7 @@ def test_interrupt_ends_every_worker(tmp_path, how):
             os.killpg(proc.pid, signal.SIGINT)
         else:
             proc.send_signal(signal.SIGTERM)
-        _, err = proc.communicate(timeout=60)
+        _, err = proc.communicate(timeout=wall(60))
     finally:
         if proc.poll() is None:
             os.killpg(proc.pid, signal.SIGKILL)

@@ -6,7 +6,7 @@ import pytest
 
 from nxt_link import errors
 from nxt_link import stream_protocol as sp
-from nxt_link.brick import Brick
+from nxt_link.brick import Brick, RetryPolicy
 from nxt_link.execlog import ExecutionLog
 from nxt_link.execution import ExecutionOptions, SetpointStream, execute_streams
 from nxt_link.session import SessionTiming
@@ -249,3 +249,30 @@ def test_an_exception_from_on_progress_stops_every_brick_before_it_is_raised(rig
     for name in ("r1", "r2"):
         program = rig.emulators[name].program
         assert program.state == State.STOPPED and program.logged < 200
+
+
+def test_ctrl_c_with_every_brick_silent_ends_within_the_stop_limit(rig, wave):
+    """Ctrl-C must end within its limit (the shutdown watchdog's 1.5 s) however many bricks are
+    silent: STOP goes to all at once, and the confirmations share one second (on the bricks'
+    clock), each overrunning it by at most one reply attempt, never by a read's retries."""
+    silent: list[float] = []
+    hooks = {name: silence_when(lambda: bool(silent), [], rig.clock) for name in ("r1", "r2")}
+    for name in ("r1", "r2"):
+        rig.add(name, policy=RetryPolicy(), damage=hooks[name])   # a real link's timeouts
+    interrupted: list[float] = []
+
+    def interrupt(p) -> None:
+        if p.phase == "run" and p.done >= 20:
+            silent.append(rig.clock.now())                  # both links die, then Ctrl-C
+            interrupted.append(rig.clock.now())
+            raise KeyboardInterrupt
+
+    with pytest.raises(errors.ExecutionInterrupted) as info:
+        execute_streams(two_streams(wave), rig.bricks, options=OPTIONS, on_progress=interrupt)
+    took = rig.clock.now() - interrupted[0]
+    assert took <= 1.0 + RetryPolicy().reply_timeout_s, took
+    log = info.value.log
+    assert log.stopped.reason == "interrupted" and not log.complete
+    for name in ("r1", "r2"):
+        assert log.brick(name).reached == "run"    # not confirmed: no "stopped" claimed
+        assert not [e for e in log.brick(name).events if e.event == "stopped"]

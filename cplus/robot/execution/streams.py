@@ -209,12 +209,14 @@ def execute_trajectory(traj: trajectory.Trajectory, ports: Mapping[str, str] | N
                        on_bricks: Callable[[Mapping[str, str]], None] | None = None,
                        scene: trajectory.Scene | None = None,
                        on_connected: Callable[[Mapping[str, nxt_link.Brick]], None] | None = None,
+                       on_snapshot: Callable[[Callable[[str], nxt_link.ExecutionLog]], None] | None = None,
                        ) -> nxt_link.ExecutionLog:
     """Execute ``traj`` on bricks at ``ports`` (robot name -> device), or on emulated bricks.
 
     With emulated bricks the options' ``time_scale`` is the emulator's (1 on simulated
     time, where the bricks' clock is the PC's). ``on_connected`` receives the bricks once
-    they are opened, before anything moves.
+    they are opened, before anything moves; ``on_snapshot`` the function that gives the log
+    gathered so far (:func:`nxt_link.execute_streams`), for a shutdown watchdog.
 
     Raises:
         SetpointError: the trajectory cannot be executed (nothing moved).
@@ -260,4 +262,4 @@ def execute_trajectory(traj: trajectory.Trajectory, ports: Mapping[str, str] | N
         if on_connected is not None:      # e.g. a shutdown watchdog that must reach the bricks
             on_connected(bricks)
         return nxt_link.execute_streams(streams, bricks, options=opts, on_progress=on_progress,
-                                        session_ids=session_ids)
+                                        session_ids=session_ids, on_snapshot=on_snapshot)
