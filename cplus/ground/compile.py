@@ -18,8 +18,10 @@ from cplus import ir
 from cplus.errors import GroundingError, Location
 from cplus.ground.arith import ARITH_FUNCTIONS
 from cplus.ground.atoms import AtomTable
+from cplus.ground.equations import level_solvers
 from cplus.ground.intexpr import int_comparison, int_term
 from cplus.ground.pf import PF, mk_and, mk_or, neg
+from cplus.limits import count
 from cplus.signature import GroundConst, Signature, StepSort, order_key, render_value
 
 __all__ = ["Cases", "UNDEF", "Ctx", "compile_term", "compile_formula", "evaluate_all", "domain_of", "bind",
@@ -487,11 +489,14 @@ def binding_levels(sig: Signature, variables: dict[str, ir.Var], filters: list[t
 
 
 def bind(sig: Signature, variables: dict[str, ir.Var], filters: list[tuple[Callable, set[str]]],
-         leaf: Callable[[dict], None], env: dict | None = None) -> None:
+         leaf: Callable[[dict], None], env: dict | None = None, max_tries: int | None = None) -> None:
     """Call ``leaf(env)`` for every binding of ``variables`` that passes every filter.
 
     A filter is tested as soon as all its variables are bound; variables are bound in an
-    order that completes filters early, so most of the cross product is never built.
+    order that completes filters early, so most of the cross product is never built.  A
+    variable that an equation completed at its level fixes (:mod:`cplus.ground.equations`)
+    takes only that value.  ``max_tries``: a :class:`GroundingError` (with no location) once
+    more values than that have been tried, passing or not.
     """
     env = {} if env is None else env
     pending = [(fn, set(vs) & set(variables)) for fn, vs in filters]
@@ -500,12 +505,31 @@ def bind(sig: Signature, variables: dict[str, ir.Var], filters: list[tuple[Calla
             return
     levels = binding_levels(sig, variables, filters, env)
     depth = len(levels)
+    if depth == 0:
+        leaf(env)
+        return
+    solvers = level_solvers(levels)
+    members: list[frozenset | None] = [None] * depth
+    tries = [0]
+    limit = max_tries
 
     def rec(i: int) -> None:
         if i == depth:
             leaf(env)
             return
         name, dom, fl = levels[i]
+        solve = solvers[i]
+        if solve is not None and dom:
+            got = solve(env)
+            if got is not None:
+                member = members[i]
+                if member is None:
+                    member = members[i] = frozenset(dom)
+                dom = tuple([v for v in got if v in member])
+        if limit is not None:
+            tries[0] += len(dom)
+            if tries[0] > limit:
+                raise GroundingError(too_many_tries(tries[0], list(variables), limit, tried=True))
         nxt = i + 1
         for v in dom:
             env[name] = v
@@ -516,8 +540,15 @@ def bind(sig: Signature, variables: dict[str, ir.Var], filters: list[tuple[Calla
                 rec(nxt)
         env.pop(name, None)
 
-    if depth == 0:
-        leaf(env)
-    else:
-        rec(0)
+    rec(0)
 
+
+def too_many_tries(tries: int, names: list[str], limit: int, tried: bool = False) -> str:
+    """The refusal of a law whose grounding tries (estimated, or ``tried`` so far) more
+    bindings than ``limit``."""
+    what = f"combinations of values of {', '.join(names)}"
+    if tried:
+        return (f"this law is too large to ground: it tried {count(tries)} {what} before it was stopped, "
+                f"more than the {count(limit)} a law may try")
+    return (f"this law is too large to ground: finding its instances means trying about {count(tries)} {what}, "
+            f"more than the {count(limit)} a law may try")
