@@ -21,7 +21,7 @@ from cplus.ground.atoms import AtomTable
 from cplus.ground.equations import level_solvers
 from cplus.ground.intexpr import int_comparison, int_term
 from cplus.ground.pf import PF, mk_and, mk_or, neg
-from cplus.limits import count
+from cplus.limits import MAX_INT, count
 from cplus.signature import GroundConst, Signature, StepSort, order_key, render_value
 
 __all__ = ["Cases", "UNDEF", "Ctx", "compile_term", "compile_formula", "evaluate_all", "domain_of", "bind",
@@ -137,22 +137,81 @@ def compile_term(t: ir.Term, ctx: Ctx, names: bool = False) -> Callable:
     if isinstance(t, ir.Ext):
         fns = [compile_term(a, ctx, names) for a in t.args]
         fn, name, loc = t.fn, t.name, t.loc
+        objects = ctx.sig.object_order
 
         def ext(env, time):
             args = [f(env, time) for f in fns]
             if any(type(a) is Cases for a in args):
                 raise GroundingError(f"the arguments of external '{name}' may not mention constants", loc)
-            return _call_external(fn, name, args, loc)
+            return _term_result(_call_external(fn, name, args, loc), objects, name, args, loc)
         return ext
     raise TypeError(t)  # pragma: no cover
 
 
 def _call_external(fn, name: str, args: list, loc: Location):
+    """Call an external (user code): what it raises, or an attempt to end the program
+    (``sys.exit``), is a grounding error naming the call."""
     try:
         return fn(*args)
-    except Exception as exc:  # an external is user code: report, do not crash
-        shown = ",".join(render_value(a) for a in args)
-        raise GroundingError(f"external '{name}({shown})' failed: {exc}", loc) from None
+    except Exception as exc:
+        raise GroundingError(f"external {_call(name, args)} failed: {type(exc).__name__}: {_brief(exc)}",
+                             loc) from None
+    except SystemExit as exc:
+        raise GroundingError(f"external {_call(name, args)} tried to end the program "
+                             f"(sys.exit({_brief(exc.code, repr)}))", loc) from None
+
+
+def _call(name: str, args: list) -> str:
+    return f"'{name}({','.join(render_value(a) for a in args)})'"
+
+
+def _brief(value: object, show: Callable[[object], str] = str) -> str:
+    """What an external gave, for a message: at most 80 characters, whatever it is."""
+    try:
+        text = show(value)
+    except Exception:  # noqa: BLE001 - a user object whose repr fails
+        text = f"<a {type(value).__name__}>"
+    return text if len(text) <= 80 else text[:77] + "..."
+
+
+def _term_result(value: object, objects: dict, name: str, args: list, loc: Location) -> object:
+    """An external function's value: a 64-bit integer or an object of the domain."""
+    if type(value) is int:
+        if -MAX_INT - 1 <= value <= MAX_INT:
+            return value
+        raise GroundingError(f"external {_call(name, args)} returned {count(value)}, outside the integers "
+                             f"(-2^63..2^63-1)", loc)
+    if type(value) in (str, tuple):
+        try:
+            if value in objects:
+                return value
+        except TypeError:   # a tuple holding something unhashable
+            pass
+    elif _numpy_scalar(value, "int"):
+        return _term_result(int(value), objects, name, args, loc)    # type: ignore[call-overload]
+    raise GroundingError(f"external {_call(name, args)} returned {_brief(value, repr)}, which is neither an "
+                         f"integer nor an object of this domain", loc)
+
+
+def _truth(value: object, name: str, args: list, loc: Location) -> bool:
+    """An external predicate's value: True or False (numpy's booleans too)."""
+    if value is True or value is False:
+        return value
+    if _numpy_scalar(value, "bool"):
+        return bool(value)
+    raise GroundingError(f"external predicate {_call(name, args)} returned {_brief(value, repr)}, "
+                         f"not True or False", loc)
+
+
+def _numpy_scalar(value: object, kind: str) -> bool:
+    """Whether ``value`` is a numpy integer (``kind`` "int") or boolean ("bool") scalar,
+    without importing numpy."""
+    cls = type(value)
+    if cls.__module__ != "numpy":
+        return False
+    if kind == "bool":
+        return cls.__name__ in ("bool_", "bool")
+    return cls.__name__.startswith(("int", "uint")) and cls.__name__[-1].isdigit()     # int64, uint8, ...
 
 
 def _time_value(v, loc: Location) -> int:
@@ -294,7 +353,7 @@ def compile_formula(f: ir.Formula, ctx: Ctx) -> Callable:
             args = [g(env, time) for g in fns]
             if any(type(a) is Cases for a in args):
                 raise GroundingError(f"the arguments of external '{name}' may not mention constants", loc)
-            return bool(_call_external(fn, name, args, loc))
+            return _truth(_call_external(fn, name, args, loc), name, args, loc)
         return ext
     raise TypeError(f)  # pragma: no cover
 
