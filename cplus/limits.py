@@ -58,7 +58,7 @@ def count(n: int) -> str:
     """A number for an error message: ``27,000,000``, or its magnitude when it is enormous
     (``about 10^300``: printing every digit of a huge integer is itself an error in Python)."""
     if n.bit_length() > 64:
-        return f"about 10^{int(n.bit_length() * 0.30103)}"
+        return f"about {'-' if n < 0 else ''}10^{int(n.bit_length() * 0.30103)}"
     return f"{n:,}"
 
 
