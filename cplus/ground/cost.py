@@ -67,15 +67,17 @@ def probed_tries(levels: Sequence[Level], probes: int = PROBES) -> int:
     return total // probes
 
 
-def bind_levels(levels: list, solvers: list) -> tuple[list[int], list[Level]]:
+def bind_levels(levels: list, solvers: list) -> tuple[list[int], Callable[[], list[Level]]]:
     """The levels of :func:`~cplus.ground.compile.bind` (its ``binding_levels`` and their
     solvers, :mod:`cplus.ground.equations`): the most values each tries per binding above
-    it (1 where an equation fixes the variable), and the levels for :func:`probed_tries`."""
+    it (1 where an equation fixes the variable), and a function that makes the levels for
+    :func:`probed_tries` (only needed when the sizes' bound is too large)."""
     sizes = [len(dom) if solve is None else min(1, len(dom)) for (_, dom, _), solve in zip(levels, solvers)]
-    out: list[Level] = []
-    for (name, dom, fl), solve in zip(levels, solvers):
-        out.append((name, options_of(dom, solve), [passing(fn) for fn in fl]))
-    return sizes, out
+
+    def probe() -> list[Level]:
+        return [(name, options_of(dom, solve), [passing(fn) for fn in fl])
+                for (name, dom, fl), solve in zip(levels, solvers)]
+    return sizes, probe
 
 
 def passing(fn: Callable) -> Callable[[dict], bool]:

@@ -27,7 +27,7 @@ grounding that the templates keep (the same bodies; only their order differs), a
 """
 from __future__ import annotations
 
-from collections.abc import Callable, Iterable, Sequence
+from collections.abc import Callable, Iterable
 
 from cplus import ir, limits
 from cplus.errors import GroundingError
@@ -458,20 +458,19 @@ def _bind_joined(g, prep, gens: list[_Gen], doms: dict[str, set], pools: list, f
 def _check_tries(g, prep, levels: list, solvers: list, gen_at: dict, checks_at: dict) -> None:
     """:meth:`~cplus.ground.theory._Grounder._check_tries` for the levels of a joined law: a
     generator's level tries the values its possible atoms give (at most its largest group)."""
-    sizes: list[int] = []
-    probe: list = []
-    for i, ((name, dom, fl), solve) in enumerate(zip(levels, solvers)):
-        gen = gen_at.get(i)
-        options: Callable[[dict], Sequence]
-        if gen is not None:
-            sizes.append(max(map(len, gen[1].values()), default=0))
-            options = _lookup(gen[0], gen[1])
-        else:
-            sizes.append(len(dom) if solve is None else min(1, len(dom)))
-            options = options_of(dom, solve)
-        tests = [_member(names, rows) for names, rows in checks_at.get(i, ())]
-        tests += [passing(fn) for fn in fl]
-        probe.append((name, options, tests))
+    sizes = [max(map(len, gen_at[i][1].values()), default=0) if i in gen_at
+             else len(dom) if solve is None else min(1, len(dom))
+             for i, ((_, dom, _), solve) in enumerate(zip(levels, solvers))]
+
+    def probe() -> list:
+        out = []
+        for i, ((name, dom, fl), solve) in enumerate(zip(levels, solvers)):
+            gen = gen_at.get(i)
+            options = _lookup(gen[0], gen[1]) if gen is not None else options_of(dom, solve)
+            tests = [_member(names, rows) for names, rows in checks_at.get(i, ())]
+            tests += [passing(fn) for fn in fl]
+            out.append((name, options, tests))
+        return out
     g._check_tries(levels, list(prep.variables), prep.law.loc, sizes, probe)
 
 

@@ -261,7 +261,7 @@ class _Grounder:
             raise
 
     def _check_tries(self, levels: list, names: list[str], loc: Location,
-                     sizes: list[int] | None = None, probe: list | None = None) -> None:
+                     sizes: list[int] | None = None, probe: Callable[[], list] | None = None) -> None:
         """Refuse a law whose grounding would try more than :data:`~cplus.limits.MAX_TRIES`
         values over its binding ``levels`` (``sizes`` and ``probe``: what
         :func:`~cplus.ground.cost.bind_levels` gives, for a caller that binds otherwise)."""
@@ -269,7 +269,7 @@ class _Grounder:
             sizes, probe = bind_levels(levels, level_solvers(levels))
         if tries_bound(sizes) <= limits.MAX_TRIES:
             return
-        estimate = probed_tries(probe)
+        estimate = probed_tries(probe())
         if estimate > limits.MAX_TRIES:
             raise GroundingError(too_many_tries(estimate, names, limits.MAX_TRIES), loc)
 
