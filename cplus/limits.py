@@ -126,4 +126,6 @@ def too_large(what: str, needed_bytes: int) -> str:
 def _gib(n: int) -> str:
     if n >= 1 << 40:
         return f"{n / (1 << 40):,.0f} TiB"
+    if n < 1 << 30:
+        return f"{n / (1 << 20):.0f} MiB"
     return f"{n / (1 << 30):.1f} GiB"

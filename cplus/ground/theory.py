@@ -21,7 +21,7 @@ import time as _time
 from collections.abc import Callable
 
 from cplus import ir, limits
-from cplus.errors import GroundingError, Location, SortError
+from cplus.errors import GroundingError, Location, OutOfMemoryError, SortError
 from cplus.ground.atoms import AtomTable
 from cplus.ground.compile import (
     UNDEF,
@@ -181,7 +181,7 @@ class _Grounder:
         except MemoryError:
             pass        # the exception, and what the frames it holds built, are released here
         doing, loc = self.at
-        raise GroundingError(limits.out_of_memory(doing), loc)
+        raise OutOfMemoryError(limits.out_of_memory(doing), loc)
 
     def _run(self) -> GroundTheory:
         t0 = _time.perf_counter()

@@ -17,7 +17,7 @@ from itertools import repeat
 from typing import TypeVar
 
 from cplus import ir
-from cplus.errors import GroundingError, Location
+from cplus.errors import GroundingError, Location, OutOfMemoryError
 from cplus.ground.compile import Ctx, bind, compile_formula
 from cplus.ground.pf import PF, mk_and, mk_or, neg
 from cplus.ground.restrict import fixed_at_zero, has_step_var
@@ -261,7 +261,7 @@ class QuerySession:
             raise
         except MemoryError:
             pass        # the exception, and what the frames it holds built, are released here
-        raise GroundingError(out_of_memory(doing), self.query.loc)
+        raise OutOfMemoryError(out_of_memory(doing), self.query.loc)
 
     # ------------------------------------------------------------------ query items
     def _fixed_at_zero(self) -> set[int]:

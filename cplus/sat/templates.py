@@ -203,12 +203,12 @@ def build_templates(theory: GroundTheory, dead: set[int] | frozenset[int] = froz
     finally:
         if collecting:
             _gc.enable()
-    from cplus.errors import GroundingError
+    from cplus.errors import OutOfMemoryError
     from cplus.limits import out_of_memory
     sum_ = at[0]
     if sum_ is None:
-        raise GroundingError(out_of_memory("encoding the domain's laws"))
-    raise GroundingError(out_of_memory(f"encoding the additive constant '{sum_.target.text}'"), sum_.target.decl.loc)
+        raise OutOfMemoryError(out_of_memory("encoding the domain's laws"))
+    raise OutOfMemoryError(out_of_memory(f"encoding the additive constant '{sum_.target.text}'"), sum_.target.decl.loc)
 
 
 def _needs_dead(dead: frozenset[int], body: PF) -> bool:

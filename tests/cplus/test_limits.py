@@ -317,7 +317,7 @@ def test_memory_running_out_is_a_located_too_large_error(tmp_path, text, where, 
     proc = _out_of_memory(tmp_path, text, 600)
     line = one_error_line(proc)
     assert line.startswith(f"{tmp_path / 'd.cp'}{where} error: too large: {doing} ran out of memory, "
-                           f"more than the 0.6 GiB this run may use")
+                           f"more than the 600 MiB this run may use")
 
 
 def test_the_solver_running_out_of_memory_is_located_at_the_query():
