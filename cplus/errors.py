@@ -13,7 +13,7 @@ from cplus.record import Record
 __all__ = [
     "Source", "Location", "Diagnostic", "Diagnostics",
     "CPlusError", "CPlusSyntaxError", "IncludeError", "ResolveError", "SortError",
-    "GroundingError", "DefinitenessError", "QueryError", "InputError",
+    "GroundingError", "OutOfMemoryError", "DefinitenessError", "QueryError", "InputError",
 ]
 
 
@@ -164,6 +164,13 @@ class SortError(ResolveError):
 
 class GroundingError(CPlusError):
     """Something that only shows when variables are bound (division by zero, ...)."""
+
+
+class OutOfMemoryError(GroundingError, MemoryError):
+    """Grounding, encoding or solving ran out of memory (the address-space limit reached
+    before any estimate said so): located at what was being built.  It is a
+    :class:`MemoryError` too, so that a caller with a memory limit of its own (a batch job's)
+    still sees the limit it set reached."""
 
 
 class DefinitenessError(CPlusError):

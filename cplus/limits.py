@@ -14,8 +14,9 @@ from __future__ import annotations
 import os
 
 __all__ = ["MAX_FILE_BYTES", "MAX_INT", "MAX_NESTING", "MAX_EXPANSION", "MAX_EXPANDED", "MAX_OBJECTS", "MAX_RANGE",
-           "MAX_GROUND_CONSTANTS", "count", "memory_budget", "ATOM_BYTES", "INSTANCE_BYTES", "RULE_BYTES",
-           "clause_bytes", "MAX_SOLVER_VARS", "too_large"]
+           "MAX_GROUND_CONSTANTS", "MAX_TRIES", "count", "memory_budget", "ATOM_BYTES", "INSTANCE_BYTES", "RULE_BYTES",
+           "SUM_PAIR_BYTES", "SUM_VALUE_BYTES",
+           "clause_bytes", "MAX_SOLVER_VARS", "too_large", "out_of_memory"]
 
 MAX_FILE_BYTES = 1024 * 1024
 """A C+ source file (or standard input): 1 MB, eighty times the largest corpus domain.  The
@@ -45,12 +46,19 @@ MAX_RANGE = 1_000_000
 MAX_GROUND_CONSTANTS = 1_000_000
 """Ground instances of all constants together (``c(s1,s2)`` has |s1|*|s2| of them)."""
 
+MAX_TRIES = 20_000_000
+"""Values grounding may try for one law's variables, whether they pass its conditions or not:
+twenty million are five to fifteen seconds of one core (``where X * Y < 0`` tries about three
+million a second; ``X * Y * Z = 7`` over ``0..2000`` tries 8 million in five seconds, Z
+solved for and X, Y not).  The largest law of the corpus and ``bench/data`` that grounding
+does not do with arrays tries 46,000."""
+
 
 def count(n: int) -> str:
     """A number for an error message: ``27,000,000``, or its magnitude when it is enormous
     (``about 10^300``: printing every digit of a huge integer is itself an error in Python)."""
     if n.bit_length() > 64:
-        return f"about 10^{int(n.bit_length() * 0.30103)}"
+        return f"about {'-' if n < 0 else ''}10^{int(n.bit_length() * 0.30103)}"
     return f"{n:,}"
 
 
@@ -68,6 +76,8 @@ def count(n: int) -> str:
 INSTANCE_BYTES = 400      # a GroundConst with its text, argument tuple and table entries
 ATOM_BYTES = 160          # an atom's entries in the atom table and the template layout
 RULE_BYTES = 600          # a grounded rule (head literal, body formula), its template form and clauses
+SUM_PAIR_BYTES = 1800     # a partial sum of an additive constant's encoding with one more contribution
+SUM_VALUE_BYTES = 2400    # a value of an additive constant (its partial sum, completion and choice)
 MAX_SOLVER_VARS = 2**31 - 2   # solver variables are C ints
 
 
@@ -78,6 +88,11 @@ def clause_bytes(clauses: int, literals: int) -> int:
 
 def memory_budget() -> int:
     """Bytes a planning run may use for what it builds (half of what the process may have)."""
+    return _process_limit() // 2
+
+
+def _process_limit() -> int:
+    """What the process may have: its soft address-space limit, else the physical memory."""
     limit = _physical()
     try:
         import resource
@@ -86,7 +101,7 @@ def memory_budget() -> int:
             limit = min(limit, soft)
     except (ImportError, ValueError, OSError):  # pragma: no cover - not on this platform
         pass
-    return limit // 2
+    return limit
 
 
 def _physical() -> int:
@@ -94,6 +109,12 @@ def _physical() -> int:
         return os.sysconf("SC_PHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
     except (ValueError, OSError, AttributeError):  # pragma: no cover - not on this platform
         return 8 << 30
+
+
+def out_of_memory(doing: str) -> str:
+    """The message of a :class:`MemoryError` met while ``doing`` something (``grounding this
+    law``): the address-space limit (``ulimit -v``) was reached before any estimate said so."""
+    return f"too large: {doing} ran out of memory, more than the {_gib(_process_limit())} this run may use"
 
 
 def too_large(what: str, needed_bytes: int) -> str:
@@ -105,4 +126,6 @@ def too_large(what: str, needed_bytes: int) -> str:
 def _gib(n: int) -> str:
     if n >= 1 << 40:
         return f"{n / (1 << 40):,.0f} TiB"
+    if n < 1 << 30:
+        return f"{n / (1 << 20):.0f} MiB"
     return f"{n / (1 << 30):.1f} GiB"

@@ -248,15 +248,20 @@ class BrickEmulator:
     def now_ms(self) -> int:
         return self.firmware.now_ms
 
-    def advance_to(self, t_ms: float) -> None:
-        """Run the brick up to simulated time ``t_ms`` (1 ms firmware steps)."""
+    def advance_to(self, t_ms: float, until_reply: bool = False) -> None:
+        """Run the brick up to simulated time ``t_ms`` (1 ms firmware steps); with
+        ``until_reply``, stop early at the millisecond a command is answered with a frame
+        that is deliverable at once (a host on real time then sends it without first
+        running the rest of the way)."""
         fw = self.firmware
-        inbound = self._inbound
+        inbound, outbound = self._inbound, self._outbound
         self._process_due()
         while fw.now_ms + 1 <= t_ms:
             fw.tick()
             if inbound and inbound[0][0] <= fw.now_ms:
                 self._process_due()
+                if until_reply and outbound and outbound[0][0] <= fw.now_ms:
+                    return
 
     def run_until_output(self, limit_ms: float) -> bool:
         """Advance until a frame is deliverable or ``limit_ms``; True if one is."""

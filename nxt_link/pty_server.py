@@ -44,6 +44,14 @@ __all__ = ["PtyBrickServer"]
 log = logging.getLogger(__name__)
 
 _IDLE_WAIT_S = 0.02
+#: Simulated milliseconds the brick runs (real time) before the server looks at the pty and
+#: at :meth:`PtyBrickServer.stop` again: each costs at most one bounded time slice of the
+#: program (:data:`nxt_link.vm.scheduler.MAX_OVERRUN`), a few milliseconds of real time.
+MAX_ADVANCE_MS = 20
+#: How far (real seconds) the brick may fall behind real time before its clock slips
+#: (:attr:`PtyBrickServer.slipped_ms`): a moment of load is caught up, a program the
+#: interpreter runs slower than real time does not pile up work without end.
+MAX_LAG_S = 0.25
 #: Real time within which counted bytes must show up on the pty (they are already written;
 #: only the kernel's flip buffer delays them): a safety net, far longer than it takes.
 ARRIVAL_S = 5.0
@@ -85,6 +93,8 @@ class PtyBrickServer:
         self._lock = threading.Lock()
         self.error: BaseException | None = None
         self.cpu_s = 0.0  # thread CPU time spent serving (for the bench)
+        self.slipped_ms = 0.0
+        """Simulated time skipped because the brick could not keep up with real time."""
 
     # -- pty ------------------------------------------------------------------
 
@@ -202,13 +212,27 @@ class PtyBrickServer:
         return (time.monotonic() - wall0) * 1000.0 * self.time_scale
 
     def _serve(self) -> None:
+        """The serving loop on real time.  Each turn runs the brick at most
+        :data:`MAX_ADVANCE_MS` simulated milliseconds (less when a reply is ready to go)
+        before it looks at the pty and at :meth:`stop` again; bytes read while the brick is
+        behind real time reach it at its next millisecond, as they did when it was always
+        caught up before the pty was read; and a brick that cannot keep up (a program that
+        spends every slice, run slower than the ARM7 would) lets its clock slip
+        (:data:`MAX_LAG_S`) rather than fall further behind.  So a command is answered, and
+        the server stops, within a bounded time whatever the program does."""
         emu = self.emulator
         wall0 = time.monotonic() - emu.now_ms / 1000.0 / self.time_scale
         epoch = emu.link_epoch
         cpu0 = time.thread_time()
+        max_lag_ms = MAX_LAG_S * 1000.0 * self.time_scale
         while not self._stop.is_set():
             now = self._sim_ms(wall0)
-            emu.advance_to(now)
+            behind = now - emu.now_ms
+            if behind > max_lag_ms:      # the slipped time is never run: real time moves on
+                wall0 += (behind - max_lag_ms) / 1000.0 / self.time_scale
+                self.slipped_ms += behind - max_lag_ms
+                now = emu.now_ms + max_lag_ms
+            emu.advance_to(min(now, emu.now_ms + MAX_ADVANCE_MS), until_reply=True)
             if emu.link_epoch != epoch:
                 self._reopen_pty()
                 emu.restore_link()
@@ -217,7 +241,10 @@ class PtyBrickServer:
                 self._write(data)
             nxt = emu.next_event_ms()
             wait = _IDLE_WAIT_S
-            if nxt is not None:
+            lagging = emu.now_ms + 1 <= now
+            if lagging:                  # behind: only a look at the pty and at stop()
+                wait = 0.0
+            elif nxt is not None:
                 wait = min(wait, max(0.0, (nxt - now) / 1000.0 / self.time_scale))
             try:
                 ready, _, _ = select.select([self._master, self._wake_r], [], [], wait)
@@ -234,8 +261,8 @@ class PtyBrickServer:
                     if exc.errno != errno.EIO:
                         raise
                     data = b""
-                if data:
-                    emu.receive(data, self._sim_ms(wall0))
+                if data:         # a brick behind real time gets them at its own next millisecond
+                    emu.receive(data, emu.now_ms + 1 if lagging else self._sim_ms(wall0))
             self.cpu_s = time.thread_time() - cpu0
 
     def _serve_simulated(self, clock: SimClock) -> None:

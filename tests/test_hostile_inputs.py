@@ -386,3 +386,121 @@ def test_a_hostile_show_spec_after_a_load_is_located(tmp_path):
                  "show " + "; ".join(["lit"] * 3000) + "."):
         r = s.run(line)
         assert "Traceback" not in r.err and (not r.failed or r.err.startswith("<stdin>:1:")), (line[:40], r.err)
+
+
+# == issue 30: grounding bombs, externals, a brick program that never waits (engineer grounding) ==
+
+# -- small grounding bombs: the size check covers conditions and additive encodings -----------------
+
+_BOMB = """:- sorts n.
+:- objects 0..{top} :: n.
+:- variables X, Y, Z :: n.
+:- constants p :: inertialFluent; a :: exogenousAction.
+a causes p where {where}.
+:- query maxstep :: 1; 0: -p; maxstep: p.
+"""
+
+
+def test_a_sum_that_only_one_pair_satisfies_is_ground_at_once(tmp_path, capsys):
+    """``Y - X = 99999`` over 0..99999: one instance, found by solving for Y, not by ten billion tries."""
+    path = tmp_path / "sum.cp"
+    path.write_text(_BOMB.format(top=99999, where="Y - X = 99999"))
+    code, out, _ = run(["plan", str(path)], capsys)
+    assert code == 0 and "ACTIONS:  a" in out
+
+
+@pytest.mark.parametrize("where, names", [("X * Y * Z = 12", "X, Y, Z"), ("X + 2 * Y < 0", "X, Y")])
+def test_a_condition_that_would_try_billions_is_refused_at_the_law(tmp_path, capsys, where, names):
+    path = tmp_path / "bomb.cp"
+    path.write_text(_BOMB.format(top=49999, where=where))
+    code, out, err = run(["plan", str(path)], capsys)
+    assert code == 2 and out == ""
+    first = err.splitlines()[0]
+    assert first.startswith(f"{path}:5:1: error: this law is too large to ground: finding its instances means trying about ")
+    assert f"combinations of values of {names}, more than the 20,000,000 a law may try" in first
+
+
+def test_a_huge_additive_fluent_is_refused_at_its_declaration(tmp_path, capsys, monkeypatch):
+    """A million values and 25 increments, under the budget of a 2 GB ``ulimit -v``."""
+    import cplus.limits
+    monkeypatch.setattr(cplus.limits, "memory_budget", lambda: 1 << 30)
+    path = tmp_path / "add.cp"
+    path.write_text(":- maxAdditive :: 999999.\n:- sorts i.\n:- objects 1..25 :: i.\n:- variables I :: i.\n"
+                    ":- constants level :: additiveFluent(0..999999); pour(i) :: exogenousAction.\n"
+                    "pour(I) increments level by 2 * I.\n:- query maxstep :: 2; 0: level = 0; maxstep: level = 8.\n")
+    code, out, err = run(["plan", str(path)], capsys)
+    assert code == 2 and out == ""
+    assert err.startswith(f"{path}:5:14: error: the additive fluent 'level' is too large to encode: it sums 25 "
+                          "contributions over 1,000,000 values, about 50,000,000 partial sums at every step: that needs")
+
+
+# -- --extern: what a function returns, and what it prints -------------------------------------------
+
+_LINE = """:- sorts pos. :- objects 0..9 :: pos. :- variables P, Q :: pos.
+:- constants at :: inertialFluent(pos); hop(pos) :: exogenousAction.
+hop(P) causes at=P.
+nonexecutable hop(P) if at=Q where -allowed(Q, P).
+nonexecutable hop(P) & hop(Q) where P @< Q.
+:- query maxstep :: 0..9; 0: at=0; maxstep: at=goal.
+"""
+
+
+def _line(tmp_path, allowed: str, goal: str = "return 4") -> tuple[str, str]:
+    domain, ext = tmp_path / "line.cp", tmp_path / "rules.py"
+    domain.write_text(_LINE.replace("at=goal", "at=goal(0)"))
+    ext.write_text(f"import os\n\n\ndef allowed(q, p):\n    {allowed}\n\n\ndef goal(k):\n    {goal}\n")
+    return str(domain), str(ext)
+
+
+@pytest.mark.parametrize("allowed, goal, message", [
+    ("return {0: True}.get(p - q)", "return 4", ":4:37: error: external predicate 'allowed(1,0)' returned None, not "
+                                                "True or False"),
+    ("return p - q in (0, 1)", "return [4]", ":6:48: error: external 'goal(0)' returned [4], which is neither an "
+                                             "integer nor an object of this domain"),
+    ("return p - q in (0, 1)", "return -2 ** 64", ":6:48: error: external 'goal(0)' returned about -10^19, "
+                                                  "outside the integers (-2^63..2^63-1)"),
+    ("raise SystemExit", "return 4", ":4:37: error: external 'allowed(0,0)' tried to end the program (sys.exit(None))"),
+])
+def test_an_external_returning_a_wrong_value_is_a_located_error(tmp_path, capsys, allowed, goal, message):
+    domain, ext = _line(tmp_path, allowed, goal)
+    code, out, err = run(["plan", domain, "--extern", ext, "--json"], capsys)
+    assert code == 2 and out == "" and err.startswith(domain + message), err
+
+
+def test_an_external_that_prints_leaves_the_json_whole(tmp_path, capfd):
+    domain, ext = _line(tmp_path, "os.write(1, b'{not json\\n'); print(p, q); return p - q in (0, 1)")
+    code = main(["plan", domain, "--extern", ext, "--json"])
+    out, err = capfd.readouterr()
+    import json
+    assert code == 0 and json.loads(out)["results"][0]["maxstep"] == 4
+    assert "{not json" in err and "{not json" not in out
+
+
+# -- a brick program whose tasks hand over to each other without end --------------------------------
+
+_RING = ("int laps;\ntask second();\ntask third();\n"
+         "task first() { laps++; ExitTo(second); }\ntask second() { ExitTo(third); }\n"
+         "task third() { ExitTo(first); }\ntask main() { ExitTo(first); }\n")
+
+
+@pytest.mark.slow
+def test_a_brick_running_a_ring_of_exitto_tasks_answers_and_stops_on_sigterm(tmp_path):
+    import nxt.locator
+
+    from nxt_link.vm import compile_nxc
+    source = tmp_path / "ring.nxc"
+    source.write_text(_RING)
+    rxe = tmp_path / "ring.rxe"
+    rxe.write_bytes(compile_nxc(source).rxe)
+    proc = _brick(["--name", "ring", "--program", str(rxe)])
+    try:
+        path = proc.stdout.readline().strip()                   # type: ignore[union-attr]
+        brick = nxt.locator.find(backends=["devfile"], filename=path, config=None)
+        try:
+            names = [brick.get_current_program_name() for _ in range(25)]
+        finally:
+            brick.close()
+    finally:
+        code, err = _end(proc)
+    assert names == ["ring.rxe"] * 25
+    assert code == 0 and "cplus brick: ring: 25 frames in, 25 out," in err

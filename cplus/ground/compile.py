@@ -18,8 +18,10 @@ from cplus import ir
 from cplus.errors import GroundingError, Location
 from cplus.ground.arith import ARITH_FUNCTIONS
 from cplus.ground.atoms import AtomTable
+from cplus.ground.equations import level_solvers
 from cplus.ground.intexpr import int_comparison, int_term
 from cplus.ground.pf import PF, mk_and, mk_or, neg
+from cplus.limits import MAX_INT, count
 from cplus.signature import GroundConst, Signature, StepSort, order_key, render_value
 
 __all__ = ["Cases", "UNDEF", "Ctx", "compile_term", "compile_formula", "evaluate_all", "domain_of", "bind",
@@ -135,22 +137,81 @@ def compile_term(t: ir.Term, ctx: Ctx, names: bool = False) -> Callable:
     if isinstance(t, ir.Ext):
         fns = [compile_term(a, ctx, names) for a in t.args]
         fn, name, loc = t.fn, t.name, t.loc
+        objects = ctx.sig.object_order
 
         def ext(env, time):
             args = [f(env, time) for f in fns]
             if any(type(a) is Cases for a in args):
                 raise GroundingError(f"the arguments of external '{name}' may not mention constants", loc)
-            return _call_external(fn, name, args, loc)
+            return _term_result(_call_external(fn, name, args, loc), objects, name, args, loc)
         return ext
     raise TypeError(t)  # pragma: no cover
 
 
 def _call_external(fn, name: str, args: list, loc: Location):
+    """Call an external (user code): what it raises, or an attempt to end the program
+    (``sys.exit``), is a grounding error naming the call."""
     try:
         return fn(*args)
-    except Exception as exc:  # an external is user code: report, do not crash
-        shown = ",".join(render_value(a) for a in args)
-        raise GroundingError(f"external '{name}({shown})' failed: {exc}", loc) from None
+    except Exception as exc:
+        raise GroundingError(f"external {_call(name, args)} failed: {type(exc).__name__}: {_brief(exc)}",
+                             loc) from None
+    except SystemExit as exc:
+        raise GroundingError(f"external {_call(name, args)} tried to end the program "
+                             f"(sys.exit({_brief(exc.code, repr)}))", loc) from None
+
+
+def _call(name: str, args: list) -> str:
+    return f"'{name}({','.join(render_value(a) for a in args)})'"
+
+
+def _brief(value: object, show: Callable[[object], str] = str) -> str:
+    """What an external gave, for a message: at most 80 characters, whatever it is."""
+    try:
+        text = show(value)
+    except Exception:  # noqa: BLE001 - a user object whose repr fails
+        text = f"<a {type(value).__name__}>"
+    return text if len(text) <= 80 else text[:77] + "..."
+
+
+def _term_result(value: object, objects: dict, name: str, args: list, loc: Location) -> object:
+    """An external function's value: a 64-bit integer or an object of the domain."""
+    if type(value) is int:
+        if -MAX_INT - 1 <= value <= MAX_INT:
+            return value
+        raise GroundingError(f"external {_call(name, args)} returned {count(value)}, outside the integers "
+                             f"(-2^63..2^63-1)", loc)
+    if type(value) in (str, tuple):
+        try:
+            if value in objects:
+                return value
+        except TypeError:   # a tuple holding something unhashable
+            pass
+    elif _numpy_scalar(value, "int"):
+        return _term_result(int(value), objects, name, args, loc)    # type: ignore[call-overload]
+    raise GroundingError(f"external {_call(name, args)} returned {_brief(value, repr)}, which is neither an "
+                         f"integer nor an object of this domain", loc)
+
+
+def _truth(value: object, name: str, args: list, loc: Location) -> bool:
+    """An external predicate's value: True or False (numpy's booleans too)."""
+    if value is True or value is False:
+        return value
+    if _numpy_scalar(value, "bool"):
+        return bool(value)
+    raise GroundingError(f"external predicate {_call(name, args)} returned {_brief(value, repr)}, "
+                         f"not True or False", loc)
+
+
+def _numpy_scalar(value: object, kind: str) -> bool:
+    """Whether ``value`` is a numpy integer (``kind`` "int") or boolean ("bool") scalar,
+    without importing numpy."""
+    cls = type(value)
+    if cls.__module__ != "numpy":
+        return False
+    if kind == "bool":
+        return cls.__name__ in ("bool_", "bool")
+    return cls.__name__.startswith(("int", "uint")) and cls.__name__[-1].isdigit()     # int64, uint8, ...
 
 
 def _time_value(v, loc: Location) -> int:
@@ -292,7 +353,7 @@ def compile_formula(f: ir.Formula, ctx: Ctx) -> Callable:
             args = [g(env, time) for g in fns]
             if any(type(a) is Cases for a in args):
                 raise GroundingError(f"the arguments of external '{name}' may not mention constants", loc)
-            return bool(_call_external(fn, name, args, loc))
+            return _truth(_call_external(fn, name, args, loc), name, args, loc)
         return ext
     raise TypeError(f)  # pragma: no cover
 
@@ -487,11 +548,14 @@ def binding_levels(sig: Signature, variables: dict[str, ir.Var], filters: list[t
 
 
 def bind(sig: Signature, variables: dict[str, ir.Var], filters: list[tuple[Callable, set[str]]],
-         leaf: Callable[[dict], None], env: dict | None = None) -> None:
+         leaf: Callable[[dict], None], env: dict | None = None, max_tries: int | None = None) -> None:
     """Call ``leaf(env)`` for every binding of ``variables`` that passes every filter.
 
     A filter is tested as soon as all its variables are bound; variables are bound in an
-    order that completes filters early, so most of the cross product is never built.
+    order that completes filters early, so most of the cross product is never built.  A
+    variable that an equation completed at its level fixes (:mod:`cplus.ground.equations`)
+    takes only that value.  ``max_tries``: a :class:`GroundingError` (with no location) once
+    more values than that have been tried, passing or not.
     """
     env = {} if env is None else env
     pending = [(fn, set(vs) & set(variables)) for fn, vs in filters]
@@ -500,12 +564,31 @@ def bind(sig: Signature, variables: dict[str, ir.Var], filters: list[tuple[Calla
             return
     levels = binding_levels(sig, variables, filters, env)
     depth = len(levels)
+    if depth == 0:
+        leaf(env)
+        return
+    solvers = level_solvers(levels)
+    members: list[frozenset | None] = [None] * depth
+    tries = [0]
+    limit = max_tries
 
     def rec(i: int) -> None:
         if i == depth:
             leaf(env)
             return
         name, dom, fl = levels[i]
+        solve = solvers[i]
+        if solve is not None and dom:
+            got = solve(env)
+            if got is not None:
+                member = members[i]
+                if member is None:
+                    member = members[i] = frozenset(dom)
+                dom = tuple([v for v in got if v in member])
+        if limit is not None:
+            tries[0] += len(dom)
+            if tries[0] > limit:
+                raise GroundingError(too_many_tries(tries[0], list(variables), limit, tried=True))
         nxt = i + 1
         for v in dom:
             env[name] = v
@@ -516,8 +599,15 @@ def bind(sig: Signature, variables: dict[str, ir.Var], filters: list[tuple[Calla
                 rec(nxt)
         env.pop(name, None)
 
-    if depth == 0:
-        leaf(env)
-    else:
-        rec(0)
+    rec(0)
 
+
+def too_many_tries(tries: int, names: list[str], limit: int, tried: bool = False) -> str:
+    """The refusal of a law whose grounding tries (estimated, or ``tried`` so far) more
+    bindings than ``limit``."""
+    what = f"combinations of values of {', '.join(names)}"
+    if tried:
+        return (f"this law is too large to ground: it tried {count(tries)} {what} before it was stopped, "
+                f"more than the {count(limit)} a law may try")
+    return (f"this law is too large to ground: finding its instances means trying about {count(tries)} {what}, "
+            f"more than the {count(limit)} a law may try")

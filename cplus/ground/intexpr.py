@@ -16,13 +16,13 @@ from collections.abc import Callable
 
 from cplus import ir
 
-__all__ = ["int_term", "int_comparison"]
+__all__ = ["int_term", "int_comparison", "int_source"]
 
 _OPS = {"+": "+", "-": "-", "*": "*"}
 _RELATIONS = {"<": "<", ">": ">", "=<": "<=", ">=": ">=", "=": "==", "==": "=="}
 
 
-def _source(t, names: dict[str, str]) -> str | None:
+def int_source(t, names: dict[str, str]) -> str | None:
     """Python source of a term over the variables (collected into ``names``), or None when
     the term has anything else in it."""
     if isinstance(t, ir.Lit):
@@ -30,7 +30,7 @@ def _source(t, names: dict[str, str]) -> str | None:
     if isinstance(t, ir.Var):
         return names.setdefault(t.name, f"v{len(names)}")
     if isinstance(t, ir.Arith):
-        parts = [_source(a, names) for a in t.args]
+        parts = [int_source(a, names) for a in t.args]
         if any(p is None for p in parts):
             return None
         if t.op == "neg" and len(parts) == 1:
@@ -53,7 +53,7 @@ def _compile(expr: str, names: dict[str, str], general: Callable) -> Callable:
 def int_term(t: ir.Arith, general: Callable) -> Callable:
     """The term as one function, or ``general`` when it is not plain integer arithmetic."""
     names: dict[str, str] = {}
-    expr = _source(t, names)
+    expr = int_source(t, names)
     return general if expr is None else _compile(expr, names, general)
 
 
@@ -65,7 +65,7 @@ def int_comparison(f: ir.Cmp, general: Callable) -> Callable:
     if rel is None:
         return general
     names: dict[str, str] = {}
-    left, right = _source(f.left, names), _source(f.right, names)
+    left, right = int_source(f.left, names), int_source(f.right, names)
     if left is None or right is None:
         return general
     return _compile(f"{left} {rel} {right}", names, general)

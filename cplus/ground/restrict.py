@@ -27,10 +27,13 @@ grounding that the templates keep (the same bodies; only their order differs), a
 """
 from __future__ import annotations
 
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
 
-from cplus import ir
-from cplus.ground.compile import Ctx, bind, binding_levels, compile_formula, domain_of
+from cplus import ir, limits
+from cplus.errors import GroundingError
+from cplus.ground.compile import Ctx, bind, binding_levels, compile_formula, domain_of, too_many_tries
+from cplus.ground.cost import options_of, passing
+from cplus.ground.equations import level_solvers
 from cplus.ground.pf import PF, mk_and
 from cplus.ground.vector import ground_vectorized, matching
 from cplus.signature import SIMPLE_KINDS, ConstDecl, StepSort
@@ -370,6 +373,7 @@ def _bind_joined(g, prep, gens: list[_Gen], doms: dict[str, set], pools: list, f
     (:func:`~cplus.ground.vector.ground_vectorized`, generator ``first`` as the first axis),
     few with the law's closures."""
     law = prep.law
+    g.at = ("grounding this law", law.loc)
     if prep.variables:
         order = [first] + [j for j in range(len(gens)) if j != first]
         joins = [(gens[j].node, gens[j].pattern, [(*args, value) for args, value in pools[j]]) for j in order]
@@ -409,9 +413,13 @@ def _bind_joined(g, prep, gens: list[_Gen], doms: dict[str, set], pools: list, f
         else:
             checks_at.setdefault(at, []).append((names, set(rows)))
     depth = len(levels)
+    solvers = level_solvers(levels)
+    _check_tries(g, prep, levels, solvers, gen_at, checks_at)
     leaf = prep.leaf
     seen_count = [0]
     check, loc = g._check_rules, law.loc
+    tries = [0]
+    limit = limits.MAX_TRIES
 
     def rec(i: int) -> None:
         if i == depth:
@@ -424,6 +432,13 @@ def _bind_joined(g, prep, gens: list[_Gen], doms: dict[str, set], pools: list, f
         gen = gen_at.get(i)
         if gen is not None:
             dom = gen[1].get(tuple([env[n] for n in gen[0]]), ())
+        elif solvers[i] is not None and dom:
+            got = solvers[i](env)       # type: ignore[misc]
+            if got is not None:
+                dom = tuple([v for v in got if v in doms[name]])
+        tries[0] += len(dom)
+        if tries[0] > limit:
+            raise GroundingError(too_many_tries(tries[0], list(prep.variables), limit, tried=True), loc)
         member = checks_at.get(i, ())
         for v in dom:
             env[name] = v
@@ -438,6 +453,34 @@ def _bind_joined(g, prep, gens: list[_Gen], doms: dict[str, set], pools: list, f
                     rec(i + 1)
         env.pop(name, None)
     rec(0)
+
+
+def _check_tries(g, prep, levels: list, solvers: list, gen_at: dict, checks_at: dict) -> None:
+    """:meth:`~cplus.ground.theory._Grounder._check_tries` for the levels of a joined law: a
+    generator's level tries the values its possible atoms give (at most its largest group)."""
+    sizes = [max(map(len, gen_at[i][1].values()), default=0) if i in gen_at
+             else len(dom) if solve is None else min(1, len(dom))
+             for i, ((_, dom, _), solve) in enumerate(zip(levels, solvers))]
+
+    def probe() -> list:
+        out = []
+        for i, ((name, dom, fl), solve) in enumerate(zip(levels, solvers)):
+            gen = gen_at.get(i)
+            options = _lookup(gen[0], gen[1]) if gen is not None else options_of(dom, solve)
+            tests = [_member(names, rows) for names, rows in checks_at.get(i, ())]
+            tests += [passing(fn) for fn in fl]
+            out.append((name, options, tests))
+        return out
+    g._check_tries(levels, list(prep.variables), prep.law.loc, sizes, probe)
+
+
+def _member(names: list[str], rows: set) -> Callable[[dict], bool]:
+    return lambda env: tuple([env[n] for n in names]) in rows
+
+
+def _lookup(others: list[str], index: dict) -> Callable[[dict], list]:
+    """A generator's values of its level's variable, given its ``others`` in ``env``."""
+    return lambda env: index.get(tuple([env[n] for n in others]), [])
 
 
 # --------------------------------------------------------------------------- the initial state

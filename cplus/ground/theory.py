@@ -21,19 +21,23 @@ import time as _time
 from collections.abc import Callable
 
 from cplus import ir, limits
-from cplus.errors import GroundingError, Location, SortError
+from cplus.errors import GroundingError, Location, OutOfMemoryError, SortError
 from cplus.ground.atoms import AtomTable
 from cplus.ground.compile import (
     UNDEF,
     Cases,
     Ctx,
     bind,
+    binding_levels,
     combine,
     compile_formula,
     compile_term,
     domain_of,
     evaluate_all,
+    too_many_tries,
 )
+from cplus.ground.cost import bind_levels, probed_tries, sampled_instances, tries_bound
+from cplus.ground.equations import attach, level_solvers
 from cplus.ground.pf import PF, mk_and, neg
 from cplus.ground.vector import ground_vectorized
 from cplus.limits import RULE_BYTES, count, too_large
@@ -159,6 +163,8 @@ class _Grounder:
         self.mklit = mklit
         self.warned: set[int] = set()
         self.rule_budget = limits.memory_budget() // RULE_BYTES
+        self.at: tuple[str, Location | None] = ("grounding", None)
+        """What is being ground, for a :class:`MemoryError`: what it is, and where."""
 
     def _rigid_flags(self) -> list[bool]:
         flags = [False] * (len(self.atoms) + 1)
@@ -168,6 +174,16 @@ class _Grounder:
         return flags
 
     def run(self) -> GroundTheory:
+        """The ground theory; a :class:`MemoryError` (an address-space limit reached) is
+        reported as the law, or the declaration, being ground then being too large."""
+        try:
+            return self._run()
+        except MemoryError:
+            pass        # the exception, and what the frames it holds built, are released here
+        doing, loc = self.at
+        raise OutOfMemoryError(limits.out_of_memory(doing), loc)
+
+    def _run(self) -> GroundTheory:
         t0 = _time.perf_counter()
         self._increments()
         if self.initial:
@@ -193,7 +209,7 @@ class _Grounder:
         for c in ir.conjuncts(formula):
             fn = compile_formula(c, self.ctx)
             if not ir.constants_in(c) and not ir.mentions(c, (ir.MaxStepT, ir.StampF, ir.StampT)):
-                filters.append((fn, set(ir.free_vars(c))))
+                filters.append((attach(fn, c, self.ctx), set(ir.free_vars(c))))
             else:
                 parts.append(lambda env, _t, fn=fn, slot=slot: fn(env, slot))
 
@@ -210,22 +226,25 @@ class _Grounder:
 
 
     def _bind(self, variables: dict[str, ir.Var], filters: list, leaf, loc: Location) -> None:
-        """:func:`bind` with a memory check.  When the product of the variables' domains is
-        more than could fit, the share of combinations that pass the law's conditions is
-        estimated from a fixed sample, and the law refused at once if that is still too
-        many; any law is stopped as soon as the rules grounded so far cannot fit (checked
-        every 4096 bindings)."""
+        """:func:`bind` with a memory and a time check (:mod:`cplus.ground.cost`).  When the
+        product of the variables' domains is more than could fit, the share of combinations
+        that pass the law's conditions is estimated from a fixed sample, and the law refused
+        at once if that is still too many; so is a law whose grounding would try more than
+        :data:`~cplus.limits.MAX_TRIES` values.  Any law is stopped as soon as the rules
+        grounded so far cannot fit (checked every 4096 bindings), or its tries reach that
+        limit."""
         doms = {n: domain_of(self.sig, v, {}) for n, v in variables.items()}
         cells = 1
         for d in doms.values():
             cells *= len(d)
         if cells > self.rule_budget:
-            estimate = cells if not filters else _sampled(doms, filters, cells)
+            estimate = cells if not filters else sampled_instances(doms, filters, cells)
             if estimate > self.rule_budget:
                 names = ", ".join(variables)
                 what = "every combination" if not filters else "the combinations that pass the conditions"
                 raise GroundingError(too_large(f"this law has about {count(estimate)} instances ({what} of "
                                                f"{names})", estimate * RULE_BYTES), loc)
+        self._check_tries(binding_levels(self.sig, variables, filters), list(variables), loc)
         seen = [0]
         check = self._check_rules
 
@@ -234,7 +253,25 @@ class _Grounder:
             seen[0] += 1
             if not seen[0] & 4095:
                 check(loc)
-        bind(self.sig, variables, filters, counted)
+        try:
+            bind(self.sig, variables, filters, counted, max_tries=limits.MAX_TRIES)
+        except GroundingError as exc:
+            if exc.loc is None:
+                exc.loc = loc
+            raise
+
+    def _check_tries(self, levels: list, names: list[str], loc: Location,
+                     sizes: list[int] | None = None, probe: Callable[[], list] | None = None) -> None:
+        """Refuse a law whose grounding would try more than :data:`~cplus.limits.MAX_TRIES`
+        values over its binding ``levels`` (``sizes`` and ``probe``: what
+        :func:`~cplus.ground.cost.bind_levels` gives, for a caller that binds otherwise)."""
+        if sizes is None or probe is None:
+            sizes, probe = bind_levels(levels, level_solvers(levels))
+        if tries_bound(sizes) <= limits.MAX_TRIES:
+            return
+        estimate = probed_tries(probe())
+        if estimate > limits.MAX_TRIES:
+            raise GroundingError(too_many_tries(estimate, names, limits.MAX_TRIES), loc)
 
     def _check_rules(self, loc: Location) -> None:
         th = self.theory
@@ -261,6 +298,7 @@ class _Grounder:
         """A law compiled for grounding: its variables, its constant-free conditions
         (binding filters) and the leaf that appends the rules of one binding; None when the
         law yields nothing (head ``true``)."""
+        self.at = ("grounding this law", law.loc)
         head_slot = SLOT_NEXT if law.cls == "dynamic" else SLOT_NOW
         variables = self._variables(law.head, law.body, law.after, law.where, law.frame_cst)
         filters: list = []
@@ -402,6 +440,7 @@ class _Grounder:
 
     # ------------------------------------------------------------------ implied laws
     def _implied(self, gc: GroundConst) -> None:
+        self.at = ("grounding the laws this declaration implies", gc.decl.loc)
         kind = gc.decl.kind
         rules = self.theory.rules
         lits = self.atoms.head_lits(gc)
@@ -478,6 +517,7 @@ class _Grounder:
                 self.theory.sums.append(AdditiveSum(gc, by_target.get(gc.id, [])))
 
     def _increment(self, inc: IncrementLaw, groups: dict, order: list) -> None:
+        self.at = ("grounding this law", inc.loc)
         variables = self._variables(inc.action, inc.target, inc.amount, inc.cond, inc.where)
         filters: list = []
         parts: list = []
@@ -524,22 +564,6 @@ class _Grounder:
                 group.append(neg(self.mklit(self.atoms.lit(gc, "none"), SLOT_NOW)))
         if len(group) > 1:
             self.theory.noconcurrency.append(group)
-
-
-def _sampled(doms: dict[str, tuple], filters: list, cells: int, samples: int = 4096) -> int:
-    """Estimated number of bindings that pass every filter, from a fixed random sample."""
-    import random
-    rnd = random.Random(0)
-    names = list(doms)
-    passed = 0
-    for _ in range(samples):
-        env = {n: rnd.choice(doms[n]) for n in names}
-        try:
-            ok = all(fn(env, 0) is True for fn, _ in filters)
-        except GroundingError:
-            ok = False
-        passed += ok
-    return cells * passed // samples
 
 
 def ground_program(program: Program, initial: set[int] | None = None) -> GroundTheory:

@@ -14,14 +14,15 @@ import operator
 import time
 from collections.abc import Callable, Iterator
 from itertools import repeat
+from typing import TypeVar
 
 from cplus import ir
-from cplus.errors import GroundingError, Location
+from cplus.errors import GroundingError, Location, OutOfMemoryError
 from cplus.ground.compile import Ctx, bind, compile_formula
 from cplus.ground.pf import PF, mk_and, mk_or, neg
 from cplus.ground.restrict import fixed_at_zero, has_step_var
 from cplus.ground.theory import GroundTheory
-from cplus.limits import MAX_SOLVER_VARS, clause_bytes, count, memory_budget, too_large
+from cplus.limits import MAX_SOLVER_VARS, clause_bytes, count, memory_budget, out_of_memory, too_large
 from cplus.program import QuerySpec
 from cplus.record import Record
 from cplus.sat.cnf import ClauseBuilder
@@ -30,6 +31,8 @@ from cplus.sat.solver import DEFAULT_SOLVER, SatSolver
 from cplus.sat.templates import Layout, Template, build_templates
 
 __all__ = ["Horizon", "QuerySession", "HorizonStats"]
+
+_T = TypeVar("_T")
 
 
 class HorizonStats(Record):
@@ -241,14 +244,29 @@ class QuerySession:
             self.facts.append((rule, variables, None if aux is None else compile_formula(aux, self.ctx),
                                compile_formula(rule.body, self.ctx)))
         self.facts_apply = True     # False: no stamped rule applies (a proof's states are any states)
-        self.horizon = Horizon(theory, solver, solver_factory, templates,
-                               None if templates is not None else self._fixed_at_zero())
+        self.horizon = self._located(lambda: Horizon(theory, solver, solver_factory, templates,
+                                                     None if templates is not None else self._fixed_at_zero()),
+                                     "encoding this query")
         self.stats: list[HorizonStats] = []
         self.assumptions: list[int] = []   # assumed at every solve, besides the horizon's own
         self.act: int | None = None
         self.found: int | None = None
         self.out_of_range: list = []
         self._projection: list[tuple[int, int | None]] | None = None
+
+    def _located(self, work: Callable[[], _T], doing: str) -> _T:
+        """``work()``, with a grounding error that names no place of its own located at the
+        query, and a :class:`MemoryError` (the address-space limit reached while encoding or
+        solving) reported as ``doing`` being too large."""
+        try:
+            return work()
+        except GroundingError as exc:
+            if exc.loc is None:
+                exc.loc = self.query.loc
+            raise
+        except MemoryError:
+            pass        # the exception, and what the frames it holds built, are released here
+        raise OutOfMemoryError(out_of_memory(doing), self.query.loc)
 
     # ------------------------------------------------------------------ query items
     def _fixed_at_zero(self) -> set[int]:
@@ -400,7 +418,7 @@ class QuerySession:
         self.open_horizon(m)
         h = self.horizon
         t1 = time.perf_counter()
-        ok = self._solve(h)
+        ok = self._located(lambda: self._solve(h), f"solving this query at maxstep {m}")
         t2 = time.perf_counter()
         self.stats.append(HorizonStats(m, h.top, h.solver.count, t1 - t0, t2 - t1, ok, 1 if ok else 0))
         return ok
@@ -408,6 +426,9 @@ class QuerySession:
     def open_horizon(self, m: int) -> None:
         """Extend to horizon m (only upwards) and put its goal behind :attr:`act`, without
         solving: for callers that solve in slices (:mod:`cplus.parallel`)."""
+        self._located(lambda: self._open(m), f"encoding this query at maxstep {m}")
+
+    def _open(self, m: int) -> None:
         if self._stale:
             self._renew()
         h = self.horizon
@@ -455,7 +476,8 @@ class QuerySession:
         """Solve again at the current horizon (after clauses were added)."""
         h = self.horizon
         t0 = time.perf_counter()
-        ok = h.solver.solve([self.act, *self.assumptions])
+        ok = self._located(lambda: h.solver.solve([self.act, *self.assumptions]),
+                           f"solving this query at maxstep {h.m}")
         st = self.stats[-1]
         st.solve_s += time.perf_counter() - t0
         st.satisfiable = ok

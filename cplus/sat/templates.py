@@ -27,7 +27,7 @@ from cplus.sat.products import factor_products
 from cplus.sat.tables import TABLE_LIMIT, encode_table
 from cplus.signature import GroundConst
 
-__all__ = ["Layout", "Template", "build_templates"]
+__all__ = ["Layout", "Template", "build_templates", "check_sums", "sum_size"]
 
 
 class Template(Record):
@@ -189,16 +189,26 @@ def build_templates(theory: GroundTheory, dead: set[int] | frozenset[int] = froz
     The cyclic garbage collector is paused meanwhile: building allocates hundreds of
     thousands of tuples and lists that reference counting frees, and the collector's passes
     over them and over the ground theory took a sixth of ferryman-30-4's template time."""
+    check_sums(theory)
     collecting = _gc.isenabled()
     _gc.disable()
+    at: list = [None]
     try:
         layout = Layout(theory)
         layout.set_dead(dead)
         static = _static(layout)
-        return layout, _rigid(layout), _initial(layout, static), _transition(layout, static)
+        return layout, _rigid(layout), _initial(layout, static), _transition(layout, static, at)
+    except MemoryError:
+        pass        # the exception, and what the frames it holds built, are released here
     finally:
         if collecting:
             _gc.enable()
+    from cplus.errors import OutOfMemoryError
+    from cplus.limits import out_of_memory
+    sum_ = at[0]
+    if sum_ is None:
+        raise OutOfMemoryError(out_of_memory("encoding the domain's laws"))
+    raise OutOfMemoryError(out_of_memory(f"encoding the additive constant '{sum_.target.text}'"), sum_.target.decl.loc)
 
 
 def _needs_dead(dead: frozenset[int], body: PF) -> bool:
@@ -511,7 +521,8 @@ def _among(th: GroundTheory, gc: GroundConst, atoms: set[int]) -> bool:
     return bool(ids) and ids[0] in atoms
 
 
-def _transition(layout: Layout, static: tuple[Template, set[int]]) -> Template:
+def _transition(layout: Layout, static: tuple[Template, set[int]], at: list | None = None) -> Template:
+    """The transition template; ``at[0]`` is the additive sum being encoded, while one is."""
     th = layout.theory
     part, done = static
     b = _Builder(layout, "transition")
@@ -526,8 +537,57 @@ def _transition(layout: Layout, static: tuple[Template, set[int]]) -> Template:
     for group in th.noconcurrency:
         b.cb.at_most_one([_to_tids(layout, g) for g in group])
     for s in th.sums:
+        if at is not None:
+            at[0] = s
         _additive(b, s)
+    if at is not None:
+        at[0] = None
     return b.done(extra=[(part, 1)])
+
+
+def sum_size(s) -> int:
+    """The most (partial sum, contribution) pairs :func:`_additive` builds for one sum: at
+    each contribution, every value the partial sum may have so far with every value of the
+    contribution (a sum's possible values, an interval cut to what can still reach the
+    target's domain, are counted, not listed: a target of a million values is common)."""
+    dom = [v for v in s.target.domain if isinstance(v, int)]
+    if not dom:
+        return 0
+    lo, hi = min(dom), max(dom)
+    if s.target.decl.kind == "additiveFluent":
+        n, low, high = len(dom), lo, hi
+    else:
+        n, low, high = 1, 0, 0
+    widths = [(min(c.domain), max(c.domain), len(c.domain)) for c in s.contributions]
+    rest_min, rest_max = sum(w[0] for w in widths), sum(w[1] for w in widths)
+    pairs = 0
+    for cmin, cmax, k in widths:
+        pairs += n * k
+        rest_min, rest_max = rest_min - cmin, rest_max - cmax
+        low, high = max(low + cmin, lo - rest_max), min(high + cmax, hi - rest_min)
+        n = min(n * k, max(0, high - low + 1))
+    return pairs
+
+
+def check_sums(theory: GroundTheory) -> None:
+    """Refuse, at the declaration of the largest, additive constants whose encodings cannot
+    fit in memory (:func:`sum_size`; the measured cost of a pair and of a target's value
+    are :data:`~cplus.limits.SUM_PAIR_BYTES` and :data:`~cplus.limits.SUM_VALUE_BYTES`)."""
+    from cplus.errors import GroundingError
+    from cplus.limits import SUM_PAIR_BYTES, SUM_VALUE_BYTES, count, memory_budget, too_large
+    if not theory.sums:
+        return
+    sizes = [(sum_size(s), s) for s in theory.sums]
+    need = sum(SUM_PAIR_BYTES * pairs + SUM_VALUE_BYTES * len(s.target.domain) for pairs, s in sizes)
+    if need <= memory_budget():
+        return
+    pairs, s = max(sizes, key=lambda ps: ps[0] * SUM_PAIR_BYTES + len(ps[1].target.domain) * SUM_VALUE_BYTES)
+    decl = s.target.decl
+    kind = "fluent" if decl.kind == "additiveFluent" else "action"
+    raise GroundingError(too_large(
+        f"the additive {kind} '{s.target.text}' is too large to encode: it sums {count(len(s.contributions))} "
+        f"contributions over {count(len(s.target.domain))} values, about {count(pairs)} partial sums "
+        f"at every step", need), decl.loc)
 
 
 def _additive(b: _Builder, s) -> None:
@@ -575,8 +635,9 @@ def _additive(b: _Builder, s) -> None:
         else:
             cb.add_clause([-t, sv])      # type: ignore[list-item]
             cb.add_clause([t, -sv])      # type: ignore[operator]
+    values = frozenset(dom)        # a set: the domain may have a million values
     for v, sv in current.items():
-        if v not in target.domain and sv is not False:
+        if v not in values and sv is not False:
             cb.add(-sv if type(sv) is int else False)
     ts = [layout.tid_atom(atoms.lit(target, v), slot) for v in dom]
     cb.exactly_one(ts)

@@ -6,7 +6,7 @@ import importlib
 
 import pytest
 
-MODULES = ["cplus", "cplus.api", "cplus.planner", "cplus.parser", "cplus.ground.pf",
+MODULES = ["cplus", "cplus.api", "cplus.planner", "cplus.parser", "cplus.ground.pf", "cplus.ground.equations",
            "cplus.ground.arith", "cplus.sat.solver"]
 
 

@@ -6,6 +6,7 @@ The limits are in :mod:`cplus.limits`; each test names the number it expects in 
 """
 from __future__ import annotations
 
+import json
 import os
 import resource
 import subprocess
@@ -236,3 +237,88 @@ def test_long_input_plans_in_the_box(tmp_path):
     proc = cplus(["plan", str(path), "-n", "0"])
     assert proc.returncode == 0, proc.stderr.decode()
     assert proc.stdout.decode().count("Solution") == 2
+
+
+# --------------------------------------------------------------------------- external functions
+# issue 30: externals returning None, '1' or 10**30 silently meant "No solution", sys.exit(0)
+# ended the run with nothing printed, and a print went into the JSON.
+
+HOPS = """:- sorts cell. :- objects 0..6 :: cell. :- variables C, D :: cell.
+:- constants at :: inertialFluent(cell); go(cell) :: exogenousAction.
+go(C) causes at=C.
+nonexecutable go(C) if at=D where -near(C, D).
+nonexecutable go(C) & go(D) where C @< D.
+:- query maxstep :: 0..10; 0: at=0; maxstep: at=double(3).
+"""
+NEAR, DOUBLE = "return abs(x - y) <= 1", "return 2 * x"
+
+
+def hops(tmp_path, near: str = NEAR, double: str = DOUBLE, top: str = "") -> tuple[str, str]:
+    domain, ext = tmp_path / "hops.cp", tmp_path / "ext.py"
+    domain.write_text(HOPS)
+    ext.write_text(f"{top}\n\ndef near(x, y):\n    {near}\n\n\ndef double(x):\n    {double}\n")
+    return str(domain), str(ext)
+
+
+def plan(argv: list[str], capsys) -> tuple[int, str, str]:
+    from cplus.cli import main
+    code = main(argv)
+    out, err = capsys.readouterr()
+    assert "Traceback" not in err
+    return code, out, err
+
+
+NEAR_CALL = ":4:36: error: external predicate 'near(0,0)' returned "
+DOUBLE_CALL = ":6:49: error: external 'double(3)' returned "
+
+
+@pytest.mark.parametrize("near, double, message", [
+    ("return None", DOUBLE, NEAR_CALL + "None, not True or False"),
+    ("return '1'", DOUBLE, NEAR_CALL + "'1', not True or False"),
+    ("return 1", DOUBLE, NEAR_CALL + "1, not True or False"),
+    (NEAR, "return 10 ** 30", DOUBLE_CALL + "about 10^30, outside the integers (-2^63..2^63-1)"),
+    (NEAR, "return 2 ** 63", DOUBLE_CALL + "9,223,372,036,854,775,808, outside the integers (-2^63..2^63-1)"),
+    (NEAR, "return '6'", DOUBLE_CALL + "'6', which is neither an integer nor an object of this domain"),
+    (NEAR, "return 6.0", DOUBLE_CALL + "6.0, which is neither an integer nor an object of this domain"),
+    (NEAR, "return True", DOUBLE_CALL + "True, which is neither an integer nor an object of this domain"),
+    (NEAR, "return None", DOUBLE_CALL + "None, which is neither an integer nor an object of this domain"),
+    ("import sys; sys.exit(0)", DOUBLE, ":4:36: error: external 'near(0,0)' tried to end the program (sys.exit(0))"),
+    ("raise KeyError(x)", DOUBLE, ":4:36: error: external 'near(0,0)' failed: KeyError: 0"),
+])
+def test_an_external_that_returns_what_it_may_not_is_a_located_error(tmp_path, capsys, near, double, message):
+    domain, ext = hops(tmp_path, near, double)
+    code, out, err = plan(["plan", domain, "--extern", ext, "--json"], capsys)
+    assert code == 2 and out == ""
+    assert err.startswith(domain + message + "\n"), err
+
+
+def test_numpy_values_are_what_they_mean(tmp_path, capsys):
+    domain, ext = hops(tmp_path, "return numpy.bool_(abs(x - y) <= 1)", "return numpy.int64(2 * x)",
+                       top="import numpy")
+    code, out, _ = plan(["plan", domain, "--extern", ext], capsys)
+    assert code == 0 and "6:  at=6" in out
+
+
+def test_what_an_external_prints_goes_to_standard_error_and_the_json_stays_whole(tmp_path, capfd):
+    """Python's print, a write to file descriptor 1, C's printf and a child process, while the
+    file loads and while a function runs: all on standard error, the JSON alone on standard
+    output."""
+    from cplus.cli import main
+    loud = ("print('py', x, y); os.write(1, b'fd\\n'); libc.printf(b'c-level\\n'); "
+            "subprocess.run(['echo', 'child']); return abs(x - y) <= 1")
+    domain, ext = hops(tmp_path, loud, top="import ctypes, os, subprocess\nlibc = ctypes.CDLL(None)\n"
+                                          "print('loading')")
+    code = main(["plan", domain, "--extern", ext, "--json"])
+    out, err = capfd.readouterr()
+    assert code == 0
+    (result,) = json.loads(out)["results"]
+    assert result["maxstep"] == 6
+    assert err.count("loading") == 1 and "py 0 0" in err
+    assert err.count("fd\n") == err.count("c-level\n") == err.count("child\n") == err.count("py ") > 0
+
+
+def test_an_extern_file_that_exits_while_loading_is_one_line(tmp_path, capsys):
+    domain, ext = hops(tmp_path, top="import sys\nsys.exit(3)")
+    code, out, err = plan(["plan", domain, "--extern", ext], capsys)
+    assert code == 2 and out == ""
+    assert err == f"error: loading extern file '{ext}' tried to end the program (sys.exit(3))\n"

@@ -103,6 +103,44 @@ def test_nxt_python_talks_to_a_pty_brick_running_the_ping_pong(pty_server, ping_
         brick.close()
 
 
+@pytest.mark.slow
+def test_cplus_brick_running_the_ping_pong_answers_every_command_and_stops_on_sigterm(tmp_path, ping_pong):
+    """The issue's case end to end: ``cplus brick --program`` running the ping-pong (every
+    slice spent, slower than real time on the interpreter) answered one direct command and
+    then none, and ignored SIGTERM until killed: its serving loop ran the brick towards a
+    real time it never caught up with. An independent client (nxt-python) now gets every
+    answer, and SIGTERM ends the brick (exit 0, its summary counting them all)."""
+    import signal
+    import subprocess
+    import sys
+
+    import nxt.locator
+
+    rxe = tmp_path / "pp.rxe"
+    rxe.write_bytes(ping_pong)
+    proc = subprocess.Popen([sys.executable, "-m", "cplus", "brick", "--name", "pp", "--no-latency",
+                             "--program", str(rxe)], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            cwd=Path(__file__).resolve().parents[2])
+    try:
+        assert proc.stdout is not None
+        path = proc.stdout.readline().strip()
+        brick = nxt.locator.find(backends=["devfile"], filename=path, config=None)
+        try:
+            for _ in range(40):
+                assert brick.get_current_program_name() == "pp.rxe"     # the program runs throughout
+            assert brick.get_battery_level() == 9000
+        finally:
+            brick.close()
+        proc.send_signal(signal.SIGTERM)
+        _, err = proc.communicate(timeout=20)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+    assert proc.returncode == 0, err
+    assert "cplus brick: pp: 41 frames in, 41 out," in err
+
+
 # -- files that claim more than the brick has -----------------------------------------------
 
 # sword[][] at static offset 0, its dope vector index 1 as its default
