@@ -273,9 +273,11 @@ def test_a_batch_on_a_local_ray_instance(tmp_path, monkeypatch):
     if os.environ.get("CPLUS_REQUIRE_RAY"):
         import ray  # noqa: F401   # CI installs the extra: a missing Ray fails here instead of skipping
     pytest.importorskip("ray")
-    # Ray's workers import the job function by name: this module's `killer` too
-    here = str(Path(__file__).resolve().parent)
-    monkeypatch.setenv("PYTHONPATH", os.pathsep.join(p for p in (here, os.environ.get("PYTHONPATH")) if p))
+    # Ray's workers import the job function by name: this module's `killer` too, and with it
+    # the tests' own `walltime` one folder up
+    here = Path(__file__).resolve().parent
+    monkeypatch.setenv("PYTHONPATH", os.pathsep.join(p for p in (str(here), str(here.parent),
+                                                                  os.environ.get("PYTHONPATH")) if p))
     # a local instance is started even where RAY_ADDRESS names a cluster (nothing listens there)
     monkeypatch.setenv("RAY_ADDRESS", "127.0.0.1:1")
     (tmp_path / "lamp.cp").write_text(LAMP.read_text())
@@ -346,13 +348,14 @@ def ray_cluster():
     try:
         sel = selectors.DefaultSelector()
         sel.register(head.stdout, selectors.EVENT_READ)
-        seen = []
+        seen = ""
         limit = time.monotonic() + wall(300)       # a bound on failure only: the event awaited is Ray's line
-        while not any("Ray runtime started" in line for line in seen):
-            assert time.monotonic() < limit and head.poll() is None, f"ray start ({head.poll()}): " + "".join(seen[-30:])
+        while "Ray runtime started" not in seen:
+            assert time.monotonic() < limit and head.poll() is None, f"ray start ({head.poll()}): " + seen[-3000:]
             if sel.select(timeout=1):
-                line = head.stdout.readline()
-                seen.append(line)
+                # what the pipe holds, unbuffered: a readline() would leave the rest of a chunk in
+                # the file's buffer, where select() cannot see it
+                seen += os.read(head.stdout.fileno(), 65536).decode(errors="replace")
         sel.close()
         yield f"127.0.0.1:{port}", env
     finally:
