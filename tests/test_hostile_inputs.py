@@ -273,10 +273,10 @@ def _toml_string(text: str) -> str:
 # -- command-line options ------------------------------------------------------------------------
 
 @pytest.mark.parametrize("argv, message", [
-    (["--delay", "inf"], "--delay: must be a finite number >= 0, got inf"),
-    (["--delay", "nan"], "--delay: must be a finite number >= 0, got nan"),
-    (["--time-scale", "inf"], "--time-scale: must be a finite number >= 0, got inf"),
-    (["--backlash-deg", "nan"], "--backlash-deg: must be a finite number >= 0, got nan"),
+    (["--delay", "inf"], "--delay: must be at least 0 and at most 10000 milliseconds, got 'inf'"),
+    (["--delay", "nan"], "--delay: must be at least 0 and at most 10000 milliseconds, got 'nan'"),
+    (["--time-scale", "inf"], "--time-scale: must be at least 0.001 and at most 1000 times real time, got 'inf'"),
+    (["--backlash-deg", "nan"], "--backlash-deg: must be at least 0 and at most 45 degrees, got 'nan'"),
 ])
 def test_a_non_finite_brick_option_is_one_line(capsys, argv, message):
     code, _, err = run(["brick", "--name", "r1", *argv], capsys)

@@ -20,6 +20,8 @@ from typing import Any
 
 from cplus.cli.animation_options import FrameProgress, add_animation_options, animation_check
 from cplus.cli.common import EXIT_INPUT, EXIT_OK, CliError, OneLineArgumentParser
+from cplus.cli.paths import Input, Output, check_paths
+from cplus.files import output_path
 
 __all__ = ["build_parser", "main", "read_log", "frames_of"]
 
@@ -242,8 +244,12 @@ def main(args: argparse.Namespace) -> int:
         problem = animation_check(args.animate, "--animate", PROG)
         if problem is not None:
             raise CliError(problem)
+        check_paths(PROG, [Input(args.log, "the log"), Input(args.scene, "the scene")],
+                    [Output("--animate", args.animate)])
         start, cycles, end = read_log(args.log)
         scene = _scene(args, start)
+        named = start.get("scene") if isinstance(start.get("scene"), str) else None
+        check_paths(PROG, [Input(args.scene or named, "the scene")], [Output("--animate", args.animate)])
     except CliError as exc:
         print(exc, file=err)
         return EXIT_INPUT
@@ -254,8 +260,9 @@ def main(args: argparse.Namespace) -> int:
     domain = os.path.basename(str(start.get("domain", args.log)))
     title = f"{domain}: goal '{start.get('goal', '?')}' on {start.get('executor', 'a robot')}"
     try:
-        trajectory.animate_cycles(frames, args.animate, scene=scene, title=title, max_frames=args.frames,
-                                  dpi=args.dpi, on_progress=FrameProgress(PROG, args.animate, err, args.quiet))
+        with output_path(args.animate) as tmp:
+            trajectory.animate_cycles(frames, tmp, scene=scene, title=title, max_frames=args.frames,
+                                      dpi=args.dpi, on_progress=FrameProgress(PROG, args.animate, err, args.quiet))
     except trajectory.TrajectoryError as exc:
         print(f"{PROG}: error: {exc}", file=err)
         return EXIT_INPUT

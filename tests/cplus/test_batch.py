@@ -71,8 +71,8 @@ def test_a_folder_is_one_job_per_domain(tmp_path):
     ({"domain": "nope.cp"}, "no such file"),
     ({"domain": str(LAMP), "timout": 3}, "unknown key 'timout'"),
     ({"domain": str(LAMP), "options": {"horizon": 3}}, "unknown option 'horizon'"),
-    ({"domain": str(LAMP), "options": {"max_horizon": "3"}}, "wrong type"),
-    ({"domain": str(LAMP), "timeout": -1}, "'timeout' must be a number > 0"),
+    ({"domain": str(LAMP), "options": {"max_horizon": "3"}}, "option 'max_horizon': expected a non-negative maxstep"),
+    ({"domain": str(LAMP), "timeout": -1}, "'timeout': expected seconds > 0 and at most 1,000,000, got -1"),
     ({"id": 5}, "needs 'domain'"),
 ])
 def test_bad_jobs_are_one_located_line(tmp_path, entry, message, capsys):
