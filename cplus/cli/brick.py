@@ -43,6 +43,7 @@ from cplus.cli.common import (
     CliError,
     OneLineArgumentParser,
     in_range,
+    nonempty,
     number,
     time_scale,
 )
@@ -109,7 +110,7 @@ def build_parser() -> OneLineArgumentParser:
                     "robot running the cplus_legolog behaviour program on a line track. Prints "
                     "the device path on the first line, serves until interrupted.")
     p.add_argument("--name", required=True, help="brick name, e.g. r1")
-    p.add_argument("--link", metavar="PATH",
+    p.add_argument("--link", type=nonempty, metavar="PATH",
                    help="publish the pty as this symlink (default: a fresh temporary path)")
     p.add_argument("--drop", type=_probability, default=0.0, metavar="P",
                    help="drop each frame, either direction, with probability P")
@@ -133,7 +134,7 @@ def build_parser() -> OneLineArgumentParser:
                          help="the program runs from power-on (default)")
     program.add_argument("--no-program", dest="program_running", action="store_false",
                          help="no program runs; the client must STARTPROGRAM it")
-    p.add_argument("--program", metavar="FILE.rxe", default=None,
+    p.add_argument("--program", type=nonempty, metavar="FILE.rxe", default=None,
                    help="run this compiled NXT program (put in the brick's flash under its file "
                         "name) instead of cplus_follow.rxe")
     p.add_argument("--time-scale", type=time_scale, default=1.0, metavar="X",
@@ -143,7 +144,7 @@ def build_parser() -> OneLineArgumentParser:
                         "default 9000)")
     p.add_argument("--backlash-deg", type=in_range(*BACKLASH_DEG, "degrees"), default=MotorParams().backlash_deg,
                    metavar="DEG", help=f"gear play of each motor, +-DEG (at most {BACKLASH_DEG[1]:g}, default 2)")
-    p.add_argument("--world", metavar="WORLD.toml",
+    p.add_argument("--world", type=nonempty, metavar="WORLD.toml",
                    help="a delivery robot on this track (cplus.world/1): the cplus_legolog "
                         "behaviour program runs; lines on stdin press the touch sensor")
     p.add_argument("--stall", type=_stall, action="append", default=[],
@@ -229,6 +230,9 @@ def main(args: argparse.Namespace) -> int:
     try:
         if not args.name or not args.name.isprintable() or "/" in args.name:
             raise CliError(f"cplus brick: error: invalid brick name {args.name!r}")
+        problem = link_problem(args.link)        # before the world is read and the program compiled
+        if problem is not None:
+            raise CliError(f"cplus brick: error: --link {args.link}: {problem}")
         config = config_from_args(args)
         files, symbols, start = program_files(args)
         config = replace(config, flash_files=files, symbols=symbols,
@@ -238,10 +242,6 @@ def main(args: argparse.Namespace) -> int:
         return EXIT_INPUT
     except ValueError as exc:
         print(f"cplus brick: error: {exc}", file=sys.stderr)
-        return EXIT_INPUT
-    problem = link_problem(args.link)
-    if problem is not None:
-        print(f"cplus brick: error: --link {args.link}: {problem}", file=sys.stderr)
         return EXIT_INPUT
     if args.verbose:
         logging.basicConfig(level=logging.DEBUG if args.verbose > 1 else logging.INFO,
@@ -305,8 +305,11 @@ def link_problem(path: str | None) -> str | None:
     before it could clean up). A file, a directory, any other link, or the link of a pty that
     still exists (a brick serving there) is refused: publishing would replace it, and the exit
     would delete it."""
-    if path is None or not os.path.lexists(path):
+    if path is None:
         return None
+    if not os.path.lexists(path):
+        from cplus.cli.paths import output_problem
+        return output_problem(path)     # its folder exists, and a link can be made there
     if os.path.islink(path):
         target = os.readlink(path)
         if target.startswith("/dev/pts/"):

@@ -251,7 +251,7 @@ class _Outputs:
                                                                      args.quiet))
                 self._wrote(args.animate)
         except trajectory.TrajectoryError as exc:
-            print(f"cplus execute: {exc}", file=self.err)
+            print(f"cplus execute: error: {exc}", file=self.err)
             return False
         except OSError as exc:
             print(f"cplus execute: error: cannot write {writing}: {exc.strerror or exc}", file=self.err)
@@ -305,7 +305,7 @@ def main(args: argparse.Namespace) -> int:
         if ports:
             check_ports(traj, ports)
     except SetpointError as exc:
-        print(f"{prog}: refused before anything moved: {exc}", file=err)
+        print(f"{prog}: error: refused before anything moved: {exc}", file=err)
         return EXIT_INPUT
     progress = None if args.quiet else _ProgressPrinter(err)
     outputs = _Outputs(args, traj, scene, err)
@@ -326,7 +326,7 @@ def main(args: argparse.Namespace) -> int:
                                      on_progress=progress, on_bricks=announce, scene=scene,
                                      on_connected=lambda bricks: opened.extend(bricks.values()))
         except SetpointError as exc:
-            print(f"{prog}: refused before anything moved: {exc}", file=err)
+            print(f"{prog}: error: refused before anything moved: {exc}", file=err)
             return EXIT_INPUT
         except ExecutionFailed as exc:
             outputs.write(exc.log)  # type: ignore[arg-type]

@@ -353,7 +353,7 @@ def _plan_robot_task(args: argparse.Namespace, scene_path: str) -> int:
         except TaskError as exc:
             if not unsafe:
                 raise
-            print(f"cplus plan: {exc.message}; not written: "
+            print(f"cplus plan: warning: {exc.message}; not written: "
                   f"{', '.join(p for p in (args.trajectory, args.csv) if p)}", file=sys.stderr)
         if args.animate:
             code = max(code, _animate(task, result.states or result.first_states or [],

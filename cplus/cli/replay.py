@@ -254,7 +254,7 @@ def main(args: argparse.Namespace) -> int:
         print(exc, file=err)
         return EXIT_INPUT
     except trajectory.SceneError as exc:
-        print(f"{PROG}: {exc}", file=err)
+        print(f"{PROG}: error: {exc}", file=err)
         return EXIT_INPUT
     frames = frames_of(cycles, end, scene)
     domain = os.path.basename(str(start.get("domain", args.log)))
