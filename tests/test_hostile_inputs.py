@@ -375,7 +375,10 @@ PAYLOAD = ROOT / "domains" / "payload"
 
 def _sandbox(folder: Path) -> None:
     """Every command's inputs, copied into one folder."""
-    for src in (PAYLOAD / "payload.cp", PAYLOAD / "scene.toml", ROOT / "domains/examples/lamp.cp",
+    (folder / "task").mkdir()         # the robot task in a folder of its own: its scene makes a robot task
+    shutil.copy(PAYLOAD / "payload.cp", folder / "task" / "payload.cp")
+    shutil.copy(PAYLOAD / "scene.toml", folder / "task" / "scene.toml")
+    for src in (ROOT / "domains/examples/lamp.cp",
                 DELIVERY / "delivery.cp", DELIVERY / "robot.toml", DELIVERY / "world.toml",
                 MAILBOT / "mailbot.cp", MAILBOT / "core.cp", MAILBOT / "moves.cp", MAILBOT / "requests.toml",
                 MAILBOT / "table1.jsonl"):
@@ -400,11 +403,11 @@ def _online_log_text() -> str:
 #: Each command: its arguments (inputs in the sandbox ``S``), its inputs, its outputs with a
 #: suffix each takes (``/`` a folder the option creates).
 PATH_COMMANDS: dict[str, tuple[list[str], list[str], dict[str, str]]] = {
-    "plan": (["S/payload.cp"], ["payload.cp", "scene.toml"],
+    "plan": (["S/task/payload.cp"], ["task/payload.cp", "task/scene.toml"],
              {"--trajectory": ".json", "--csv": ".csv", "--plot": ".png", "--animate": ".gif"}),
     "ground": (["S/lamp.cp", "--maxstep", "1"], ["lamp.cp"], {"--dimacs": ".cnf"}),
-    "run": (["S/payload.cp"], ["payload.cp", "scene.toml"], {"--out": "/", "--animate": ".gif"}),
-    "execute": (["S/t.json", "--scene", "S/scene.toml"], ["t.json", "scene.toml"],
+    "run": (["S/task/payload.cp"], ["task/payload.cp", "task/scene.toml"], {"--out": "/", "--animate": ".gif"}),
+    "execute": (["S/t.json", "--scene", "S/task/scene.toml"], ["t.json", "task/scene.toml"],
                 {"--log": ".json", "--report": ".txt", "--plot": ".png", "--animate": ".gif"}),
     "online": (["S/delivery.cp", "--simulate", "--quiet"], ["delivery.cp", "robot.toml", "world.toml"],
                {"--log": ".jsonl"}),
@@ -433,8 +436,12 @@ def _target(kind: str, folder: Path, inputs: list[str], suffix: str, k: int) -> 
         return str(folder) if suffix != "/" else str(folder / "lamp.cp")      # --out: a file is the bad kind
     if kind == "missing":
         return str(folder / "missing" / f"out{k}{suffix.strip('/')}")
-    if kind == "device":
-        return "/dev/null" if suffix != "/" else str(folder)                  # --out: a folder that exists
+    if kind == "device":        # a link to the device, in the sandbox: code that would replace it cannot harm
+        if suffix == "/":
+            return str(folder)                                                 # --out: a folder that exists
+        link = folder / f"null{k}{suffix}"
+        link.symlink_to("/dev/null")
+        return str(link)
     return str(folder / f"fresh{k}{suffix.strip('/')}")
 
 
@@ -469,8 +476,6 @@ def test_outputs_never_touch_inputs_nor_create_what_was_not_asked(command, data)
         before = _snapshot(folder)
         code = main(line)
         after = _snapshot(folder)
-    import stat
-    assert stat.S_ISCHR(os.stat("/dev/null").st_mode)
     assert after == before, f"{line}: changed {sorted(k for k in set(before) | set(after) if before.get(k) != after.get(k))}"
     assert code == 2, line
 
@@ -478,8 +483,8 @@ def test_outputs_never_touch_inputs_nor_create_what_was_not_asked(command, data)
 def test_output_path_errors_name_the_option_and_the_input(tmp_path, capsys):
     _sandbox(tmp_path)
     capsys.readouterr()                 # what building the sandbox's trajectory printed
-    scene = tmp_path / "scene.toml"
-    code, out, err = run(["plan", str(tmp_path / "payload.cp"), "--trajectory", str(scene)], capsys)
+    scene = tmp_path / "task" / "scene.toml"
+    code, out, err = run(["plan", str(tmp_path / "task" / "payload.cp"), "--trajectory", str(scene)], capsys)
     assert code == 2 and out == "" and err == f"cplus plan: error: --trajectory {scene}: it is the scene this command reads\n"
     code, _, err = run(["ground", str(tmp_path / "lamp.cp"), "--maxstep", "1", "--dimacs", str(tmp_path / "lamp.cp")],
                        capsys)
@@ -507,8 +512,8 @@ def test_output_path_errors_name_the_option_and_the_input(tmp_path, capsys):
 def test_a_folder_that_does_not_exist_is_not_created(tmp_path, capsys):
     _sandbox(tmp_path)
     capsys.readouterr()                 # what building the sandbox's trajectory printed
-    for argv, option in ((["plan", str(tmp_path / "payload.cp"), "--plot"], "--plot"),
-                         (["run", str(tmp_path / "payload.cp"), "--out"], "--out"),
+    for argv, option in ((["plan", str(tmp_path / "task" / "payload.cp"), "--plot"], "--plot"),
+                         (["run", str(tmp_path / "task" / "payload.cp"), "--out"], "--out"),
                          (["online", str(tmp_path / "delivery.cp"), "--simulate", "--log"], "--log")):
         target = tmp_path / "no" / "such" / "x.png"
         code, out, err = run([*argv, str(target)], capsys)
@@ -526,17 +531,22 @@ def test_a_folder_that_does_not_exist_is_not_created(tmp_path, capsys):
 def test_a_place_where_nothing_can_be_created_is_refused_before_planning(tmp_path, capsys, argv, option):
     _sandbox(tmp_path)
     capsys.readouterr()                 # what building the sandbox's trajectory printed
-    code, out, err = run([a.replace("PAYLOAD", str(tmp_path / "payload.cp")) for a in argv], capsys)
+    code, out, err = run([a.replace("PAYLOAD", str(tmp_path / "task" / "payload.cp")) for a in argv], capsys)
     assert code == 2 and out == "" and err == f"cplus {argv[0]}: error: {option}: cannot create files in /proc " \
                                               "(No such file or directory)\n"
 
 
 def test_a_device_is_written_through_and_a_regular_file_replaced_whole(tmp_path, capsys):
+    """The device is reached through a link in the test's folder (``/dev/stdout`` is such a
+    link): code that replaced what it writes would replace the link, not the machine's device."""
     import stat
     lamp = tmp_path / "lamp.cp"
     shutil.copy(ROOT / "domains/examples/lamp.cp", lamp)
-    code, _, err = run(["ground", str(lamp), "--maxstep", "1", "--dimacs", "/dev/null"], capsys)
-    assert code == 0 and stat.S_ISCHR(os.stat("/dev/null").st_mode) and "% wrote /dev/null" in err
+    null = tmp_path / "null.cnf"
+    null.symlink_to("/dev/null")
+    code, _, err = run(["ground", str(lamp), "--maxstep", "1", "--dimacs", str(null)], capsys)
+    assert code == 0 and null.is_symlink() and stat.S_ISCHR(os.stat(null).st_mode) and f"% wrote {null}" in err
+    null.unlink()
     old = tmp_path / "old.cnf"
     old.write_text("old")
     old.chmod(0o640)
@@ -561,7 +571,7 @@ def test_a_fifo_is_written_through(tmp_path, capsys):
     fifo = tmp_path / "pipe.csv"
     os.mkfifo(fifo)
     got: list[str] = []
-    reader = threading.Thread(target=lambda: got.append(fifo.read_text()))
+    reader = threading.Thread(target=lambda: got.append(fifo.read_text()), daemon=True)
     reader.start()
     jobs = tmp_path / "jobs.jsonl"
     jobs.write_text('{"domain": "lamp.cp"}\n')
@@ -618,7 +628,7 @@ def test_a_number_or_a_name_out_of_range_is_one_line_with_the_range(tmp_path, ca
     _sandbox(tmp_path)
     capsys.readouterr()                 # what building the sandbox's trajectory printed
     names = {"DELIVERY": "delivery.cp", "MAILBOT": "mailbot.cp", "SCRIPT": "table1.jsonl", "T": "t.json",
-             "PAYLOAD": "payload.cp", "JOBS": "jobs.jsonl", "LAMP": "lamp.cp"}
+             "PAYLOAD": "task/payload.cp", "JOBS": "jobs.jsonl", "LAMP": "lamp.cp"}
     code, out, err = run([str(tmp_path / names[a]) if a in names else a for a in argv], capsys)
     assert code == 2 and out == "" and err.count("\n") == 1, err
     assert err.startswith(f"cplus {argv[0]}: error: ") and message in err, err

@@ -160,7 +160,7 @@ def _run(args: argparse.Namespace, jobs, redo: set[str], results_path: str, csv_
             if args.ray is None:
                 run_local(todo, run_job, workers, args.retries, sink, progress, worker_init)
             else:
-                run_ray(todo, run_job, args.workers, None if args.ray == "local" else args.ray, args.retries, sink,
+                run_ray(todo, run_job, workers, None if args.ray == "local" else args.ray, args.retries, sink,
                         progress, variant, DEFINITE)
         except KeyboardInterrupt as exc:
             stopped = exc

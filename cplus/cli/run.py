@@ -167,8 +167,8 @@ def _main(args: argparse.Namespace) -> int:
              f"emulated bricks ({clock}, {'Bluetooth latency' if args.latency else 'no latency'})")
     print(f"% executing {paths['trajectory']} on {where}", file=sys.stderr)
     for stale in [paths[k] for k in ("log", "execution", "report")] + ([args.animate] if args.animate else []):
-        if os.path.isfile(stale):  # no product of an earlier run may pass for this one's
-            os.remove(stale)
+        if os.path.isfile(stale) and not os.path.islink(stale):  # no product of an earlier run may pass for
+            os.remove(stale)                                         # this one's (a link is written through)
     argv = [paths["trajectory"], "--scene", scene_path, "--log", paths["log"], "--plot", paths["execution"],
             "--report", paths["report"], "--kp", f"{args.kp[0]}/{args.kp[1]}",
             "--tolerance", str(args.tolerance), "--max-speed", repr(args.max_speed),
