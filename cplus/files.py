@@ -15,9 +15,7 @@ asks for it.
 from __future__ import annotations
 
 import os
-import shutil
 import stat
-import tempfile
 from collections.abc import Iterator
 from contextlib import contextmanager
 from typing import IO, Any
@@ -88,6 +86,8 @@ def output_path(path: str) -> Iterator[str]:
             if os.path.lexists(tmp):
                 os.remove(tmp)
         return
+    import shutil
+    import tempfile
     folder = tempfile.mkdtemp(prefix="cplus-out-")
     try:
         tmp = os.path.join(folder, "out" + os.path.splitext(path)[1])

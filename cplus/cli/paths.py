@@ -20,34 +20,40 @@ from __future__ import annotations
 
 import os
 import stat
-import tempfile
 from collections.abc import Iterable
-from dataclasses import dataclass
 
 from cplus.cli.common import CliError
+from cplus.record import Record
 
 __all__ = ["Input", "Output", "check_paths", "output_problem"]
 
 
-@dataclass(frozen=True)
-class Input:
+class Input(Record):
     """A file the command reads: ``what`` names it in a message (``the scene``)."""
 
-    path: str | None
-    what: str
+    _fields = ("path", "what")
+    __slots__ = _fields
+
+    def __init__(self, path: str | None, what: str) -> None:
+        self.path = path
+        self.what = what
 
 
-@dataclass(frozen=True)
-class Output:
+class Output(Record):
     """A file (``folder``: a folder the option asks the command to create) the command writes,
     given by ``option``; ``stdout``: ``-`` is standard output.  ``inside``: a file the command
     writes inside a folder output (checked once that folder exists)."""
 
-    option: str
-    path: str | None
-    stdout: bool = False
-    folder: bool = False
-    inside: str | None = None
+    _fields = ("option", "path", "stdout", "folder", "inside")
+    __slots__ = _fields
+
+    def __init__(self, option: str, path: str | None, stdout: bool = False, folder: bool = False,
+                 inside: str | None = None) -> None:
+        self.option = option
+        self.path = path
+        self.stdout = stdout
+        self.folder = folder
+        self.inside = inside
 
 
 def check_paths(prog: str, inputs: Iterable[Input], outputs: Iterable[Output]) -> None:
@@ -168,8 +174,9 @@ def _cannot_create_in(folder: str) -> str | None:
     permissions say nothing to root, nor about ``/proc`` or a read-only file system."""
     if not os.access(folder, os.W_OK | os.X_OK):
         return f"permission denied in {folder}"
+    name = os.path.join(folder, f".cplus-probe-{os.getpid()}-{os.urandom(4).hex()}")
     try:
-        fd, name = tempfile.mkstemp(prefix=".cplus-probe-", dir=folder)
+        fd = os.open(name, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o600)
     except OSError as exc:
         return f"cannot create files in {folder} ({exc.strerror})"
     os.close(fd)
