@@ -113,7 +113,7 @@ def check_gamma(value: object) -> float:
 
 def _seconds(value: object) -> float:
     if not _is_number(value) or not 0 < value <= MAX_TIMEOUT_S:  # type: ignore[operator]
-        raise OptionError(f"expected seconds > 0 and at most {MAX_TIMEOUT_S:,.0f}, got {_shown(value)}")
+        raise OptionError(f"must be > 0 and at most {MAX_TIMEOUT_S:,.0f} seconds, got {_shown(value)}")
     return float(value)  # type: ignore[arg-type]
 
 

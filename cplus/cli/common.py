@@ -203,7 +203,13 @@ ACTION_TIME_MAX_S = 3600.0
 """The longest ``--action-time`` of a simulated robot (``cplus online --simulate``, ``cplus
 serve``): an hour per action; more would only make the run wait without end."""
 
-action_seconds = in_range(0.0, ACTION_TIME_MAX_S, "seconds")
+def action_seconds(text: str) -> float:
+    """``--action-time``: seconds from 0 to :data:`ACTION_TIME_MAX_S` (``cplus online`` and
+    ``cplus serve`` alike)."""
+    value = seconds(text)
+    if value > ACTION_TIME_MAX_S:
+        raise argparse.ArgumentTypeError(f"at most {ACTION_TIME_MAX_S:g} seconds, got {text!r}")
+    return value
 
 
 def parse_bricks(items: list[str], prog: str) -> dict[str, str]:

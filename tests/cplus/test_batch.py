@@ -75,7 +75,7 @@ def test_a_folder_is_one_job_per_domain(tmp_path):
     ({"domain": str(LAMP), "timout": 3}, "unknown key 'timout'"),
     ({"domain": str(LAMP), "options": {"horizon": 3}}, "unknown option 'horizon'"),
     ({"domain": str(LAMP), "options": {"max_horizon": "3"}}, "option 'max_horizon': expected a non-negative maxstep"),
-    ({"domain": str(LAMP), "timeout": -1}, "'timeout': expected seconds > 0 and at most 1,000,000, got -1"),
+    ({"domain": str(LAMP), "timeout": -1}, "'timeout': must be > 0 and at most 1,000,000 seconds, got -1"),
     ({"id": 5}, "needs 'domain'"),
 ])
 def test_bad_jobs_are_one_located_line(tmp_path, entry, message, capsys):
@@ -280,7 +280,7 @@ def test_a_batch_refuses_before_any_job_what_cplus_plan_refuses(tmp_path, capsys
 @pytest.mark.parametrize("line, message", [
     ('memory = inf', "3: 'memory': expected a positive whole number of megabytes up to 16,777,216, got inf"),
     ('memory = 0', "3: 'memory': expected a positive whole number of megabytes"),
-    ('timeout = 1e300', "3: 'timeout': expected seconds > 0 and at most 1,000,000, got 1e+300"),
+    ('timeout = 1e300', "3: 'timeout': must be > 0 and at most 1,000,000 seconds, got 1e+300"),
     ('options = { extern = [1] }', "3: option 'extern': expected a list of file names"),
     ('options = { extern = ["nope.py"] }', "option 'extern': "),
     ('options = 3', "3: 'options' must be a table of cplus plan options"),
