@@ -146,14 +146,14 @@ class Domain:
               nmquery: bool = False) -> QueryResult:
         """Run a query (with ``nmquery``, the nmquery of that label): the shortest maxstep in
         its range with a history, and up to ``solutions`` histories there (0 = all)."""
-        if isinstance(solutions, bool) or not isinstance(solutions, int) or solutions < 0:
-            raise ValueError(f"solutions must be a non-negative integer (0: every history), not {solutions!r}")
+        _checked(solutions=solutions, solver=solver, max_horizon=max_horizon)
         query = self._searchable(label, nmquery)
         return run_query(self.theory_for(query), query, solutions, solver, max_horizon, on_horizon)
 
     def plans(self, label: str = "0", solver: str = DEFAULT_SOLVER,
               max_horizon: int | None = None, nmquery: bool = False) -> Iterator[History]:
         """Every history at the shortest maxstep with one, lazily."""
+        _checked(solver=solver, max_horizon=max_horizon)
         query = self._searchable(label, nmquery)
         session = QuerySession(self.theory_for(query), query, solver, max_horizon, commit=True)
         find_horizon(session)
@@ -166,6 +166,7 @@ class Domain:
         enumerate histories themselves or add constraints between solves: ``solve_at(m)``,
         ``history()``, ``block_current()``, ``resolve()``, ``histories(m)``.  What is blocked
         stays blocked when the same horizon is solved again."""
+        _checked(solver=solver, max_horizon=max_horizon)
         query = self._searchable(label, nmquery)
         return Session(self.theory_for(query), query, solver, max_horizon)
 
@@ -237,3 +238,16 @@ def _did_you_mean(label: str, labels: list[str]) -> str:
 
     close = difflib.get_close_matches(label, labels, n=1)
     return f"did you mean '{close[0]}'? " if close else ""
+
+
+def _checked(**given: object) -> None:
+    """The planner's options of an API call, checked as ``cplus plan`` checks its flags
+    (:mod:`cplus.options`).
+
+    Raises:
+        cplus.options.OptionError: a :class:`ValueError` naming the argument.
+    """
+    from cplus.options import check_max_horizon, check_solutions, check_solver, named
+    checks = {"solutions": check_solutions, "solver": check_solver, "max_horizon": check_max_horizon}
+    for name, value in given.items():
+        named(name, checks[name], value)

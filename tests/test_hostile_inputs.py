@@ -5,11 +5,12 @@ the stderr line, through the CLI's main function."""
 from __future__ import annotations
 
 import io
+import os
 import shutil
 from pathlib import Path
 
 import pytest
-from hypothesis import given
+from hypothesis import given, settings
 from hypothesis import strategies as st
 from walltime import wall
 
@@ -274,10 +275,10 @@ def _toml_string(text: str) -> str:
 # -- command-line options ------------------------------------------------------------------------
 
 @pytest.mark.parametrize("argv, message", [
-    (["--delay", "inf"], "--delay: must be a finite number >= 0, got inf"),
-    (["--delay", "nan"], "--delay: must be a finite number >= 0, got nan"),
-    (["--time-scale", "inf"], "--time-scale: must be a finite number >= 0, got inf"),
-    (["--backlash-deg", "nan"], "--backlash-deg: must be a finite number >= 0, got nan"),
+    (["--delay", "inf"], "--delay: must be at least 0 and at most 10000 milliseconds, got 'inf'"),
+    (["--delay", "nan"], "--delay: must be at least 0 and at most 10000 milliseconds, got 'nan'"),
+    (["--time-scale", "inf"], "--time-scale: must be at least 0.001 and at most 1000 times real time, got 'inf'"),
+    (["--backlash-deg", "nan"], "--backlash-deg: must be at least 0 and at most 45 degrees, got 'nan'"),
 ])
 def test_a_non_finite_brick_option_is_one_line(capsys, argv, message):
     code, _, err = run(["brick", "--name", "r1", *argv], capsys)
@@ -504,3 +505,372 @@ def test_a_brick_running_a_ring_of_exitto_tasks_answers_and_stops_on_sigterm(tmp
         code, err = _end(proc)
     assert names == ["ring.rxe"] * 25
     assert code == 0 and "cplus brick: ring: 25 frames in, 25 out," in err
+# -- outputs: every command's paths, checked before any work ----------------------------------------
+#
+# A command line whose outputs point at its inputs (the file itself, a symbolic or a hard link to
+# it), at a folder, into a folder that does not exist, next to harmless ones (a device, a fresh
+# path): refused with one line naming an output option, exit 2, before any work; no input's bytes
+# change, nothing is created, a device stays a device.
+
+MAILBOT = ROOT / "domains" / "mailbot"
+PAYLOAD = ROOT / "domains" / "payload"
+
+
+def _sandbox(folder: Path) -> None:
+    """Every command's inputs, copied into one folder."""
+    (folder / "task").mkdir()         # the robot task in a folder of its own: its scene makes a robot task
+    shutil.copy(PAYLOAD / "payload.cp", folder / "task" / "payload.cp")
+    shutil.copy(PAYLOAD / "scene.toml", folder / "task" / "scene.toml")
+    for src in (ROOT / "domains/examples/lamp.cp",
+                DELIVERY / "delivery.cp", DELIVERY / "robot.toml", DELIVERY / "world.toml",
+                MAILBOT / "mailbot.cp", MAILBOT / "core.cp", MAILBOT / "moves.cp", MAILBOT / "requests.toml",
+                MAILBOT / "table1.jsonl"):
+        shutil.copy(src, folder / src.name)
+    (folder / "t.json").write_text(_payload_trajectory_text())
+    (folder / "jobs.jsonl").write_text('{"domain": "lamp.cp"}\n')
+    (folder / "run.jsonl").write_text(_online_log_text())
+
+
+def _online_log_text() -> str:
+    if "log" not in _CACHE:
+        import tempfile
+        with tempfile.TemporaryDirectory() as d:
+            for name in ("delivery.cp", "robot.toml", "world.toml"):
+                shutil.copy(DELIVERY / name, Path(d) / name)
+            log = Path(d) / "run.jsonl"
+            assert main(["online", str(Path(d) / "delivery.cp"), "--simulate", "--quiet", "--log", str(log)]) == 0
+            _CACHE["log"] = log.read_text()
+    return _CACHE["log"]  # type: ignore[return-value]
+
+
+#: Each command: its arguments (inputs in the sandbox ``S``), its inputs, its outputs with a
+#: suffix each takes (``/`` a folder the option creates).
+PATH_COMMANDS: dict[str, tuple[list[str], list[str], dict[str, str]]] = {
+    "plan": (["S/task/payload.cp"], ["task/payload.cp", "task/scene.toml"],
+             {"--trajectory": ".json", "--csv": ".csv", "--plot": ".png", "--animate": ".gif"}),
+    "ground": (["S/lamp.cp", "--maxstep", "1"], ["lamp.cp"], {"--dimacs": ".cnf"}),
+    "run": (["S/task/payload.cp"], ["task/payload.cp", "task/scene.toml"], {"--out": "/", "--animate": ".gif"}),
+    "execute": (["S/t.json", "--scene", "S/task/scene.toml"], ["t.json", "task/scene.toml"],
+                {"--log": ".json", "--report": ".txt", "--plot": ".png", "--animate": ".gif"}),
+    "online": (["S/delivery.cp", "--simulate", "--quiet"], ["delivery.cp", "robot.toml", "world.toml"],
+               {"--log": ".jsonl"}),
+    "serve": (["S/mailbot.cp", "--script", "S/table1.jsonl", "--quiet"], ["mailbot.cp", "requests.toml",
+                                                                         "table1.jsonl"], {"--log": ".jsonl"}),
+    "replay": (["S/run.jsonl"], ["run.jsonl"], {"--animate": ".gif"}),
+    "batch": (["S/jobs.jsonl", "--quiet"], ["jobs.jsonl", "lamp.cp"], {"--results": ".jsonl", "--csv": ".csv"}),
+    "brick": (["--name", "r1", "--world", "S/world.toml"], ["world.toml"], {"--link": ""}),
+}
+
+BAD = ("input", "symlink", "hardlink", "folder", "missing")
+GOOD = ("device", "fresh")
+
+
+def _target(kind: str, folder: Path, inputs: list[str], suffix: str, k: int) -> str:
+    """A path of this kind in ``folder`` (made now, before the snapshot)."""
+    source = folder / inputs[k % len(inputs)]
+    if kind == "input":
+        return str(source)
+    if kind in ("symlink", "hardlink"):
+        link = folder / f"{kind}{k}{suffix.strip('/')}"
+        if not link.exists():
+            (link.symlink_to if kind == "symlink" else link.hardlink_to)(source)
+        return str(link)
+    if kind == "folder":
+        return str(folder) if suffix != "/" else str(folder / "lamp.cp")      # --out: a file is the bad kind
+    if kind == "missing":
+        return str(folder / "missing" / f"out{k}{suffix.strip('/')}")
+    if kind == "device":        # a link to the device, in the sandbox: code that would replace it cannot harm
+        if suffix == "/":
+            return str(folder)                                                 # --out: a folder that exists
+        link = folder / f"null{k}{suffix}"
+        link.symlink_to("/dev/null")
+        return str(link)
+    return str(folder / f"fresh{k}{suffix.strip('/')}")
+
+
+def _snapshot(folder: Path) -> dict[str, object]:
+    out: dict[str, object] = {}
+    for p in sorted(folder.rglob("*")):
+        rel = str(p.relative_to(folder))
+        if p.is_symlink():
+            out[rel] = ("link", os.readlink(p))
+        elif p.is_dir():
+            out[rel] = "folder"
+        else:
+            out[rel] = p.read_bytes()
+    return out
+
+
+@given(st.sampled_from(sorted(PATH_COMMANDS)), st.data())
+@settings(max_examples=60)
+def test_outputs_never_touch_inputs_nor_create_what_was_not_asked(command, data):
+    import tempfile
+    argv, inputs, outputs = PATH_COMMANDS[command]
+    kinds = {option: data.draw(st.sampled_from(BAD + (GOOD if command != "brick" else ())), option)
+             for option in outputs}
+    if not set(kinds.values()) & set(BAD):
+        kinds[data.draw(st.sampled_from(sorted(outputs)), "bad one")] = data.draw(st.sampled_from(BAD), "bad kind")
+    with tempfile.TemporaryDirectory() as d:
+        folder = Path(d)
+        _sandbox(folder)
+        line = [command, *(a.replace("S/", f"{folder}/") for a in argv)]
+        for k, (option, kind) in enumerate(sorted(kinds.items())):
+            line += [option, _target(kind, folder, inputs, outputs[option], k)]
+        before = _snapshot(folder)
+        code = main(line)
+        after = _snapshot(folder)
+    assert after == before, f"{line}: changed {sorted(k for k in set(before) | set(after) if before.get(k) != after.get(k))}"
+    assert code == 2, line
+
+
+def test_output_path_errors_name_the_option_and_the_input(tmp_path, capsys):
+    _sandbox(tmp_path)
+    capsys.readouterr()                 # what building the sandbox's trajectory printed
+    scene = tmp_path / "task" / "scene.toml"
+    code, out, err = run(["plan", str(tmp_path / "task" / "payload.cp"), "--trajectory", str(scene)], capsys)
+    assert code == 2 and out == "" and err == f"cplus plan: error: --trajectory {scene}: it is the scene this command reads\n"
+    code, _, err = run(["ground", str(tmp_path / "lamp.cp"), "--maxstep", "1", "--dimacs", str(tmp_path / "lamp.cp")],
+                       capsys)
+    assert code == 2 and err == f"cplus ground: error: --dimacs {tmp_path / 'lamp.cp'}: it is the domain this command reads\n"
+    code, _, err = run(["execute", str(tmp_path / "t.json"), "--log", str(tmp_path / "t.json")], capsys)
+    assert code == 2 and err == f"cplus execute: error: --log {tmp_path / 't.json'}: it is the trajectory this command reads\n"
+    code, _, err = run(["online", str(tmp_path / "delivery.cp"), "--simulate", "--log", str(tmp_path / "robot.toml")],
+                       capsys)
+    assert code == 2 and err.endswith(f"cplus online: error: --log {tmp_path / 'robot.toml'}: it is the binding this "
+                                      "command reads\n")
+    code, _, err = run(["serve", str(tmp_path / "mailbot.cp"), "--script", str(tmp_path / "table1.jsonl"),
+                        "--log", str(tmp_path / "requests.toml")], capsys)
+    assert code == 2 and err.endswith(f"--log {tmp_path / 'requests.toml'}: it is the requests file this command "
+                                      "reads\n")
+    code, _, err = run(["batch", str(tmp_path / "jobs.jsonl"), "--results", str(tmp_path / "jobs.jsonl")], capsys)
+    assert code == 2 and err == f"cplus batch: error: --results {tmp_path / 'jobs.jsonl'}: it is the job file this " \
+                                "command reads\n"
+    results = tmp_path / "r.jsonl"
+    code, _, err = run(["batch", str(tmp_path / "jobs.jsonl"), "--results", str(results), "--csv", str(results)],
+                       capsys)
+    assert code == 2 and err == f"cplus batch: error: --results and --csv are the same file {results}\n"
+    assert not results.exists()
+
+
+def test_a_folder_that_does_not_exist_is_not_created(tmp_path, capsys):
+    _sandbox(tmp_path)
+    capsys.readouterr()                 # what building the sandbox's trajectory printed
+    for argv, option in ((["plan", str(tmp_path / "task" / "payload.cp"), "--plot"], "--plot"),
+                         (["run", str(tmp_path / "task" / "payload.cp"), "--out"], "--out"),
+                         (["online", str(tmp_path / "delivery.cp"), "--simulate", "--log"], "--log")):
+        target = tmp_path / "no" / "such" / "x.png"
+        code, out, err = run([*argv, str(target)], capsys)
+        assert code == 2 and out == "" and "% refinement" not in err
+        assert err.endswith(f"cplus {argv[0]}: error: {option} {target}: no such directory {tmp_path / 'no'}"
+                            + (" (only x.png itself is created)\n" if option == "--out" else " (it is not created)\n"))
+        assert not (tmp_path / "no").exists()
+
+
+@pytest.mark.parametrize("argv, option", [
+    (["plan", "PAYLOAD", "--plot", "/proc/x.png"], "--plot /proc/x.png"),
+    (["plan", "PAYLOAD", "--trajectory", "/proc/t.json"], "--trajectory /proc/t.json"),
+    (["run", "PAYLOAD", "--out", "/proc/outdir"], "--out /proc/outdir"),
+])
+def test_a_place_where_nothing_can_be_created_is_refused_before_planning(tmp_path, capsys, argv, option):
+    _sandbox(tmp_path)
+    capsys.readouterr()                 # what building the sandbox's trajectory printed
+    code, out, err = run([a.replace("PAYLOAD", str(tmp_path / "task" / "payload.cp")) for a in argv], capsys)
+    assert code == 2 and out == "" and err == f"cplus {argv[0]}: error: {option}: cannot create files in /proc " \
+                                              "(No such file or directory)\n"
+
+
+def test_a_device_is_written_through_and_a_regular_file_replaced_whole(tmp_path, capsys):
+    """The device is reached through a link in the test's folder (``/dev/stdout`` is such a
+    link): code that replaced what it writes would replace the link, not the machine's device."""
+    import stat
+    lamp = tmp_path / "lamp.cp"
+    shutil.copy(ROOT / "domains/examples/lamp.cp", lamp)
+    null = tmp_path / "null.cnf"
+    null.symlink_to("/dev/null")
+    code, _, err = run(["ground", str(lamp), "--maxstep", "1", "--dimacs", str(null)], capsys)
+    assert code == 0 and null.is_symlink() and stat.S_ISCHR(os.stat(null).st_mode) and f"% wrote {null}" in err
+    null.unlink()
+    old = tmp_path / "old.cnf"
+    old.write_text("old")
+    old.chmod(0o640)
+    keep = tmp_path / "keep.cnf"
+    os.link(old, keep)                                      # the old file's other name keeps its bytes
+    link = tmp_path / "via.cnf"
+    target = tmp_path / "target.cnf"
+    target.write_text("x")
+    link.symlink_to(target)
+    assert run(["ground", str(lamp), "--maxstep", "1", "--dimacs", str(old)], capsys)[0] == 0
+    assert run(["ground", str(lamp), "--maxstep", "1", "--dimacs", str(link)], capsys)[0] == 0
+    assert old.read_text().startswith("c ") and keep.read_text() == "old"      # renamed over, not rewritten
+    assert stat.S_IMODE(old.stat().st_mode) == 0o640
+    assert link.is_symlink() and target.read_text() == old.read_text()       # a link is written through
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["keep.cnf", "lamp.cp", "old.cnf", "target.cnf", "via.cnf"]
+
+
+def test_a_fifo_is_written_through(tmp_path, capsys):
+    import threading
+    lamp = tmp_path / "lamp.cp"
+    shutil.copy(ROOT / "domains/examples/lamp.cp", lamp)
+    fifo = tmp_path / "pipe.csv"
+    os.mkfifo(fifo)
+    got: list[str] = []
+    reader = threading.Thread(target=lambda: got.append(fifo.read_text()), daemon=True)
+    reader.start()
+    jobs = tmp_path / "jobs.jsonl"
+    jobs.write_text('{"domain": "lamp.cp"}\n')
+    code, _, err = run(["batch", str(jobs), "--csv", str(fifo), "--quiet"], capsys)
+    reader.join(60)
+    assert code == 0 and not reader.is_alive()
+    assert got[0].startswith("id,status,maxstep") and "\nlamp,found," in got[0]
+    assert stat_kind(fifo) == "fifo"
+
+
+def stat_kind(path: Path) -> str:
+    import stat
+    mode = os.lstat(path).st_mode
+    return "fifo" if stat.S_ISFIFO(mode) else "link" if stat.S_ISLNK(mode) else "file" if stat.S_ISREG(mode) else "?"
+
+
+# -- numbers on the command line: honoured or refused with the range ---------------------------------
+
+@pytest.mark.parametrize("argv, message", [
+    (["online", "DELIVERY", "--simulate", "--action-time", "1e300"],
+     "argument --action-time: at most 3600 seconds, got '1e300'"),
+    (["serve", "MAILBOT", "--script", "SCRIPT", "--action-time", "1e300"],
+     "argument --action-time: at most 3600 seconds, got '1e300'"),
+    (["online", "DELIVERY", "--time-scale", "1e-300"],
+     "argument --time-scale: must be at least 0.001 and at most 1000 times real time, got '1e-300'"),
+    (["serve", "MAILBOT", "--script", "SCRIPT", "--time-scale", "1e300"],
+     "argument --time-scale: must be at least 0.001 and at most 1000 times real time, got '1e300'"),
+    (["execute", "T", "--time-scale", "1e300"],
+     "argument --time-scale: must be at least 0.001 and at most 1000 times real time, got '1e300'"),
+    (["run", "PAYLOAD", "--time-scale", "1e-300"],
+     "argument --time-scale: must be at least 0.001 and at most 1000 times real time, got '1e-300'"),
+    (["brick", "--name", "r1", "--time-scale", "1e300"],
+     "argument --time-scale: must be at least 0.001 and at most 1000 times real time, got '1e300'"),
+    (["brick", "--name", "r1", "--battery-mv", "70000"],
+     "argument --battery-mv: must be at least 1000 and at most 12000 millivolts, got '70000'"),
+    (["brick", "--name", "r1", "--backlash-deg", "1e308"],
+     "argument --backlash-deg: must be at least 0 and at most 45 degrees, got '1e308'"),
+    (["brick", "--name", "r1", "--delay", "1e300"],
+     "argument --delay: must be at least 0 and at most 10000 milliseconds, got '1e300'"),
+    (["batch", "JOBS", "--timeout", "1e300"], "argument --timeout: must be > 0 and at most 1,000,000 seconds"),
+    (["batch", "JOBS", "--workers", "100000000000000000000"], "argument --workers: expected a positive integer up to"),
+    (["batch", "JOBS", "--portfolio", ",".join(["glucose4"] * 40)], "argument --portfolio: 'glucose4' twice"),
+    (["plan", "LAMP", "--jobs", "100000000000000000000"],
+     "argument --jobs/-j: expected a positive integer up to 1024 (worker processes), or auto, got an integer of 21"),
+    (["plan", "LAMP", "-q", ""], "argument --query/-q: expected a query label, got an empty one"),
+    (["plan", "LAMP", "--solver", ""], "argument --solver: an empty solver name"),
+    (["plan", "LAMP", "--minimize", ""], "argument --minimize: expected a term to minimize"),
+    (["plan", "LAMP", "--time-limit", "1e300"], "argument --time-limit: must be > 0 and at most 1,000,000 seconds"),
+    (["plan", "LAMP", "--max-horizon", "1" + "0" * 30], "argument --max-horizon: expected a non-negative maxstep"),
+    (["plan", "LAMP", "--minimise", "cost"], "unrecognized arguments: --minimise cost (did you mean --minimize?)"),
+    (["run", "PAYLOAD", "--solver", "glucose"], "argument --solver: unknown SAT solver 'glucose' (did you mean"),
+])
+def test_a_number_or_a_name_out_of_range_is_one_line_with_the_range(tmp_path, capsys, argv, message):
+    _sandbox(tmp_path)
+    capsys.readouterr()                 # what building the sandbox's trajectory printed
+    names = {"DELIVERY": "delivery.cp", "MAILBOT": "mailbot.cp", "SCRIPT": "table1.jsonl", "T": "t.json",
+             "PAYLOAD": "task/payload.cp", "JOBS": "jobs.jsonl", "LAMP": "lamp.cp"}
+    code, out, err = run([str(tmp_path / names[a]) if a in names else a for a in argv], capsys)
+    assert code == 2 and out == "" and err.count("\n") == 1, err
+    assert err.startswith(f"cplus {argv[0]}: error: ") and message in err, err
+
+
+def test_the_emulator_configuration_is_checked_where_it_is_built():
+    """A caller that builds the options itself (not through the parser) gets the same range."""
+    from cplus.cli.brick import build_parser, config_from_args
+    args = build_parser().parse_args(["--name", "r1"])
+    args.battery_mv = 70000
+    with pytest.raises(ValueError, match="--battery-mv 70000: must be at least 1000 and at most 12000"):
+        config_from_args(args)
+
+
+def test_a_solver_that_does_not_exist_is_refused_before_any_query_runs(tmp_path, capsys):
+    domain = tmp_path / "two.cp"
+    domain.write_text((ROOT / "domains/examples/lamp.cp").read_text())
+    code, out, err = run(["plan", str(domain), "--solver", "glucose"], capsys)
+    assert code == 2 and out == "" and err.count("\n") == 1 and "% query" not in out + err
+
+
+def test_an_unlocated_error_of_the_library_has_the_command_prefix(tmp_path, capsys):
+    """``--over-lengths`` on an open range without ``--max-horizon``: the planner's error has no
+    place in a file; the command says whose it is."""
+    domain = tmp_path / "open.cp"
+    domain.write_text(":- maxAdditive :: 9.\n:- constants c :: additiveFluent(0..9); a :: exogenousAction.\n"
+                      "a increments c by 1.\n:- query maxstep :: 1..infinity; 0: c=0; maxstep: c=1.\n")
+    code, _, err = run(["plan", str(domain), "--minimize", "c", "--over-lengths"], capsys)
+    assert code == 2 and err.startswith("cplus plan: error: --over-lengths searches every length") and \
+        err.count("\n") == 1
+
+
+def test_a_time_limit_never_ends_the_search_before_the_first_plan(tmp_path, capsys):
+    """The tiniest limit still waits for the first plan: exit 12 with a plan and its bound, never
+    'no solution' (exit 3) for a query that has plans."""
+    vacuum = ROOT / "domains/examples/vacuum.cp"
+    code, out, err = run(["plan", str(vacuum), "--minimize", "cost", "--over-lengths", "--time-limit", "0.000001"],
+                         capsys)
+    assert code == 12, err
+    assert "ACTIONS:" in out and "(not proved optimal (--time-limit)" in out and "no solution up to" not in err
+
+
+def test_jobs_start_no_more_workers_than_horizons(tmp_path, capsys):
+    import json
+    one = tmp_path / "one.cp"
+    one.write_text(":- constants lit :: inertialFluent; flip :: exogenousAction.\nflip causes lit.\n"
+                   ":- query maxstep :: 3; 0: -lit; maxstep: lit.\n")
+    code, out, _ = run(["plan", str(one), "--jobs", "64", "--json"], capsys)
+    par = json.loads(out)["results"][0]["parallel"]
+    assert code == 0 and par["jobs_asked"] == 64 and par["jobs"] == 1 and {r["worker"] for r in par["runs"]} == {0}
+
+
+@given(st.integers(1, 10 ** 6), st.one_of(st.none(), st.integers(1, 10 ** 6)))
+def test_the_worker_bound_never_exceeds_the_cores_nor_what_can_work(asked, useful):
+    from cplus.options import WORKERS_PER_CORE, available_cores, worker_bound
+    n = worker_bound(asked, useful)
+    assert 1 <= n <= min(asked, WORKERS_PER_CORE * available_cores(), useful or asked)
+
+
+def test_a_race_runs_no_more_variants_at_once_than_the_bound(tmp_path, monkeypatch):
+    """A portfolio of more solvers than the bound allows at once: they run in turn, and the
+    race still has its answer."""
+    import multiprocessing
+
+    from cplus.batch import read_jobs
+    from cplus.cli import batch_job
+    monkeypatch.setattr("cplus.options.available_cores", lambda: 1)
+    monkeypatch.setattr("cplus.options.WORKERS_PER_CORE", 2)
+    ctx = multiprocessing.get_context("fork")
+    live: list = []
+    most = [0]
+
+    class Counted(ctx.Process):  # type: ignore[name-defined,misc]
+        def start(self) -> None:
+            super().start()
+            live.append(self)
+            most[0] = max(most[0], sum(p.is_alive() for p in live))
+    monkeypatch.setattr(ctx, "Process", Counted)
+    jobs = tmp_path / "j.jsonl"
+    jobs.write_text('{"domain": "%s", "query": "on", "portfolio": ["glucose4", "minisat22", "cadical195", '
+                    '"maplesat", "glucose3"]}\n' % (ROOT / "domains/examples/lamp.cp"))
+    rec = batch_job.run_job(read_jobs(str(jobs))[0].to_dict())
+    assert rec["status"] == "found" and rec["portfolio"]["winner"] in rec["portfolio"]["variants"]
+    assert 1 <= most[0] <= 2 and len(live) <= 5
+
+
+# -- standard output that cannot be written ---------------------------------------------------------
+
+@pytest.mark.parametrize("how", ["full", "closed"])
+def test_standard_output_that_cannot_be_written_is_one_line(how):
+    import subprocess
+    import sys
+    cmd = [sys.executable, "-m", "cplus", "plan", str(ROOT / "domains/examples/lamp.cp")]
+    if how == "full":
+        with open("/dev/full", "w") as full:
+            r = subprocess.run(cmd, stdout=full, stderr=subprocess.PIPE, text=True, cwd=ROOT, timeout=120)
+    else:
+        r = subprocess.run(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True, cwd=ROOT, timeout=120,
+                           preexec_fn=lambda: os.close(1))
+    assert r.returncode == 2 and r.stderr.count("\n") == 1 and "Traceback" not in r.stderr, r.stderr
+    assert r.stderr.startswith("cplus plan: error: cannot write standard output: ")
+    assert ("No space left on device" if how == "full" else "standard output is closed") in r.stderr

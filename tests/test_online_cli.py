@@ -35,6 +35,9 @@ def delivery(tmp_path) -> Path:
 def test_simulated_run_reaches_the_goal_and_logs_every_cycle(delivery, tmp_path, capsys):
     log = tmp_path / "out" / "run.jsonl"
     code, out, err = run([str(delivery), "--simulate", "--log", str(log)], capsys)
+    assert code == 2 and err == f"cplus online: error: --log {log}: no such directory {log.parent} (it is not created)\n"
+    log.parent.mkdir()
+    code, out, err = run([str(delivery), "--simulate", "--log", str(log)], capsys)
     assert code == 0 and out == ""
     assert "cycle 0 [" in err and "plan: 7 steps: follow, follow, turn" in err and "| send follow" in err
     assert "goal_reached: goal 'deliver' reached at cycle 7" in err

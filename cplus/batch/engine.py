@@ -19,8 +19,9 @@ worker names the jobs it had.
   job's process (:func:`cplus.cli.batch_job.race`), so that the pool's workers are the
   unit of work either way.
 
-Ctrl-C: the jobs in flight are cancelled (their processes ended), nothing more is recorded,
-and the batch resumes from its results file.
+Ctrl-C (and SIGTERM, which the command turns into the same): the jobs in flight are
+cancelled (their processes ended, and the pool's fork server and resource tracker with
+them), nothing more is recorded, and the batch resumes from its results file.
 """
 from __future__ import annotations
 
@@ -131,6 +132,8 @@ def run_local(jobs: list[Job], fn: Callable, workers: int, retries: int, sink: S
                 progress.tick()
         except KeyboardInterrupt:
             _kill_pool(pool)
+            pool.shutdown(wait=True, cancel_futures=True)
+            _stop_helpers()
             raise
         finally:
             pool.shutdown(wait=not broken, cancel_futures=True)
@@ -162,6 +165,19 @@ def _quiet_worker(initializer: Callable | None) -> None:
     signal.signal(signal.SIGTERM, signal.SIG_DFL)
     if initializer is not None:
         initializer()
+
+
+def _stop_helpers() -> None:
+    """End the processes :mod:`multiprocessing` started for the pool besides its workers: the
+    fork server and the resource tracker (they would otherwise outlive an interrupted batch
+    until they notice, or not at all)."""
+    from multiprocessing import forkserver, resource_tracker
+    helpers: list = [forkserver._forkserver, resource_tracker._resource_tracker]
+    for helper in helpers:
+        try:
+            helper._stop()
+        except (OSError, AttributeError, ChildProcessError):
+            pass
 
 
 def _kill_pool(pool) -> None:

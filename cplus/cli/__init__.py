@@ -70,6 +70,7 @@ def main(argv: list[str] | None = None, *, exiting: bool = False) -> int:
         print(f"cplus: error: unknown command {name!r} (choose from {', '.join(COMMANDS)})", file=sys.stderr)
         return EXIT_INPUT
     from cplus.errors import CPlusError
+    _closed_streams()
     # A planning command is a short process that allocates millions of small objects and
     # creates almost no reference cycles: the cyclic collector only costs time here.
     gc.disable()
@@ -82,9 +83,11 @@ def main(argv: list[str] | None = None, *, exiting: bool = False) -> int:
             return EXIT_INPUT
         except SystemExit as exc:  # --help, --version
             return exc.code if isinstance(exc.code, int) else EXIT_OK
-        return module.main(args)
+        code = module.main(args)
+        sys.stdout.flush()        # a full disk or a closed stdout is found here, not at exit
+        return code
     except CPlusError as exc:
-        print(exc.render(), file=sys.stderr)
+        print(prefixed(exc.render(), name), file=sys.stderr)
         return EXIT_INPUT
     except CliError as exc:     # the command line's, found once the file is read (an unknown --query)
         print(exc, file=sys.stderr)
@@ -100,14 +103,73 @@ def main(argv: list[str] | None = None, *, exiting: bool = False) -> int:
         print(f"cplus {name}: error: out of memory: the problem is too large for this machine", file=sys.stderr)
         return EXIT_INPUT
     except BrokenPipeError:
-        try:
-            sys.stdout = open(os.devnull, "w")
-        except OSError:  # pragma: no cover
-            pass
+        _discard_stdout()
         return EXIT_OK
+    except OSError as exc:
+        if exc.filename is not None:      # a file the command did not expect to fail on
+            print(f"cplus {name}: error: {exc.filename}: {exc.strerror or exc}", file=sys.stderr)
+            return EXIT_INPUT
+        # a write to standard output failed: a full disk (/dev/full), a closed stdout (>&-)
+        _discard_stdout()
+        print(f"cplus {name}: error: cannot write standard output: {exc.strerror or exc}", file=sys.stderr)
+        return EXIT_INPUT
     finally:
         if not exiting:
             gc.enable()
+
+
+def prefixed(text: str, name: str) -> str:
+    """A message of the library for the user: ``cplus NAME: error: ...`` when it is not
+    located (a located one, ``file:line:col: error: ...``, names its place itself)."""
+    for kind in ("error: ", "warning: "):
+        if text.startswith(kind):
+            return f"cplus {name}: {text}"
+    return text
+
+
+class _ClosedStream:
+    """Standard output when the process started without one (``>&-``): a write fails as it
+    would on the closed descriptor, so the command says so instead of losing its output."""
+
+    def write(self, text: str) -> int:
+        import errno
+        raise OSError(errno.EBADF, "Bad file descriptor (standard output is closed)")
+
+    def flush(self) -> None:
+        pass
+
+    def isatty(self) -> bool:
+        return False
+
+    def fileno(self) -> int:
+        import io
+        raise io.UnsupportedOperation("standard output is closed")
+
+
+def _closed_streams() -> None:
+    """Standard output or error closed at start (``>&-``, ``2>&-``): Python leaves them None,
+    and ``print(file=None)`` would then write to standard output.  The descriptors are held
+    by ``/dev/null`` (so that no file opened later lands on 1 or 2 and receives output), a
+    closed stderr discards the diagnostics, and a closed stdout fails the first write."""
+    for fd, name in ((1, "stdout"), (2, "stderr")):
+        if getattr(sys, name) is not None:
+            continue
+        try:
+            null = os.open(os.devnull, os.O_WRONLY)
+            if null != fd:
+                os.dup2(null, fd)
+                os.close(null)
+        except OSError:  # pragma: no cover
+            pass
+        setattr(sys, name, _ClosedStream() if name == "stdout" else open(os.devnull, "w"))
+
+
+def _discard_stdout() -> None:
+    """Standard output that failed: later writes (and the flush at exit) go nowhere."""
+    try:
+        sys.stdout = open(os.devnull, "w")
+    except OSError:  # pragma: no cover
+        pass
 
 
 def _one_blas_thread(environ: MutableMapping[str, str]) -> None:
@@ -124,9 +186,9 @@ def run() -> None:  # pragma: no cover - the console script; tests call main()
     grounded theory object by object (a tenth of a second on large domains)."""
     _one_blas_thread(os.environ)     # before anything imports numpy
     code = main(exiting=True)
-    try:
-        sys.stdout.flush()
-        sys.stderr.flush()
-    except BrokenPipeError:
-        pass
+    for stream in (sys.stdout, sys.stderr):
+        try:
+            stream.flush()
+        except (OSError, ValueError):
+            pass
     os._exit(code)

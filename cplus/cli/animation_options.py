@@ -22,6 +22,8 @@ def add_animation_options(p: argparse.ArgumentParser | argparse._ArgumentGroup, 
     With ``default_file``, ``--animate`` alone stores True: the command puts its default file there."""
     extra = {"nargs": "?", "const": True, "action": _OptionalFile} if default_file else {}
     also = f"; --animate alone: {default_file}" if default_file else ""
+    if not default_file:
+        extra = {"type": _file_name}
     p.add_argument("--animate", metavar="FILE", **extra,  # type: ignore[arg-type]
                    help=f"write an animation of the arms, the payload and the obstacles, {what} (.gif; .mp4 "
                         f"needs ffmpeg{also})")
@@ -36,10 +38,18 @@ class _OptionalFile(argparse.Action):
     tell them apart): say so, instead of argparse's "the following arguments are required"."""
 
     def __call__(self, parser, namespace, values, option_string=None) -> None:
+        if values == "":
+            parser.error(f"argument {option_string}: an empty file name")
         if isinstance(values, str) and values.lower().endswith(".cp"):
             parser.error(f"{option_string} took {values!r} as its FILE: put {option_string} after the domain "
                          f"file, or write {option_string}=FILE")
         setattr(namespace, self.dest, values)
+
+
+def _file_name(text: str) -> str:
+    if not text:
+        raise argparse.ArgumentTypeError("an empty file name")
+    return text
 
 
 def _frames(text: str) -> int:
@@ -63,16 +73,13 @@ def _dpi(text: str) -> int:
 
 
 def animation_check(path: str | None, option: str, prog: str) -> str | None:
-    """One line when ``path`` cannot take an animation (its name, ffmpeg, the place), or None."""
+    """One line when ``path`` cannot take an animation (its name, ffmpeg), or None; whether it
+    can be written is the command's check, with its other paths (:mod:`cplus.cli.paths`)."""
     if not path:
         return None
-    from cplus.cli.common import output_problem
     from trajectory.animate import animation_problem
     problem = animation_problem(path)
-    if problem is not None:
-        return f"{prog}: error: {option} {path}: {problem}"
-    where = output_problem(path)
-    return None if where is None else f"{prog}: error: cannot write {option} {path}: {where}"
+    return None if problem is None else f"{prog}: error: {option} {path}: {problem}"
 
 
 class FrameProgress:

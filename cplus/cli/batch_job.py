@@ -13,17 +13,12 @@ import os
 import time
 from typing import TYPE_CHECKING, Any
 
+from cplus.batch.results import PLAN_STATUSES
+
 if TYPE_CHECKING:
     from cplus.planner import QueryResult
 
-__all__ = ["run_job", "race", "variant", "worker_init", "PLAN_STATUSES", "DEFINITE"]
-
-PLAN_STATUSES = ("found", "no_plan", "no_plan_proved", "horizon_limit", "invariant_wrong", "no_safe_plan",
-                 "gave_up", "unsafe")
-"""A query's statuses, best first: a job's status is its queries' worst.  ``no_plan_proved``
-and ``invariant_wrong`` are a ``maxstep :: any`` query's proof (``cplus plan``'s exit codes 10
-and 11)."""
-
+__all__ = ["run_job", "race", "variant", "worker_init", "DEFINITE"]
 
 DEFINITE = ("found", "no_plan", "no_plan_proved", "horizon_limit", "invariant_wrong", "no_safe_plan", "unsafe")
 """Statuses that answer a job: the first of them ends a portfolio race."""
@@ -53,30 +48,41 @@ def run_job(job: dict, attempt: int = 1) -> dict:
 
 
 def race(job: dict, attempt: int = 1) -> dict:
-    """Run every portfolio variant of a job at once in child processes; the first whose
-    status answers the job wins and the others are killed (SIGTERM ends a solver at once).
-    The job's time limit bounds the whole race; each variant has its memory limit."""
+    """Run the portfolio variants of a job in child processes, as many at once as
+    :func:`cplus.options.worker_bound` allows (the rest start as earlier ones end without an
+    answer); the first whose status answers the job wins and the others are killed (SIGTERM
+    ends a solver at once).  The job's time limit bounds the whole race; each variant has its
+    memory limit."""
     import multiprocessing
+    from collections import deque
     from multiprocessing.connection import wait
 
     from cplus.batch.limits import Deadline
+    from cplus.options import worker_bound
     ctx = multiprocessing.get_context("fork")
     names = list(job["portfolio"])
-    procs = []
-    for name in names:
+    waiting = deque(names)
+    at_once = worker_bound(len(names), len(names))
+    procs: list = []
+    pending: dict[Any, tuple[str, Any]] = {}
+
+    def start() -> None:
+        name = waiting.popleft()
         recv, send = ctx.Pipe(duplex=False)
         p = ctx.Process(target=_variant_main, args=(send, variant(dict(job, timeout=None), name), attempt),
                         daemon=True)
         p.start()
         send.close()
         procs.append((name, p, recv))
+        pending[recv] = (name, p)
     t0 = time.perf_counter()
     records: dict[str, dict] = {}
     winner = None
     deadline = Deadline(job["timeout"])
     try:
         with deadline:
-            pending: dict[Any, tuple[str, Any]] = {recv: (name, p) for name, p, recv in procs}
+            while waiting and len(pending) < at_once:
+                start()
             while pending and winner is None:
                 for r in wait(list(pending)):
                     name, p = pending.pop(r)
@@ -88,6 +94,8 @@ def race(job: dict, attempt: int = 1) -> dict:
                     if rec.get("status") in DEFINITE:
                         winner = name
                         break
+                    if waiting:
+                        start()
     except KeyboardInterrupt:
         if not deadline.expired:
             raise
@@ -116,6 +124,9 @@ def race(job: dict, attempt: int = 1) -> dict:
 
 def _variant_main(conn, job: dict, attempt: int) -> None:
     import signal
+
+    from cplus.parallel.worker import die_with_parent
+    die_with_parent()           # its job's worker killed (a pool ended by Ctrl-C or SIGTERM): this ends too
     signal.signal(signal.SIGTERM, signal.SIG_DFL)
     try:
         conn.send(run_job(job, attempt))
@@ -138,6 +149,8 @@ def _run_job(job: dict, attempt: int) -> dict:
     t0, c0 = time.perf_counter(), time.process_time()
     record = _empty(job, attempt)
     timings = {"load_s": 0.0, "ground_s": 0.0, "encode_s": 0.0, "solve_s": 0.0}
+    from cplus.sat.solver import solver_names
+    solver_names()      # the solvers' library mapped before the memory limit: it counts for every job alike
     deadline = Deadline(job["timeout"])
     try:
         with deadline, MemoryLimit(job["memory"]):
@@ -189,9 +202,10 @@ def _run(job: dict, record: dict, timings: dict) -> None:
     if not labels:
         from cplus.errors import QueryError
         raise QueryError("this file has no queries; use 'query = \"states\"' to list its states")
+    nm = bool(job.get("nmquery"))
     for label in labels:
-        q = domain.query(label)
-        if q.invariant is not None:
+        q = domain.spec(label, nm)
+        if q.invariant is not None and not nm:
             _prove(domain, label, job["solver"], record, timings)
             continue
         t = time.perf_counter()
@@ -201,7 +215,9 @@ def _run(job: dict, record: dict, timings: dict) -> None:
         n = opts.get("n", 0 if every_state else 1)
         solver = job["solver"] or DEFAULT_SOLVER
         result: QueryResult
-        if opts.get("jobs") is not None:
+        if nm:                  # its own completion, solved in this process (as cplus plan does)
+            result = domain.solve(label, n, solver, opts.get("max_horizon"), nmquery=True)
+        elif opts.get("jobs") is not None:
             from cplus.parallel import DEFAULT_GAMMA, solve_parallel
             result = solve_parallel(domain, label, n, solver, opts.get("max_horizon"), jobs=opts["jobs"],
                                     strategy=opts.get("strategy", "A"), gamma=opts.get("gamma", DEFAULT_GAMMA),

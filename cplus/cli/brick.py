@@ -35,7 +35,18 @@ import sys
 import threading
 from dataclasses import replace
 
-from cplus.cli.common import EXIT_INPUT, EXIT_LINK, EXIT_OK, CliError, OneLineArgumentParser, number
+from cplus.cli.common import (
+    EXIT_INPUT,
+    EXIT_LINK,
+    EXIT_OK,
+    TIME_SCALE,
+    CliError,
+    OneLineArgumentParser,
+    in_range,
+    nonempty,
+    number,
+    time_scale,
+)
 from nxt_link.emulator import (
     BrickEmulator,
     EmulatorConfig,
@@ -62,18 +73,16 @@ def _probability(text: str) -> float:
     return value
 
 
-def _non_negative(text: str) -> float:
-    value = number(text)
-    if not (math.isfinite(value) and value >= 0):     # NaN compares false: an inf/nan delay is no delay
-        raise argparse.ArgumentTypeError(f"must be a finite number >= 0, got {text}")
-    return value
+BATTERY_MV = (1000, 12000)
+"""``--battery-mv``: what an NXT's six cells or its rechargeable pack can give, with margin
+(GETBATTERYLEVEL answers in an unsigned 16-bit field, and the motors run on this voltage)."""
 
+BACKLASH_DEG = (0.0, 45.0)
+"""``--backlash-deg``: gear play of a motor, up to an eighth of a turn."""
 
-def _positive_float(text: str) -> float:
-    value = _non_negative(text)
-    if value == 0:
-        raise argparse.ArgumentTypeError("must be > 0")
-    return value
+DELAY_MS = (0.0, 10000.0)
+"""``--delay``: added one-way delay of a frame, up to 10 s (the client gives a brick up after
+10 s without a valid answer)."""
 
 
 def _positive_int(text: str) -> int:
@@ -101,13 +110,13 @@ def build_parser() -> OneLineArgumentParser:
                     "robot running the cplus_legolog behaviour program on a line track. Prints "
                     "the device path on the first line, serves until interrupted.")
     p.add_argument("--name", required=True, help="brick name, e.g. r1")
-    p.add_argument("--link", metavar="PATH",
+    p.add_argument("--link", type=nonempty, metavar="PATH",
                    help="publish the pty as this symlink (default: a fresh temporary path)")
     p.add_argument("--drop", type=_probability, default=0.0, metavar="P",
                    help="drop each frame, either direction, with probability P")
     p.add_argument("--corrupt", type=_probability, default=0.0, metavar="P",
                    help="flip a byte in a reply frame or a MESSAGEWRITE payload with probability P")
-    p.add_argument("--delay", type=_non_negative, default=0.0, metavar="MS",
+    p.add_argument("--delay", type=in_range(*DELAY_MS, "milliseconds"), default=0.0, metavar="MS",
                    help="add MS milliseconds to every frame's one-way delay")
     p.add_argument("--disconnect-after", type=_positive_int, default=None, metavar="N",
                    help="drop the link once after N received frames (reopen the path to "
@@ -125,16 +134,17 @@ def build_parser() -> OneLineArgumentParser:
                          help="the program runs from power-on (default)")
     program.add_argument("--no-program", dest="program_running", action="store_false",
                          help="no program runs; the client must STARTPROGRAM it")
-    p.add_argument("--program", metavar="FILE.rxe", default=None,
+    p.add_argument("--program", type=nonempty, metavar="FILE.rxe", default=None,
                    help="run this compiled NXT program (put in the brick's flash under its file "
                         "name) instead of cplus_follow.rxe")
-    p.add_argument("--time-scale", type=_positive_float, default=1.0, metavar="X",
+    p.add_argument("--time-scale", type=time_scale, default=1.0, metavar="X",
                    help="run simulated time X times faster than real time (default 1)")
-    p.add_argument("--battery-mv", type=_positive_int, default=9000, metavar="MV",
-                   help="battery level reported, and motor supply voltage (default 9000)")
-    p.add_argument("--backlash-deg", type=_non_negative, default=MotorParams().backlash_deg,
-                   metavar="DEG", help="gear play of each motor, +-DEG (default 2)")
-    p.add_argument("--world", metavar="WORLD.toml",
+    p.add_argument("--battery-mv", type=in_range(*BATTERY_MV, "millivolts", int), default=9000, metavar="MV",
+                   help=f"battery level reported, and motor supply voltage ({BATTERY_MV[0]}..{BATTERY_MV[1]}, "
+                        "default 9000)")
+    p.add_argument("--backlash-deg", type=in_range(*BACKLASH_DEG, "degrees"), default=MotorParams().backlash_deg,
+                   metavar="DEG", help=f"gear play of each motor, +-DEG (at most {BACKLASH_DEG[1]:g}, default 2)")
+    p.add_argument("--world", type=nonempty, metavar="WORLD.toml",
                    help="a delivery robot on this track (cplus.world/1): the cplus_legolog "
                         "behaviour program runs; lines on stdin press the touch sensor")
     p.add_argument("--stall", type=_stall, action="append", default=[],
@@ -151,6 +161,11 @@ def config_from_args(args: argparse.Namespace) -> EmulatorConfig:
     Raises:
         WorldFileError: the ``--world`` file is bad (located).
     """
+    for option, value, (lo, hi) in (("--battery-mv", args.battery_mv, BATTERY_MV),
+                                    ("--backlash-deg", args.backlash_deg, BACKLASH_DEG),
+                                    ("--delay", args.delay, DELAY_MS), ("--time-scale", args.time_scale, TIME_SCALE)):
+        if not lo <= value <= hi:        # a Namespace built by a caller, not by the parser
+            raise ValueError(f"{option} {value}: must be at least {lo:g} and at most {hi:g}")
     motors = MotorParams(supply_v=args.battery_mv / 1000.0, backlash_deg=args.backlash_deg)
     world = None
     if getattr(args, "world", None):
@@ -215,6 +230,9 @@ def main(args: argparse.Namespace) -> int:
     try:
         if not args.name or not args.name.isprintable() or "/" in args.name:
             raise CliError(f"cplus brick: error: invalid brick name {args.name!r}")
+        problem = link_problem(args.link)        # before the world is read and the program compiled
+        if problem is not None:
+            raise CliError(f"cplus brick: error: --link {args.link}: {problem}")
         config = config_from_args(args)
         files, symbols, start = program_files(args)
         config = replace(config, flash_files=files, symbols=symbols,
@@ -224,10 +242,6 @@ def main(args: argparse.Namespace) -> int:
         return EXIT_INPUT
     except ValueError as exc:
         print(f"cplus brick: error: {exc}", file=sys.stderr)
-        return EXIT_INPUT
-    problem = link_problem(args.link)
-    if problem is not None:
-        print(f"cplus brick: error: --link {args.link}: {problem}", file=sys.stderr)
         return EXIT_INPUT
     if args.verbose:
         logging.basicConfig(level=logging.DEBUG if args.verbose > 1 else logging.INFO,
@@ -291,8 +305,11 @@ def link_problem(path: str | None) -> str | None:
     before it could clean up). A file, a directory, any other link, or the link of a pty that
     still exists (a brick serving there) is refused: publishing would replace it, and the exit
     would delete it."""
-    if path is None or not os.path.lexists(path):
+    if path is None:
         return None
+    if not os.path.lexists(path):
+        from cplus.cli.paths import output_problem
+        return output_problem(path)     # its folder exists, and a link can be made there
     if os.path.islink(path):
         target = os.readlink(path)
         if target.startswith("/dev/pts/"):

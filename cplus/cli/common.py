@@ -34,10 +34,11 @@ import math
 import os
 import sys
 
-__all__ = ["output_problem", "EXIT_OK", "EXIT_NO_PLAN", "EXIT_LINK", "EXIT_INPUT", "EXIT_LIMIT", "EXIT_NO_SAFE_PLAN",
+__all__ = ["EXIT_OK", "EXIT_NO_PLAN", "EXIT_LINK", "EXIT_INPUT", "EXIT_LIMIT", "EXIT_NO_SAFE_PLAN",
            "EXIT_GAVE_UP", "EXIT_NO_PLAN_PROVED", "EXIT_INVARIANT_WRONG", "EXIT_NOT_PROVED", "EXIT_CONTRADICTED",
            "EXIT_AMBIGUOUS", "EXIT_ROBOT_LOST", "EXIT_UNSAFE", "EXIT_INTERRUPTED", "CliError", "OneLineArgumentParser",
-           "nonneg", "number", "positive", "positive_int", "externals",
+           "nonneg", "number", "positive", "positive_int", "externals", "checked", "query_label", "in_range", "nonempty", "time_scale", "action_seconds", "TIME_SCALE",
+           "ACTION_TIME_MAX_S",
            "Warnings", "horizon_progress", "clear_progress", "query", "file_loc", "robot_exit_code"]
 
 EXIT_OK = 0
@@ -65,7 +66,19 @@ class OneLineArgumentParser(argparse.ArgumentParser):
     """argparse that reports a usage error as one line and raises instead of exiting."""
 
     def error(self, message: str) -> None:  # type: ignore[override]
-        raise CliError(f"{self.prog}: error: {message}")
+        raise CliError(f"{self.prog}: error: {message}{self._did_you_mean(message)}")
+
+    def _did_you_mean(self, message: str) -> str:
+        """`` (did you mean --minimize?)`` after an unknown flag close to one of this parser's."""
+        if not message.startswith("unrecognized arguments: "):
+            return ""
+        import difflib
+        flags = [f for f in self._option_string_actions if f.startswith("--")]
+        for word in message.split(": ", 1)[1].split():
+            if word.startswith("--"):
+                match = difflib.get_close_matches(word.split("=", 1)[0], flags, n=1, cutoff=0.7)
+                return f" (did you mean {match[0]}?)" if match else ""
+        return ""
 
     def _get_formatter(self) -> argparse.HelpFormatter:
         """The help formatter, told the terminal's width: left to itself it imports shutil to
@@ -131,6 +144,72 @@ def seconds(text: str) -> float:
 
 def positive_int(text: str) -> int:
     return _integer(text, 1, "positive")
+
+
+def checked(check, kind: type = str):
+    """An argparse type from a check of :mod:`cplus.options` (the job files' and the API's):
+    the flag's text converted to ``kind``, then checked; its refusal is argparse's one line."""
+    from cplus.options import OptionError, from_text
+    parse = from_text(check, kind)
+
+    def convert(text: str):
+        try:
+            return parse(text)
+        except OptionError as exc:
+            raise argparse.ArgumentTypeError(exc.message) from None
+    convert.__name__ = parse.__name__
+    return convert
+
+
+def nonempty(text: str) -> str:
+    """A file name: not empty (an empty one is not "absent")."""
+    if not text:
+        raise argparse.ArgumentTypeError("an empty file name")
+    return text
+
+
+def query_label(text: str) -> str:
+    """A query label (``--query``, ``--goal``, ``--nmquery``): not empty."""
+    if not text.strip():
+        raise argparse.ArgumentTypeError("expected a query label, got an empty one")
+    return text
+
+
+def in_range(lo: float, hi: float, unit: str, kind: type = float):
+    """An argparse type: a ``kind`` number from ``lo`` to ``hi`` (``unit`` names it), refused
+    with the range in one line otherwise (NaN and infinities included): a number the user
+    typed is honoured or refused, never wrapped or clamped."""
+    def convert(text: str):
+        try:
+            value = kind(text)
+        except ValueError:
+            value = None
+        if value is None or not lo <= value <= hi:
+            raise argparse.ArgumentTypeError(f"must be at least {lo:g} and at most {hi:g} {unit}, got {text!r}")
+        return value
+    convert.__name__ = kind.__name__
+    return convert
+
+
+TIME_SCALE = (0.001, 1000.0)
+"""``--time-scale X`` of every command that runs emulated bricks (``execute``, ``run``,
+``online``, ``serve``, ``brick``): from a thousandth of real time (a tick of 10 ms lasts 10 s)
+to a thousand times faster (the emulation cannot keep up beyond); ``1e-300`` would stop the
+clock and ``1e300`` overflow the brick's timers."""
+
+time_scale = in_range(*TIME_SCALE, "times real time")
+
+ACTION_TIME_MAX_S = 3600.0
+"""The longest ``--action-time`` of a simulated robot (``cplus online --simulate``, ``cplus
+serve``): an hour per action; more would only make the run wait without end."""
+
+def action_seconds(text: str) -> float:
+    """``--action-time``: seconds from 0 to :data:`ACTION_TIME_MAX_S` (``cplus online`` and
+    ``cplus serve`` alike)."""
+    value = seconds(text)
+    if value > ACTION_TIME_MAX_S:
+        raise argparse.ArgumentTypeError(f"at most {ACTION_TIME_MAX_S:g} seconds, got {text!r}")
+    return value
 
 
 def parse_bricks(items: list[str], prog: str) -> dict[str, str]:
@@ -246,24 +325,3 @@ def robot_exit_code(status) -> int:
     return {RefineStatus.FOUND: EXIT_OK, RefineStatus.UNSAFE: EXIT_UNSAFE, RefineStatus.NO_PLAN: EXIT_NO_PLAN,
             RefineStatus.HORIZON_LIMIT: EXIT_LIMIT, RefineStatus.NO_SAFE_PLAN: EXIT_NO_SAFE_PLAN,
             RefineStatus.GAVE_UP: EXIT_GAVE_UP}[status]
-
-
-def output_problem(path: str) -> str | None:
-    """Why ``path`` cannot be written (or its directory created), or None.
-
-    Checked before the work starts, so an unwritable output is found before the robots move.
-    Nothing is created.
-    """
-    p = os.path.abspath(path)
-    if os.path.isdir(p):
-        return "it is a directory"
-    if os.path.exists(p):
-        return None if os.access(p, os.W_OK) else "permission denied"
-    parent = os.path.dirname(p)
-    while not os.path.exists(parent):
-        parent = os.path.dirname(parent)
-    if not os.path.isdir(parent):
-        return f"{parent} is not a directory"
-    if not os.access(parent, os.W_OK | os.X_OK):
-        return f"permission denied in {parent}"
-    return None

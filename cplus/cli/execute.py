@@ -16,7 +16,6 @@ from __future__ import annotations
 
 import argparse
 import math
-import os
 import sys
 import threading
 from collections.abc import Callable, Mapping
@@ -36,12 +35,15 @@ from cplus.cli.common import (
     CliError,
     OneLineArgumentParser,
     distinct_bricks,
+    nonempty,
     nonneg,
-    output_problem,
     parse_bricks,
     positive,
+    time_scale,
 )
+from cplus.cli.paths import Input, Output, check_paths
 from cplus.cli.signals import Shutdown, Stopped, exit_code_of, motors_off, reason_of
+from cplus.files import output_path, write_output
 from cplus.robot.execution import (
     EmulatorSettings,
     check_ports,
@@ -114,13 +116,13 @@ def build_parser() -> OneLineArgumentParser:
                     "--brick is given), report the tracking error and plot executed vs planned.")
     p.add_argument("trajectory", help="trajectory JSON (cplus.trajectory/1)")
     add_execution_options(p)
-    p.add_argument("--log", metavar="FILE", help="write the execution log (cplus.execlog/1)")
-    p.add_argument("--plot", metavar="FILE", help="plot executed against planned (.png or .svg), with the "
+    p.add_argument("--log", type=nonempty, metavar="FILE", help="write the execution log (cplus.execlog/1)")
+    p.add_argument("--plot", type=nonempty, metavar="FILE", help="plot executed against planned (.png or .svg), with the "
                    "motor angles, tracking error and brick phases against time")
     add_animation_options(p)
-    p.add_argument("--report", metavar="FILE",
+    p.add_argument("--report", type=nonempty, metavar="FILE",
                    help="write the tracking report to FILE instead of standard output")
-    p.add_argument("--scene", metavar="SCENE",
+    p.add_argument("--scene", type=nonempty, metavar="SCENE",
                    help="the scene: motor limits and the plot (default: scene.toml beside the "
                         "trajectory's source domain)")
     p.add_argument("--quiet", "-q", action="store_true", help="no progress on stderr")
@@ -148,7 +150,7 @@ def add_execution_options(p: argparse.ArgumentParser, *, fast: bool = False) -> 
                               + ("" if fast else " (default)"))
     latency.add_argument("--no-latency", dest="latency", action="store_false",
                          help="emulated bricks answer at once" + (" (default)" if fast else ""))
-    p.add_argument("--time-scale", type=positive, default=None, metavar="X",
+    p.add_argument("--time-scale", type=time_scale, default=None, metavar="X",
                    help="emulated bricks run on the wall clock, X times faster than real time (1 = real "
                         "time); default: on simulated time, as fast as the emulation goes and whatever the "
                         "machine's load; with --brick, the bricks' own time scale (default 1)")
@@ -179,22 +181,6 @@ def clock_of(args: argparse.Namespace) -> str:
     return "simulated clock" if not args.brick and args.time_scale is None else "PC clock"
 
 
-def check_outputs(paths: Mapping[str, str | None], prog: str) -> str | None:
-    """One line for the first output option that cannot be written, or None."""
-    seen: dict[str, str] = {}
-    for option, path in paths.items():
-        if not path:
-            continue
-        key = os.path.abspath(path)
-        if key in seen:
-            return f"{prog}: error: {seen[key]} and {option} are the same file {path}"
-        seen[key] = option
-        problem = output_problem(path)
-        if problem is not None:
-            return f"{prog}: error: cannot write {option} {path}: {problem}"
-    return None
-
-
 def execution_options(args: argparse.Namespace) -> nxt_link.ExecutionOptions:
     return nxt_link.ExecutionOptions(
         controller=nxt_link.ControllerSettings(kp_num=args.kp[0], kp_den=args.kp[1],
@@ -203,7 +189,7 @@ def execution_options(args: argparse.Namespace) -> nxt_link.ExecutionOptions:
         time_scale=args.time_scale or 1.0)
 
 
-def _scene_for(args: argparse.Namespace, traj: trajectory.Trajectory) -> trajectory.Scene | None:
+def _scene_path(args: argparse.Namespace, traj: trajectory.Trajectory) -> str | None:
     """``--scene``, else the scene the trajectory names (``source.scene``, relative to the
     trajectory file), else ``scene.toml`` beside its ``source.domain`` (relative to the
     trajectory file; in a file written before the scene was named, relative to where its run
@@ -221,9 +207,7 @@ def _scene_for(args: argparse.Namespace, traj: trajectory.Trajectory) -> traject
         else:
             candidates = []
         path = next((str(c) for c in candidates if c.is_file()), None)
-    if path is None:
-        return None
-    return trajectory.load_scene(path)
+    return path
 
 
 @dataclass
@@ -249,43 +233,49 @@ class _Outputs:
         report = tracking_report(self.traj, log, unit_mm)
         header = (f"{args.trajectory}: {len(self.traj.robots)} robot(s), {self.traj.ticks} ticks "
                   f"x {self.traj.tick_ms} ms ({self.traj.ticks * self.traj.tick_ms / 1000:g} s)")
+        writing = "standard output"
         try:
             if args.log:
-                _write(args.log, log.dumps() + "\n")
+                writing = f"--log {args.log}"
+                write_output(args.log, log.dumps() + "\n")
                 self._wrote(args.log)
             if args.report:
-                _write(args.report, report.text(header))
+                writing = f"--report {args.report}"
+                write_output(args.report, report.text(header))
                 self._wrote(args.report)
             else:
+                writing = "standard output"
                 sys.stdout.write(report.text(header))
                 sys.stdout.flush()
             if args.plot and self.scene is not None and not plot:
                 print(f"cplus execute: no plot {args.plot}: the run was stopped by a signal", file=self.err)
             elif args.plot and self.scene is not None:
-                _mkdir_for(args.plot)
+                writing = f"--plot {args.plot}"
                 title = f"{self.scene.name}: executed (solid) vs planned (dashed)"
                 if not log.complete:
                     title += ", incomplete"
-                trajectory.plot_execution(self.scene, self.traj.planned_paths(),
-                                          {k: v for k, v in report.executed_paths.items() if len(v)},
-                                          args.plot, title=title, timeline=run_timeline(log, clock_of(args)))
+                with output_path(args.plot) as tmp:
+                    trajectory.plot_execution(self.scene, self.traj.planned_paths(),
+                                              {k: v for k, v in report.executed_paths.items() if len(v)},
+                                              tmp, title=title, timeline=run_timeline(log, clock_of(args)))
                 self._wrote(args.plot)
             if args.animate and self.scene is not None and not plot:
                 print(f"cplus execute: no animation {args.animate}: the run was stopped by a signal", file=self.err)
             elif args.animate and self.scene is not None:
+                writing = f"--animate {args.animate}"
                 title = f"{self.scene.name}: executed (solid) vs planned (dashed)"
-                trajectory.animate_run(self.scene, self.traj, args.animate, timeline=run_timeline(log, clock_of(args)),
-                                       title=title + ("" if log.complete else ", incomplete"),
-                                       max_frames=args.frames, dpi=args.dpi,
-                                       on_progress=FrameProgress("cplus execute", args.animate, self.err,
-                                                                 args.quiet))
+                with output_path(args.animate) as tmp:
+                    trajectory.animate_run(self.scene, self.traj, tmp, timeline=run_timeline(log, clock_of(args)),
+                                           title=title + ("" if log.complete else ", incomplete"),
+                                           max_frames=args.frames, dpi=args.dpi,
+                                           on_progress=FrameProgress("cplus execute", args.animate, self.err,
+                                                                     args.quiet))
                 self._wrote(args.animate)
         except trajectory.TrajectoryError as exc:
-            print(f"cplus execute: {exc}", file=self.err)
+            print(f"cplus execute: error: {exc}", file=self.err)
             return False
         except OSError as exc:
-            print(f"cplus execute: error: cannot write {exc.filename}: {exc.strerror}",
-                  file=self.err)
+            print(f"cplus execute: error: cannot write {writing}: {exc.strerror or exc}", file=self.err)
             return False
         return True
 
@@ -327,20 +317,26 @@ def main(args: argparse.Namespace) -> int:
     except CliError as exc:
         print(exc, file=err)
         return EXIT_INPUT
-    problem = check_outputs({"--log": args.log, "--report": args.report, "--plot": args.plot,
-                             "--animate": args.animate}, prog)
-    if problem is None and args.plot and Path(args.plot).suffix.lower() not in (".png", ".svg"):
-        problem = f"{prog}: error: cannot plot to {args.plot}: use a .png or .svg file name"
+    products = [Output("--log", args.log), Output("--report", args.report), Output("--plot", args.plot),
+                Output("--animate", args.animate)]
+    problem = None
+    if args.plot and Path(args.plot).suffix.lower() not in (".png", ".svg"):
+        problem = f"{prog}: error: --plot {args.plot}: use a .png or .svg file name"
     if problem is None:
         problem = animation_check(args.animate, "--animate", prog)
-    if problem is not None:
-        print(problem, file=err)
-        return EXIT_INPUT
     try:
+        if problem is not None:
+            raise CliError(problem)
+        check_paths(prog, [Input(args.trajectory, "the trajectory"), Input(args.scene, "the scene")], products)
         traj = trajectory.load_trajectory(args.trajectory)
-        scene = _scene_for(args, traj)
+        scene_path = _scene_path(args, traj)
+        check_paths(prog, [Input(args.trajectory, "the trajectory"), Input(scene_path, "the scene")], products)
+        scene = None if scene_path is None else trajectory.load_scene(scene_path)
+    except CliError as exc:
+        print(exc, file=err)
+        return EXIT_INPUT
     except trajectory.TrajectoryError as exc:
-        print(f"{prog}: {exc}", file=err)
+        print(f"{prog}: error: {exc}", file=err)
         return EXIT_INPUT
     for option, given in (("--plot", args.plot), ("--animate", args.animate)):
         if given and scene is None:
@@ -354,7 +350,7 @@ def main(args: argparse.Namespace) -> int:
         if ports:
             check_ports(traj, ports)
     except SetpointError as exc:
-        print(f"{prog}: refused before anything moved: {exc}", file=err)
+        print(f"{prog}: error: refused before anything moved: {exc}", file=err)
         return EXIT_INPUT
     progress = None if args.quiet else _ProgressPrinter(err)
     outputs = _Outputs(args, traj, scene, err)
@@ -384,7 +380,7 @@ def main(args: argparse.Namespace) -> int:
         try:
             log = execute()
         except SetpointError as exc:
-            print(f"{prog}: refused before anything moved: {exc}", file=err)
+            print(f"{prog}: error: refused before anything moved: {exc}", file=err)
             return EXIT_INPUT
         except ExecutionFailed as exc:
             outputs.write(exc.log)  # type: ignore[arg-type]
@@ -411,22 +407,3 @@ def main(args: argparse.Namespace) -> int:
         print(f"{prog}: {error}", file=err)
         return EXIT_LINK
     return EXIT_OK
-
-
-def _mkdir_for(path: str) -> None:
-    parent = os.path.dirname(os.path.abspath(path))
-    os.makedirs(parent, exist_ok=True)
-
-
-def _write(path: str, text: str) -> None:
-    """Write ``text`` to ``path`` whole or not at all (a temporary file renamed over it): a
-    process ended by the shutdown watchdog never leaves half a log."""
-    _mkdir_for(path)
-    tmp = f"{path}.{os.getpid()}.tmp"
-    try:
-        with open(tmp, "w", encoding="utf-8") as f:
-            f.write(text)
-        os.replace(tmp, path)
-    finally:
-        if os.path.exists(tmp):
-            os.remove(tmp)

@@ -16,7 +16,6 @@ ended), 124 a second signal (:mod:`cplus.cli.signals`).
 from __future__ import annotations
 
 import argparse
-import os
 import sys
 from collections.abc import Sequence
 from typing import TextIO
@@ -30,14 +29,21 @@ from cplus.cli.common import (
     EXIT_NO_PLAN,
     EXIT_OK,
     EXIT_ROBOT_LOST,
+    CliError,
     OneLineArgumentParser,
     Warnings,
+    action_seconds,
+    checked,
+    nonempty,
     nonneg,
     parse_bricks,
     positive,
-    seconds,
+    query_label,
+    time_scale,
 )
+from cplus.cli.paths import Input, Output, check_paths
 from cplus.cli.signals import Shutdown, exit_code_of, motors_off, reason_of
+from cplus.options import check_max_horizon, check_solver
 
 __all__ = ["build_parser", "main", "exit_code", "end_line", "goal_error"]
 
@@ -59,33 +65,33 @@ def build_parser() -> OneLineArgumentParser:
         description="Run a C+ domain online on a robot: plan, act, sense, observe events, estimate the state, "
                     "re-plan when the world differs from the plan, until the goal holds.")
     p.add_argument("domain", help="the C+ domain file")
-    p.add_argument("--goal", metavar="LABEL", help="the query whose step-0 conditions are the start and whose "
+    p.add_argument("--goal", type=query_label, metavar="LABEL", help="the query whose step-0 conditions are the start and whose "
                    "other conditions are the goal (default: the file's first query)")
-    p.add_argument("--robot", metavar="FILE", help="the binding file (cplus.robot/1; default: robot.toml beside "
+    p.add_argument("--robot", type=nonempty, metavar="FILE", help="the binding file (cplus.robot/1; default: robot.toml beside "
                    "the domain)")
     p.add_argument("--brick", action="append", default=[], metavar="NAME=PORT",
                    help="brick NAME is at PORT (/dev/rfcomm0, or a `cplus brick` pty); repeat per brick; none: "
                         "emulate every brick in its world")
     p.add_argument("--simulate", action="store_true",
                    help="no brick: a simulated robot that does what the model predicts (events come from --events)")
-    p.add_argument("--action-time", type=seconds, default=None, metavar="SECONDS",
+    p.add_argument("--action-time", type=action_seconds, default=None, metavar="SECONDS",
                    help=f"with --simulate: how long each action takes (default {ACTION_TIME:g}; with --events -, "
                         f"{TYPING_ACTION_TIME:g}, so that there is time to type an event)")
-    p.add_argument("--events", metavar="FILE|-", help="events from a file or standard input: lines "
+    p.add_argument("--events", type=nonempty, metavar="FILE|-", help="events from a file or standard input: lines "
                    "'[@CYCLE] EVENT ...' naming events whose binding source is 'input'")
-    p.add_argument("--log", metavar="FILE", help="write the run as JSON lines (cplus.online/1)")
+    p.add_argument("--log", type=nonempty, metavar="FILE", help="write the run as JSON lines (cplus.online/1)")
     p.add_argument("--max-cycles", type=nonneg, metavar="N", help="stop after N cycles without reaching the goal")
-    p.add_argument("--max-horizon", type=nonneg, metavar="N",
+    p.add_argument("--max-horizon", type=checked(check_max_horizon, int), metavar="N",
                    help="longest plan when the goal's maxstep range is open (default 40)")
     p.add_argument("--no-latency", action="store_true",
                    help="emulated bricks answer at once instead of with Bluetooth timing")
-    p.add_argument("--time-scale", type=positive, default=None, metavar="X",
+    p.add_argument("--time-scale", type=time_scale, default=None, metavar="X",
                    help="emulated bricks and their worlds run on the wall clock, X times faster than real time "
                         "(1 = real time); default: on simulated time, as fast as the emulation goes and whatever "
                         "the machine's load")
-    p.add_argument("--solver", default=None, help="SAT solver (default glucose4)")
+    p.add_argument("--solver", type=checked(check_solver), default=None, help="SAT solver (default glucose4)")
     arms = p.add_argument_group("the payload arms of a robot task (a scene.toml beside the domain)")
-    arms.add_argument("--scene", metavar="FILE", help="the scene (default: scene.toml beside the domain, when there "
+    arms.add_argument("--scene", type=nonempty, metavar="FILE", help="the scene (default: scene.toml beside the domain, when there "
                       "is no robot.toml)")
     arms.add_argument("--tracking-threshold", type=positive, default=30.0, metavar="DEG",
                       help="a motor this far from its setpoints is not following: stop, map to the grid, re-plan "
@@ -182,7 +188,6 @@ def _v(value: object) -> str:
 
 def main(args: argparse.Namespace) -> int:
     """``cplus online``; returns the exit code."""
-    from cplus.cli.common import CliError
     from cplus.robot.offline.task import scene_beside
     from cplus.robot.online.binding import binding_beside
     err = sys.stderr
@@ -236,20 +241,36 @@ def goal_error(domain, label: str) -> str | None:
 
 
 class _Log:
-    """``--log FILE``: opened before the run (a bad path is an input error), closed after."""
+    """``--log FILE``: checked with the other paths and opened before the run (a bad path is
+    an input error), closed after.  Written as the run goes, in place (a run ended by the
+    watchdog or killed leaves what it did): a regular file is truncated, a device or a FIFO
+    written through, nothing replaced."""
 
-    def __init__(self, path: str | None) -> None:
+    def __init__(self, path: str | None, inputs: list[Input]) -> None:
         self.path = path
+        self.inputs = inputs
         self.file: TextIO | None = None
 
     def open(self) -> bool:
         if self.path:
             try:
-                os.makedirs(os.path.dirname(os.path.abspath(self.path)), exist_ok=True)
+                check_paths("cplus online", self.inputs, [Output("--log", self.path)])
                 self.file = open(self.path, "w", encoding="utf-8")
-            except OSError as exc:
-                print(f"cplus online: error: cannot write {self.path}: {exc.strerror}", file=sys.stderr)
+            except CliError as exc:
+                print(exc, file=sys.stderr)
                 return False
+            except OSError as exc:
+                print(f"cplus online: error: --log {self.path}: cannot write: {exc.strerror}", file=sys.stderr)
+                return False
+        return True
+
+    def check(self) -> bool:
+        """The path checked alone (before the bricks are started; opened after)."""
+        try:
+            check_paths("cplus online", self.inputs, [Output("--log", self.path)])
+        except CliError as exc:
+            print(exc, file=sys.stderr)
+            return False
         return True
 
     def observer(self, extra: dict) -> list:
@@ -307,8 +328,12 @@ def _behaviours(args: argparse.Namespace, robot: str, ports: dict[str, str]) -> 
         lines = parse_events(text, args.events)
         check_events(lines, binding.input_events(args.simulate))
         sources.append(ScriptedEvents(lines))
+    inputs = [Input(args.domain, "the domain"), Input(robot, "the binding"), Input(args.events, "the events file"),
+              *(Input(str(b.world), "a world file") for b in binding.bricks.values() if b.world is not None)]
+    log = _Log(args.log, inputs)
+    if args.log and not log.check():
+        return EXIT_INPUT
     executor = _executor(args, model, binding, ports)
-    log = _Log(args.log)
     if not log.open():
         return EXIT_INPUT
     observers: list = ([] if args.quiet else [Progress(err)]) + log.observer({"binding": robot})
@@ -336,7 +361,6 @@ def _executor(args: argparse.Namespace, model, binding, ports: dict[str, str]):
 
 def _arms(args: argparse.Namespace, scene: str, ports: dict[str, str]) -> int:
     """The payload arms of a robot task: trajectories, monitored; re-planned after a fault."""
-    from cplus.cli.common import CliError
     from cplus.robot.offline.task import RobotTask
     from cplus.robot.online.payload_monitor import ArmsExecutor, run_arms
     err = sys.stderr
@@ -361,7 +385,7 @@ def _arms(args: argparse.Namespace, scene: str, ports: dict[str, str]) -> int:
     except CliError as exc:
         print(exc, file=err)
         return EXIT_INPUT
-    log = _Log(args.log)
+    log = _Log(args.log, [Input(args.domain, "the domain"), Input(scene, "the scene")])
     if not log.open():
         return EXIT_INPUT
     executor = ArmsExecutor(robots, ports or None, stalls, time_scale=args.time_scale, latency=not args.no_latency)
@@ -410,7 +434,6 @@ def _stop_reason(shutdown) -> str:
 
 
 def _stalls(items: Sequence[str], robots: Sequence[str]) -> dict:
-    from cplus.cli.common import CliError
     from nxt_link.stall import Stall
     out: dict[str, list] = {}
     for item in items:

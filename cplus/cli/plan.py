@@ -18,80 +18,85 @@ from cplus.cli.common import (
     EXIT_OK,
     OneLineArgumentParser,
     Warnings,
+    checked,
     clear_progress,
     externals,
     file_loc,
     horizon_progress,
-    nonneg,
+    nonempty,
     positive,
     positive_int,
     query,
+    query_label,
     robot_exit_code,
     scene_beside,
 )
+from cplus.cli.paths import Input, Output, check_paths
+from cplus.options import (
+    WORKERS_PER_CORE,
+    check_gamma,
+    check_jobs,
+    check_max_horizon,
+    check_max_iterations,
+    check_solutions,
+    check_solver,
+    check_term,
+    check_time_limit,
+)
 
-__all__ = ["build_parser", "main", "add_common", "add_robot_options"]
+__all__ = ["build_parser", "main", "add_common", "add_robot_options", "inputs_of"]
 
 
 def build_parser() -> OneLineArgumentParser:
     p = OneLineArgumentParser(prog="cplus plan", description="Answer the queries of a C+ file.")
     p.add_argument("file", help="the C+ file ('-' reads standard input)")
     which = p.add_mutually_exclusive_group()
-    which.add_argument("--query", "-q", metavar="LABEL", help="run only this query ('states': every state)")
-    which.add_argument("--nmquery", metavar="LABEL",
+    which.add_argument("--query", "-q", type=query_label, metavar="LABEL", help="run only this query ('states': every state)")
+    which.add_argument("--nmquery", type=query_label, metavar="LABEL",
                        help="run only this nmquery (its rules completed on their own, as CCALC's nmquery)")
-    p.add_argument("-n", type=nonneg, default=None, metavar="N",
+    p.add_argument("-n", type=checked(check_solutions, int), default=None, metavar="N",
                    help="number of solutions (0 = all; default 1, all for '--query states')")
     p.add_argument("--json", action="store_true", help="print the result as cplus.plan/1 JSON")
     p.add_argument("--stats", action="store_true", help="print sizes and times per horizon on stderr")
     g = p.add_argument_group("cost-optimal plans")
-    g.add_argument("--minimize", metavar="TERM",
+    g.add_argument("--minimize", type=checked(check_term), metavar="TERM",
                    help="the cheapest plan by TERM, an integer fluent or a sum of them at the last step "
                         "(shortest plan first, then cheapest at that length, proved)")
     g.add_argument("--over-lengths", action="store_true",
                    help="with --minimize: the cheapest over the query's whole maxstep range")
-    g.add_argument("--time-limit", type=positive, default=None, metavar="SECONDS",
-                   help="with --minimize: stop looking for cheaper plans after SECONDS (exit 12, the best so far)")
+    g.add_argument("--time-limit", type=checked(check_time_limit, float), default=None, metavar="SECONDS",
+                   help="with --minimize: stop looking for cheaper plans after SECONDS (exit 12, the best so far; "
+                        "the first plan is always waited for)")
     add_common(p)
     g = p.add_argument_group("several horizons at once, on worker processes")
-    g.add_argument("--jobs", "-j", type=jobs, default=None, metavar="N|auto",
-                   help="solve on N worker processes ('auto': the cores there are, only once horizons get hard)")
+    g.add_argument("--jobs", "-j", type=checked(check_jobs, int), default=None, metavar="N|auto",
+                   help=f"solve on up to N worker processes ('auto': the cores there are, only once horizons get "
+                        f"hard); no more start than horizons can run at once, nor {WORKERS_PER_CORE} per core")
     g.add_argument("--strategy", choices=("sequential", "A", "B"), default=None,
                    help="which horizons run at once: one (sequential), N (A, the default), or horizon k+i at "
                         "a share gamma^i of the shortest unfinished k's time (B)")
-    g.add_argument("--gamma", type=gamma, default=None, metavar="G", help="strategy B's rate, 0 < G <= 1 (default 0.8)")
+    g.add_argument("--gamma", type=checked(check_gamma, float), default=None, metavar="G", help="strategy B's rate, 0 < G <= 1 (default 0.8)")
     g.add_argument("--any-length", action="store_true",
                    help="the first plan found, not proved shortest (say which shorter maxsteps are open)")
     add_robot_options(p)
     return p
 
 
-def jobs(text: str) -> int | str:
-    return "auto" if text == "auto" else positive_int(text)
-
-
-def gamma(text: str) -> float:
-    v = positive(text)
-    if v > 1:
-        raise argparse.ArgumentTypeError(f"expected 0 < G <= 1, got '{text}'")
-    return v
-
-
 def add_common(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--solver", default=None, metavar="NAME",
+    p.add_argument("--solver", type=checked(check_solver), default=None, metavar="NAME",
                    help="pysat solver (default glucose4; minisat22 for a robot task's refinement)")
-    p.add_argument("--max-horizon", type=nonneg, default=None, metavar="N",
+    p.add_argument("--max-horizon", type=checked(check_max_horizon, int), default=None, metavar="N",
                    help="stop an open range N..infinity at this maxstep")
-    p.add_argument("--extern", action="append", default=[], metavar="FILE.py",
+    p.add_argument("--extern", type=nonempty, action="append", default=[], metavar="FILE.py",
                    help="a Python file whose functions are external predicates/functions")
 
 
 def add_robot_options(p: argparse.ArgumentParser) -> None:
     g = p.add_argument_group("robot tasks (a scene.toml beside the domain, or --scene)")
-    g.add_argument("--scene", metavar="FILE", help="scene file (default: scene.toml beside the domain)")
+    g.add_argument("--scene", type=nonempty, metavar="FILE", help="scene file (default: scene.toml beside the domain)")
     g.add_argument("--no-refine", action="store_true",
                    help="check the first plan and show it, do not refine it (exit 9 if it is not collision-free)")
-    g.add_argument("--max-iterations", type=nonneg, default=0, metavar="N",
+    g.add_argument("--max-iterations", type=checked(check_max_iterations, int), default=0, metavar="N",
                    help="give up (exit 5) after N refinement iterations (default 0: no limit)")
     g.add_argument("--nogoods", choices=("positions", "actions"), default="positions",
                    help="what a violation teaches: the positions it depends on, at every step (default), or "
@@ -239,10 +244,10 @@ def _plan_robot_task(args: argparse.Namespace, scene_path: str) -> int:
     from cplus.output import PLAN_FORMAT, Display, format_result
     from cplus.robot import RefineStatus, RobotTask, TaskError, check_outputs, export_plan, refine
     if args.n != 1:
-        print("cplus plan: -n applies to plain domains; a robot task yields one refined plan", file=sys.stderr)
+        print("cplus plan: error: -n applies to plain domains; a robot task yields one refined plan", file=sys.stderr)
         return EXIT_INPUT
     if args.nmquery:
-        print("cplus plan: --nmquery applies to plain domains; a robot task refines the plans of its queries",
+        print("cplus plan: error: --nmquery applies to plain domains; a robot task refines the plans of its queries",
               file=sys.stderr)
         return EXIT_INPUT
     check_outputs(plot=args.plot, trajectory_json=args.trajectory, csv=args.csv,
@@ -251,6 +256,9 @@ def _plan_robot_task(args: argparse.Namespace, scene_path: str) -> int:
     if problem is not None:
         print(problem, file=sys.stderr)
         return EXIT_INPUT
+    check_paths("cplus plan", inputs_of(args, scene_path),
+                [Output(option, path) for option, path in (("--trajectory", args.trajectory), ("--csv", args.csv),
+                                                           ("--plot", args.plot), ("--animate", args.animate))])
     warn = Warnings()
     t0 = time.perf_counter()
     task = RobotTask.load(args.file, scene_path, args.extern)
@@ -345,12 +353,18 @@ def _plan_robot_task(args: argparse.Namespace, scene_path: str) -> int:
         except TaskError as exc:
             if not unsafe:
                 raise
-            print(f"cplus plan: {exc.message}; not written: "
+            print(f"cplus plan: warning: {exc.message}; not written: "
                   f"{', '.join(p for p in (args.trajectory, args.csv) if p)}", file=sys.stderr)
         if args.animate:
             code = max(code, _animate(task, result.states or result.first_states or [],
                                       result.first_violation if unsafe else None, args))
     return code
+
+
+def inputs_of(args: argparse.Namespace, scene_path: str | None) -> list[Input]:
+    """What ``cplus plan`` (and ``run``, ``ground``) reads: no output may be one of them."""
+    return [Input(args.file, "the domain"), Input(scene_path, "the scene"),
+            *(Input(f, "an --extern file") for f in args.extern)]
 
 
 def _animate(task, states: list, violation, args: argparse.Namespace) -> int:
@@ -359,19 +373,21 @@ def _animate(task, states: list, violation, args: argparse.Namespace) -> int:
     import os
 
     import trajectory
+    from cplus.files import output_path
     try:
         traj = trajectory.build_trajectory(task.scene, states, points_per_step=args.points_per_step,
                                            step_time_s=args.step_time, check=False)
         title = trajectory.plan_title(task.scene, len(states) - 1, os.path.basename(args.file))
         if violation is not None:
             title += f", not collision-free ({violation.kind.value} from step {violation.step})"
-        trajectory.animate_run(task.scene, traj, args.animate, title=title, max_frames=args.frames, dpi=args.dpi,
-                               on_progress=FrameProgress("cplus plan", args.animate, sys.stderr))
+        with output_path(args.animate) as tmp:
+            trajectory.animate_run(task.scene, traj, tmp, title=title, max_frames=args.frames, dpi=args.dpi,
+                                   on_progress=FrameProgress("cplus plan", args.animate, sys.stderr))
     except trajectory.TrajectoryError as exc:
         print(f"cplus plan: error: cannot animate the plan: {exc}", file=sys.stderr)
         return EXIT_INPUT
     except OSError as exc:
-        print(f"cplus plan: error: cannot write {args.animate}: {exc.strerror or exc}", file=sys.stderr)
+        print(f"cplus plan: error: --animate {args.animate}: cannot write: {exc.strerror or exc}", file=sys.stderr)
         return EXIT_INPUT
     print(f"% wrote {args.animate}", file=sys.stderr)
     return EXIT_OK

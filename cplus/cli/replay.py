@@ -30,6 +30,8 @@ from typing import Any, NamedTuple
 
 from cplus.cli.animation_options import FrameProgress, add_animation_options, animation_check
 from cplus.cli.common import EXIT_INPUT, EXIT_OK, CliError, OneLineArgumentParser, positive_int
+from cplus.cli.paths import Input, Output, check_paths
+from cplus.files import output_path
 
 __all__ = ["build_parser", "main", "read_log", "read_runs", "pick_run", "Run", "frames_of", "cycles_ran"]
 
@@ -417,14 +419,18 @@ def main(args: argparse.Namespace) -> int:
         problem = animation_check(args.animate, "--animate", PROG)
         if problem is not None:
             raise CliError(problem)
+        check_paths(PROG, [Input(args.log, "the log"), Input(args.scene, "the scene")],
+                    [Output("--animate", args.animate)])
         runs = read_runs(args.log)
         run = pick_run(args.log, runs, args.run)
         scene = _scene(args, run.start)
+        named = run.start.get("scene") if isinstance(run.start.get("scene"), str) else None
+        check_paths(PROG, [Input(args.scene or named, "the scene")], [Output("--animate", args.animate)])
     except CliError as exc:
         print(exc, file=err)
         return EXIT_INPUT
     except trajectory.SceneError as exc:
-        print(f"{PROG}: {exc}", file=err)
+        print(f"{PROG}: error: {exc}", file=err)
         return EXIT_INPUT
     frames = frames_of(run.cycles, run.end, scene, crashed=run.end is None, cut=run.cut)
     start = run.start
@@ -433,8 +439,9 @@ def main(args: argparse.Namespace) -> int:
     if len(runs) > 1:
         title += f" (run {run.number} of {len(runs)})"
     try:
-        trajectory.animate_cycles(frames, args.animate, scene=scene, title=title, max_frames=args.frames,
-                                  dpi=args.dpi, on_progress=FrameProgress(PROG, args.animate, err, args.quiet))
+        with output_path(args.animate) as tmp:
+            trajectory.animate_cycles(frames, tmp, scene=scene, title=title, max_frames=args.frames,
+                                      dpi=args.dpi, on_progress=FrameProgress(PROG, args.animate, err, args.quiet))
     except trajectory.TrajectoryError as exc:
         print(f"{PROG}: error: {exc}", file=err)
         return EXIT_INPUT

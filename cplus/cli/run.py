@@ -31,15 +31,22 @@ from cplus.cli.common import (
     Warnings,
     distinct_bricks,
     horizon_progress,
+    nonempty,
     nonneg,
-    output_problem,
     parse_bricks,
     query,
+    query_label,
     robot_exit_code,
 )
-from cplus.cli.plan import add_common
+from cplus.cli.paths import Output, check_paths
+from cplus.cli.plan import add_common, inputs_of
+from cplus.files import write_output
 
-__all__ = ["build_parser", "main"]
+__all__ = ["build_parser", "main", "PRODUCTS"]
+
+PRODUCTS = {"plan": "plan.txt", "json": "plan.json", "picture": "plan.png", "trajectory": "trajectory.json",
+            "csv": "trajectory.csv", "log": "execution.json", "execution": "execution.png", "report": "report.txt"}
+"""What ``cplus run`` writes into ``--out``, by role."""
 
 #: The brick program's tick range (``nxt_link.SetpointStream``).
 _TICK_MS = (10, 10000)
@@ -49,10 +56,11 @@ def build_parser() -> OneLineArgumentParser:
     p = OneLineArgumentParser(prog="cplus run",
                               description="The whole robot job: plan, refine, trajectory, execute, plot.")
     p.add_argument("file", help="a robot task: a C+ domain with a scene.toml beside it (or --scene)")
-    p.add_argument("--query", "-q", metavar="LABEL", default="0", help="the query to plan (default 0)")
-    p.add_argument("--scene", metavar="FILE", help="scene file (default: scene.toml beside the domain)")
-    p.add_argument("--out", default="out", metavar="DIR",
-                   help="where to write the plan, trajectory, execution log and pictures (default out/)")
+    p.add_argument("--query", "-q", type=query_label, metavar="LABEL", default="0", help="the query to plan (default 0)")
+    p.add_argument("--scene", type=nonempty, metavar="FILE", help="scene file (default: scene.toml beside the domain)")
+    p.add_argument("--out", type=nonempty, default="out", metavar="DIR",
+                   help="where to write the plan, trajectory, execution log and pictures (default out/: the "
+                        "folder is created, its parents are not)")
     p.add_argument("--max-iterations", type=nonneg, default=0, metavar="N",
                    help="give up (exit 5) after N refinement iterations (default 0: no limit)")
     p.add_argument("--points-per-step", type=nonneg, default=10, metavar="K",
@@ -91,16 +99,16 @@ def _validate(args: argparse.Namespace) -> tuple[str, dict[str, str]]:
     ports = distinct_bricks(parse_bricks(args.brick, prog), prog)
     if args.time_scale is None and ports:  # emulated bricks run on simulated time; real ones keep time
         args.time_scale = 1.0
-    if os.path.exists(args.out) and not os.path.isdir(args.out):
-        raise CliError(f"{prog}: error: --out {args.out} is not a directory")
-    problem = output_problem(os.path.join(args.out, "plan.txt"))
-    if problem is not None:
-        raise CliError(f"{prog}: error: cannot write into --out {args.out}: {problem}")
     if args.animate is True:
         args.animate = os.path.join(args.out, "run.gif")
     problem = animation_check(args.animate, "--animate", prog)
     if problem is not None:
         raise CliError(problem)
+    check_paths(prog, inputs_of(args, scene_path),
+                [Output("--out", args.out, folder=True),
+                 *(Output("--out", os.path.join(args.out, name), inside=args.out) for name in PRODUCTS.values()),
+                 Output("--animate", args.animate,
+                        inside=args.out if args.animate == os.path.join(args.out, "run.gif") else None)])
     return scene_path, ports
 
 
@@ -121,16 +129,7 @@ def _main(args: argparse.Namespace) -> int:
         print(exc, file=sys.stderr)
         return EXIT_INPUT
     out = args.out
-    os.makedirs(out, exist_ok=True)
-    paths = {k: os.path.join(out, name) for k, name in (
-        ("plan", "plan.txt"), ("json", "plan.json"), ("picture", "plan.png"), ("trajectory", "trajectory.json"),
-        ("csv", "trajectory.csv"), ("log", "execution.json"), ("execution", "execution.png"),
-        ("report", "report.txt"))}
-    for path in paths.values():
-        problem = output_problem(path)
-        if problem is not None:
-            print(f"cplus run: error: cannot write {path}: {problem}", file=sys.stderr)
-            return EXIT_INPUT
+    paths = {k: os.path.join(out, name) for k, name in PRODUCTS.items()}
     warn = Warnings()
     task = RobotTask.load(args.file, scene_path, args.extern)
     warn(task.domain.diagnostics)  # type: ignore[attr-defined]
@@ -147,13 +146,18 @@ def _main(args: argparse.Namespace) -> int:
     def wrote(path: str) -> None:
         print(f"% wrote {path}", file=sys.stderr)
 
-    with open(paths["plan"], "w", encoding="utf-8") as fh:
-        fh.write(text)
-    wrote(paths["plan"])
-    with open(paths["json"], "w", encoding="utf-8") as fh:
-        json.dump({"format": PLAN_FORMAT, "file": args.file, "results": [result.to_json(args.query)]}, fh,
-                  indent=1)
-    wrote(paths["json"])
+    if not os.path.isdir(out):
+        os.mkdir(out)                   # --out asks for this folder (its parent was checked), not its parents
+    try:
+        write_output(paths["plan"], text)
+        wrote(paths["plan"])
+        write_output(paths["json"], json.dumps({"format": PLAN_FORMAT, "file": args.file,
+                                                "results": [result.to_json(args.query)]}, indent=1))
+        wrote(paths["json"])
+    except OSError as exc:
+        print(f"cplus run: error: --out {out}: cannot write {exc.filename or 'into it'}: {exc.strerror or exc}",
+              file=sys.stderr)
+        return EXIT_INPUT
     export_plan(task, result.states, None, domain_path=args.file, plot=paths["picture"],
                 trajectory_json=paths["trajectory"], csv=paths["csv"], points_per_step=args.points_per_step,
                 step_time=args.step_time, on_write=wrote)
@@ -163,8 +167,8 @@ def _main(args: argparse.Namespace) -> int:
              f"emulated bricks ({clock}, {'Bluetooth latency' if args.latency else 'no latency'})")
     print(f"% executing {paths['trajectory']} on {where}", file=sys.stderr)
     for stale in [paths[k] for k in ("log", "execution", "report")] + ([args.animate] if args.animate else []):
-        if os.path.isfile(stale):  # no product of an earlier run may pass for this one's
-            os.remove(stale)
+        if os.path.isfile(stale) and not os.path.islink(stale):  # no product of an earlier run may pass for
+            os.remove(stale)                                         # this one's (a link is written through)
     argv = [paths["trajectory"], "--scene", scene_path, "--log", paths["log"], "--plot", paths["execution"],
             "--report", paths["report"], "--kp", f"{args.kp[0]}/{args.kp[1]}",
             "--tolerance", str(args.tolerance), "--max-speed", repr(args.max_speed),

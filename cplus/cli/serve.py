@@ -33,13 +33,14 @@ from cplus.cli.common import (
     CliError,
     OneLineArgumentParser,
     Warnings,
+    action_seconds,
     nonneg,
     parse_bricks,
-    positive,
     positive_int,
-    seconds,
+    time_scale,
 )
 from cplus.cli.online import Progress, goal_error
+from cplus.cli.paths import Input, Output, check_paths
 from cplus.cli.signals import EXIT_FORCED
 from cplus.robot.serving.goals import GoalWatcher
 
@@ -104,7 +105,7 @@ def build_parser() -> OneLineArgumentParser:
                    help="what cancelling a goal in flight does to the robot's step under way: finish lets it end "
                         "(default); stop sets the motors to 0 at once (the actions the binding allows to stop), "
                         "estimates the state from what was measured and plans on from there")
-    p.add_argument("--action-time", type=_at_most(seconds, 3600, "seconds"), default=0.5, metavar="SECONDS",
+    p.add_argument("--action-time", type=action_seconds, default=0.5, metavar="SECONDS",
                    help="simulated robot: how long each action takes (default 0.5)")
     p.add_argument("--budget", type=_at_most(nonneg, 1e12, "propagations"), metavar="PROPAGATIONS",
                    help="the solver's unit propagations for the shortest plan of every goal at once, per re-plan; "
@@ -117,7 +118,7 @@ def build_parser() -> OneLineArgumentParser:
                    help="longest plan when the goal's maxstep range is open (default 40)")
     p.add_argument("--no-latency", action="store_true",
                    help="with --robot: emulated bricks answer at once instead of with Bluetooth timing")
-    p.add_argument("--time-scale", type=_at_most(positive, 1000, "times"), default=None, metavar="X",
+    p.add_argument("--time-scale", type=time_scale, default=None, metavar="X",
                    help="with --robot: emulated bricks and their worlds run on the wall clock, X times faster "
                         "(1 = real time); default: on simulated time")
     p.add_argument("--max-clients", type=_at_most(positive_int, 10000, "connections"), default=None, metavar="N",
@@ -294,15 +295,22 @@ def _check(args: argparse.Namespace) -> ServeOptions | int:
     log_file = history = None
     if args.log_overwrite and not args.log:
         return _fail("--log-overwrite needs --log FILE")
-    if args.log:
+    if args.log:                        # written as the run goes, continued (cplus.serve/3)
         from cplus.robot.serving.serve_log import LogRefused, open_log
+        inputs = [Input(args.domain, "the domain"), Input(requests_path, "the requests file"),
+                  Input(args.script, "the script"), Input(args.robot, "the binding"),
+                  *(Input(str(b.world), "a world file") for b in (binding.bricks.values() if binding else ())
+                    if b.world is not None)]
         try:
-            os.makedirs(os.path.dirname(os.path.abspath(args.log)), exist_ok=True)
+            check_paths("cplus serve", inputs, [Output("--log", args.log)])
             log_file, history = open_log(args.log, overwrite=args.log_overwrite)
+        except CliError as exc:
+            print(exc, file=sys.stderr)
+            return EXIT_INPUT
         except LogRefused as exc:
             return _fail(f"--log: {exc}")
         except OSError as exc:
-            return _fail(f"cannot write {args.log}: {exc.strerror}")
+            return _fail(f"--log {args.log}: cannot write: {exc.strerror}")
     limits, sockets = Limits(), SocketLimits()
     limits = replace(limits, open_goals=args.max_goals or limits.open_goals,
                      client_goals=args.max_client_goals or limits.client_goals)

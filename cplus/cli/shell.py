@@ -15,7 +15,7 @@ import argparse
 import os
 import sys
 
-from cplus.cli.common import EXIT_INPUT, EXIT_OK, OneLineArgumentParser
+from cplus.cli.common import EXIT_INPUT, EXIT_OK, OneLineArgumentParser, nonempty
 
 __all__ = ["build_parser", "main", "history_path", "Completer"]
 
@@ -28,7 +28,7 @@ def build_parser() -> OneLineArgumentParser:
         prog="cplus shell", description="CCALC's interactive session: loadf, query, nmquery, sat, show, set, help.",
         epilog="Commands end with '.' (as in Prolog); 'help.' lists them. Scriptable from standard input.")
     p.add_argument("files", nargs="*", metavar="FILE", help="C+ files to loadf first (the last is the current theory)")
-    p.add_argument("--extern", action="append", default=[], metavar="FILE.py",
+    p.add_argument("--extern", type=nonempty, action="append", default=[], metavar="FILE.py",
                    help="a Python file whose functions are external predicates/functions")
     return p
 

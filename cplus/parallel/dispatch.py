@@ -30,11 +30,12 @@ import time
 from collections.abc import Callable
 
 from cplus.errors import CPlusError
+from cplus.options import worker_bound
 from cplus.parallel.strategy import Strategy, in_flight, share, window_based
 from cplus.parallel.work import Outcome, Work
 from cplus.parallel.worker import worker_main
 
-__all__ = ["search", "MAX_REPLACEMENTS"]
+__all__ = ["search", "workers_for", "MAX_REPLACEMENTS"]
 
 MAX_REPLACEMENTS = 3
 """Workers lost (killed, out of memory) and replaced in one search before it gives up."""
@@ -58,23 +59,24 @@ class _Search:
                  on_learned: Callable[[int, int, object], bool] | None) -> None:
         q = work.query
         self.work = work
-        self.jobs = jobs
+        self.lo = q.lo
+        self.hi = q.hi if q.hi is not None else work.max_horizon
+        self.asked = jobs
+        self.jobs = workers_for(jobs, strategy, gamma, self.lo, self.hi)
         self.strategy = strategy
         self.gamma = gamma
         self.solutions = solutions
         self.any_length = any_length
         self.on_record = on_record
         self.on_learned = on_learned
-        self.lo = q.lo
-        self.hi = q.hi if q.hi is not None else work.max_horizon
-        self.width = in_flight(strategy, jobs, gamma)
+        self.width = in_flight(strategy, self.jobs, gamma)
         self.next_h = self.lo
         self.k = self.lo
         self.proved: set[int] = set()
         self.running: dict[int, _Proc] = {}
         self.sat: dict[int, _Proc] = {}
         self.procs: list[_Proc] = []
-        self.out = Outcome(None, [], [], [], workers=jobs)
+        self.out = Outcome(None, [], [], [], workers=self.jobs)
         self.done = False
         self.answer: int | None = None
         self.lost = 0
@@ -339,6 +341,16 @@ class _Search:
         return out
 
 
+def workers_for(jobs: int, strategy: Strategy, gamma: float, lo: int, hi: int | None) -> int:
+    """How many workers a search on ``jobs`` starts: no more than horizons can run at once
+    (the strategy's, and the maxstep range's ``lo..hi``: a one-horizon query needs one), nor
+    more than :data:`cplus.options.WORKERS_PER_CORE` per core (:func:`cplus.options.worker_bound`)."""
+    useful = in_flight(strategy, jobs, gamma)
+    if hi is not None:
+        useful = min(useful, max(1, hi - lo + 1))
+    return worker_bound(jobs, useful)
+
+
 def _send(p: _Proc, msg: tuple) -> None:
     """A message to a worker; one that died meanwhile misses it, and its end (seen on its
     process sentinel) has everything it had re-sent to its replacement (:meth:`_Search._lost`)."""
@@ -355,7 +367,8 @@ def _term_as_interrupt(signum, frame) -> None:
 def search(work: Work, jobs: int, strategy: Strategy | str = Strategy.A, gamma: float = 0.8, solutions: int = 1,
            any_length: bool = False, on_record: Callable[[dict], None] | None = None,
            on_learned: Callable[[int, int, object], bool] | None = None) -> Outcome:
-    """Search the query's horizons on ``jobs`` worker processes (see the module's docstring).
+    """Search the query's horizons on up to ``jobs`` worker processes (:func:`workers_for`; see
+    the module's docstring).
 
     ``on_record`` hears each (worker, horizon) record as it ends; ``on_learned(worker,
     maxstep, learned)`` hears what a worker learned from a refuted model and ends the search

@@ -16,6 +16,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from typing import TYPE_CHECKING
 
+from cplus.options import check_gamma, check_jobs, check_strategy, named
 from cplus.parallel.strategy import DEFAULT_GAMMA, Strategy, available_cores
 from cplus.planner import PlanStatus, QueryResult
 from cplus.sat.horizon import HorizonStats, QuerySession
@@ -60,7 +61,9 @@ def solve_parallel(domain, label: str = "0", solutions: int = 1, solver: str = D
     """Answer query ``label`` of a :class:`~cplus.api.Domain` on ``jobs`` worker processes
     (see the module's docstring for ``"auto"``).  ``on_record`` hears each (worker, horizon)
     record as it ends; ``on_horizon`` each horizon solved in this process (``auto``)."""
-    strategy = Strategy(strategy)
+    jobs = named("jobs", check_jobs, jobs)
+    strategy = Strategy(named("strategy", check_strategy, strategy.value if isinstance(strategy, Strategy) else strategy))
+    gamma = named("gamma", check_gamma, gamma)
     query = domain.query(label)
     theory = domain.theory_for(query)
     n = resolve_jobs(jobs)
@@ -139,15 +142,18 @@ def _result(query, out: Outcome, before: list[HorizonStats], failed: list[int], 
     else:
         status = PlanStatus.NO_PLAN if query.hi is not None else PlanStatus.HORIZON_LIMIT
         result = ParallelResult(query.label, status, None, [], proved, stats, template_s, solutions=solutions)
-    result.parallel = parallel_info(n, strategy, gamma, any_length, switched, out.unproved, out.records,
-                                    out.replaced, not out.unproved)
+    result.parallel = parallel_info(out.workers, strategy, gamma, any_length, switched, out.unproved, out.records,
+                                    out.replaced, not out.unproved, asked=n)
     return result
 
 
 def parallel_info(n: int, strategy: Strategy, gamma: float, any_length: bool, switched: int | None,
-                  unproved: list[int], records: list[dict], replaced: int, proved_shortest: bool) -> dict:
-    """The ``"parallel"`` object of a ``cplus.plan/1`` result."""
-    return {"jobs": n, "strategy": strategy.value, "gamma": gamma if strategy is Strategy.B else None,
+                  unproved: list[int], records: list[dict], replaced: int, proved_shortest: bool,
+                  asked: int | None = None) -> dict:
+    """The ``"parallel"`` object of a ``cplus.plan/1`` result: ``jobs`` the workers the search
+    started (``n``), ``jobs_asked`` how many were asked for (``--jobs``; more than started when
+    fewer horizons can run at once, or beyond the bound per core)."""
+    return {"jobs": n, "jobs_asked": n if asked is None else asked, "strategy": strategy.value, "gamma": gamma if strategy is Strategy.B else None,
             "any_length": any_length, "proved_shortest": proved_shortest, "not_proved_empty": list(unproved),
             "parallel_from": switched, "workers_replaced": replaced,
             "runs": [{k: round(v, 6) if isinstance(v, float) else v for k, v in r.items()} for r in records]}

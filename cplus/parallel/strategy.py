@@ -14,8 +14,9 @@ strategy is one place here.
 """
 from __future__ import annotations
 
-import os
 from enum import StrEnum
+
+from cplus.options import available_cores
 
 __all__ = ["Strategy", "B_FLOOR", "B_MAX", "in_flight", "share", "DEFAULT_GAMMA", "available_cores"]
 
@@ -61,9 +62,3 @@ def window_based(strategy: Strategy) -> bool:
     return strategy is Strategy.B
 
 
-def available_cores() -> int:
-    """The cores this process may run on (its affinity mask, not the machine's count)."""
-    try:
-        return len(os.sched_getaffinity(0))
-    except AttributeError:    # pragma: no cover - not Linux
-        return os.cpu_count() or 1

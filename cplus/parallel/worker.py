@@ -21,7 +21,7 @@ from cplus.errors import CPlusError
 from cplus.parallel.work import Work
 from cplus.sat.horizon import HorizonStats, QuerySession
 
-__all__ = ["SLICE_S", "worker_main"]
+__all__ = ["SLICE_S", "worker_main", "die_with_parent"]
 
 SLICE_S = 0.05
 """Target length of one solver slice (seconds): how long a worker may be deaf to its pipe
@@ -184,7 +184,7 @@ class _Worker:
         self.conn.send(("histories", self.wid, slot.m, batch, True))
 
 
-def _die_with_parent() -> None:
+def die_with_parent() -> None:
     """Ask Linux to SIGKILL this worker when its parent dies (prctl PR_SET_PDEATHSIG)."""
     try:
         import ctypes
@@ -197,7 +197,7 @@ def worker_main(conn, wid: int, work: Work) -> None:
     try:
         # forked with SIGINT blocked (see dispatch._Search._start): a Ctrl-C from now on ends it here, quietly
         signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
-        _die_with_parent()
+        die_with_parent()
         signal.signal(signal.SIGTERM, signal.SIG_DFL)
         _Worker(conn, wid, work).run()
     except KeyboardInterrupt:

@@ -356,7 +356,8 @@ def _over_lengths(theory, query, objective, solutions, solver, max_horizon, t_en
     low = None
     try:
         for m in session.horizons():
-            if t_end is not None and time.perf_counter() >= t_end:
+            # the time limit bounds the search for cheaper plans: the first plan is always waited for
+            if best is not None and t_end is not None and time.perf_counter() >= t_end:
                 raise Stopped
             session.horizon.extend_to(m, query.loc)
             bound = CostBound(session, objective, m, totalizer, flat)
@@ -369,7 +370,7 @@ def _over_lengths(theory, query, objective, solutions, solver, max_horizon, t_en
                     break
                 extra = a
             session.assumptions = base_assumptions + extra
-            ok = _solve_at(session, m, t_end)
+            ok = _solve_at(session, m, t_end if best is not None else None)
             solves += 1
             session.assumptions = list(base_assumptions)
             if on_horizon:

@@ -24,7 +24,7 @@ import threading
 
 from cplus.errors import CPlusError
 
-__all__ = ["SatSolver", "DEFAULT_SOLVER", "solver_names"]
+__all__ = ["SatSolver", "DEFAULT_SOLVER", "solver_names", "is_solver"]
 
 DEFAULT_SOLVER = "glucose4"
 
@@ -35,6 +35,12 @@ _NATIVE = {
     **dict.fromkeys(("cd19", "cd195", "cdl19", "cdl195", "cadical195"), "cadical195"),
     **dict.fromkeys(("m22", "msat22", "minisat22"), "minisat22"),
 }
+
+
+def is_solver(name: str) -> bool:
+    """Whether pysat has a solver of this name (a native backend's is known without importing
+    ``pysat.solvers``, so that checking the default costs no start-up)."""
+    return name in _NATIVE or name in solver_names()
 
 
 def solver_names() -> tuple[str, ...]:

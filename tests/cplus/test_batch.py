@@ -14,9 +14,12 @@ import os
 import signal
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from walltime import wall
 
 from cplus.batch import BatchError, Progress, ResultsFile, read_jobs, run_local
@@ -72,8 +75,8 @@ def test_a_folder_is_one_job_per_domain(tmp_path):
     ({"domain": "nope.cp"}, "no such file"),
     ({"domain": str(LAMP), "timout": 3}, "unknown key 'timout'"),
     ({"domain": str(LAMP), "options": {"horizon": 3}}, "unknown option 'horizon'"),
-    ({"domain": str(LAMP), "options": {"max_horizon": "3"}}, "wrong type"),
-    ({"domain": str(LAMP), "timeout": -1}, "'timeout' must be a number > 0"),
+    ({"domain": str(LAMP), "options": {"max_horizon": "3"}}, "option 'max_horizon': expected a non-negative maxstep"),
+    ({"domain": str(LAMP), "timeout": -1}, "'timeout': must be > 0 and at most 1,000,000 seconds, got -1"),
     ({"id": 5}, "needs 'domain'"),
 ])
 def test_bad_jobs_are_one_located_line(tmp_path, entry, message, capsys):
@@ -260,6 +263,207 @@ def test_an_interrupted_batch_resumes(tmp_path):
                  json.dumps({"id": "endless", "domain": str(LAMP), "query": "on"}) + "\n")
     done = subprocess.run(cmd, capture_output=True, text=True, cwd=ROOT, timeout=wall(300))
     assert done.returncode == 0 and "1 of 2 jobs done before" in done.stderr
+
+
+# ------------------------------------------------------------------------------------- one validator
+
+
+@pytest.mark.parametrize("key, value, flag, text", [
+    ("jobs", 0, "--jobs", "0"),
+    ("jobs", 10 ** 20, "--jobs", str(10 ** 20)),
+    ("n", -1, "-n", "-1"),
+    ("max_horizon", 10 ** 9, "--max-horizon", str(10 ** 9)),
+    ("max_iterations", -2, "--max-iterations", "-2"),
+])
+def test_a_batch_refuses_before_any_job_what_cplus_plan_refuses(tmp_path, capsys, key, value, flag, text):
+    """The same check, the same words: ``cplus plan``'s one line after ``argument FLAG:`` is
+    the batch's after ``option 'KEY':``, located at the line of the option, and no job runs."""
+    (tmp_path / "lamp.cp").write_text(LAMP.read_text())
+    f = tmp_path / "jobs.toml"
+    f.write_text(f'[[job]]\ndomain = "lamp.cp"\n\n[[job]]\nid = "two"\ndomain = "lamp.cp"\n'
+                 f'options = {{ {key} = {value} }}\n')
+    code, out, err = run(["batch", str(f)], capsys)
+    assert code == 2 and out == ""
+    assert err.startswith(f"cplus batch: error: {f}:7: option '{key}': ") and err.count("\n") == 1, err
+    assert not (tmp_path / "jobs.results.jsonl").exists()
+    code, _, plan_err = run(["plan", str(LAMP), flag, text], capsys)
+    assert code == 2
+    assert plan_err.split(": ", 3)[3] == err.split(": ", 4)[4], (plan_err, err)
+
+
+@pytest.mark.parametrize("line, message", [
+    ('memory = inf', "3: 'memory': expected a positive whole number of megabytes up to 16,777,216, got inf"),
+    ('memory = 0', "3: 'memory': expected a positive whole number of megabytes"),
+    ('timeout = 1e300', "3: 'timeout': must be > 0 and at most 1,000,000 seconds, got 1e+300"),
+    ('options = { extern = [1] }', "3: option 'extern': expected a list of file names"),
+    ('options = { extern = ["nope.py"] }', "option 'extern': "),
+    ('options = 3', "3: 'options' must be a table of cplus plan options"),
+    ('options = { gamma = 0.5 }', "3: option 'gamma' applies to strategy B"),
+    ('options = { jobs = 2, strategy = "B", gamma = 0 }', "3: option 'gamma': must be > 0 and at most 1, got 0"),
+    ('options = { strategy = "A" }', "3: option 'strategy' applies with 'jobs'"),
+    ('portfolio = ["glucose4", "glucose4"]', "3: 'portfolio': 'glucose4' twice"),
+    ('portfolio = ""', "3: 'portfolio': unknown solver or strategy ''"),
+    ('portfolio = "' + ",".join(["minisat22"] * 40) + '"', "3: 'portfolio': 'minisat22' twice"),
+    ('solver = ""', "3: 'solver': an empty solver name"),
+    ('solver = "glucose"', "3: 'solver': unknown SAT solver 'glucose' (did you mean 'glucose4'?)"),
+    ('query = ""', "3: 'query': expected a query label, got an empty one"),
+    ('plans = "no"', "3: 'plans': expected true or false, got 'no'"),
+    ('timout = 3', "3: unknown key 'timout' (did you mean 'timeout'?)"),
+])
+def test_a_job_field_out_of_bounds_is_one_located_line(tmp_path, capsys, line, message):
+    (tmp_path / "lamp.cp").write_text(LAMP.read_text())
+    f = tmp_path / "jobs.toml"
+    f.write_text(f'[[job]]\ndomain = "lamp.cp"\n{line}\n')
+    code, out, err = run(["batch", str(f)], capsys)
+    assert code == 2 and out == "" and err.count("\n") == 1 and "Traceback" not in err
+    assert err.startswith(f"cplus batch: error: {f}:") and message in err, err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["jobs.toml", "lamp.cp"]
+
+
+@given(st.sampled_from(["jobs", "gamma", "max_horizon", "n", "max_iterations"]),
+       st.integers(-3, 2000) | st.floats(allow_nan=True, allow_infinity=True) | st.sampled_from([10 ** 30, 1e300]))
+@settings(max_examples=150)
+def test_a_job_option_is_refused_exactly_when_the_flag_is(key, value):
+    """Whatever the number: the job file takes it iff ``cplus plan``'s flag takes its text."""
+    import argparse
+    import tempfile
+
+    from cplus.cli.plan import build_parser
+    flag = {"jobs": "--jobs", "gamma": "--gamma", "max_horizon": "--max-horizon", "n": "-n",
+            "max_iterations": "--max-iterations"}[key]
+    action = next(a for a in build_parser()._actions if flag in a.option_strings)
+    try:
+        action.type(repr(value) if isinstance(value, float) else str(value))      # type: ignore[misc]
+        flag_ok = True
+    except argparse.ArgumentTypeError:
+        flag_ok = False
+    options = {key: value, **({"jobs": 2, "strategy": "B"} if key == "gamma" else {})}
+    with tempfile.TemporaryDirectory() as d:
+        f = Path(d) / "j.jsonl"
+        f.write_text(json.dumps({"domain": str(LAMP), "options": options}) + "\n")
+        try:
+            read_jobs(str(f))
+            job_ok = True
+        except BatchError:
+            job_ok = False
+    assert job_ok == flag_ok, (key, value)
+
+
+# ------------------------------------------------------------------------------------- results file
+
+
+def test_a_corrupted_record_is_named_by_its_line_and_its_job_runs_again(tmp_path, capsys):
+    f = jobs_file(tmp_path, [{"id": "a", "domain": str(LAMP), "query": "on"},
+                             {"id": "b", "domain": str(LAMP), "query": "on"},
+                             {"id": "c", "domain": str(LAMP), "query": "on"},
+                             {"id": "d", "domain": str(LAMP), "query": "on"}])
+    results = tmp_path / "jobs.results.jsonl"
+    good = {"format": "cplus.batch/1", "id": "a", "status": "found", "maxstep": 1, "marker": "kept"}
+    results.write_text("\n".join(json.dumps(r) for r in (
+        good, dict(good, id="b", status=["found"]), dict(good, id="c", times={"wall_s": "fast"}),
+        dict(good, id="d", status="finished"))) + "\n")
+    code, _, err = run(["batch", str(f)], capsys)
+    assert code == 0, err
+    assert f"cplus batch: warning: {results}:2: job 'b': status [\"found\"] is not one of found," in err
+    assert f"cplus batch: warning: {results}:3: job 'c': 'times' are not numbers of seconds; it runs again" in err
+    assert f"cplus batch: warning: {results}:4: job 'd': status \"finished\" is not one of" in err
+    assert "1 of 4 jobs done before; running the other 3" in err
+    got = ResultsFile(str(results)).records()
+    assert got["a"]["marker"] == "kept" and all(got[k]["status"] == "found" and "marker" not in got[k] for k in "bcd")
+    code, _, err = run(["batch", str(f)], capsys)      # the bad lines are history now: no word about them
+    assert code == 0 and "warning" not in err and "4 of 4 jobs done before" in err
+
+
+def test_a_second_batch_on_one_results_file_is_refused_naming_the_first(tmp_path, capsys):
+    f = jobs_file(tmp_path, [{"id": "a", "domain": str(LAMP), "query": "on"}])
+    results = tmp_path / "jobs.results.jsonl"
+    holder = subprocess.Popen([sys.executable, "-c", "import fcntl, sys\n"
+                               f"f = open({str(results)!r}, 'a')\nfcntl.flock(f, fcntl.LOCK_EX)\n"
+                               "print('locked', flush=True)\nsys.stdin.read()\n"],
+                              stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
+    try:
+        assert holder.stdout.readline() == "locked\n"      # type: ignore[union-attr]
+        code, _, err = run(["batch", str(f)], capsys)
+    finally:
+        holder.communicate("", timeout=30)
+    assert code == 2 and err.startswith(f"cplus batch: error: --results {results}: another batch is writing it "
+                                        f"(pid {holder.pid}: ")
+    assert "wait for it to end, or give another --results" in err and results.read_text() == ""
+    code, _, err = run(["batch", str(f), "--quiet"], capsys)
+    assert code == 0 and set(ResultsFile(str(results)).records()) == {"a"}
+
+
+def _descendants(pid: int) -> set[int]:
+    """Every process below ``pid`` (from /proc)."""
+    children: dict[int, list[int]] = {}
+    for entry in os.listdir("/proc"):
+        if entry.isdigit():
+            try:
+                with open(f"/proc/{entry}/stat") as fh:
+                    ppid = int(fh.read().rsplit(")", 1)[1].split()[1])
+            except (OSError, ValueError, IndexError):
+                continue
+            children.setdefault(ppid, []).append(int(entry))
+    out: set[int] = set()
+    todo = [pid]
+    while todo:
+        for c in children.get(todo.pop(), []):
+            out.add(c)
+            todo.append(c)
+    return out
+
+
+def _alive(pid: int) -> bool:
+    try:
+        with open(f"/proc/{pid}/stat") as fh:
+            return fh.read().rsplit(")", 1)[1].split()[0] != "Z"
+    except OSError:
+        return False
+
+
+@pytest.mark.slow
+def test_sigterm_ends_a_batch_like_ctrl_c_and_every_process_it_started(tmp_path):
+    """SIGTERM while jobs run (one on two search workers, one racing two solvers): exit 143 with
+    a word, what finished kept, and no process of the batch left: the pool's workers, the
+    search's and the race's children, the fork server, the resource tracker."""
+    never = tmp_path / "never.cp"
+    never.write_text(":- constants lit :: inertialFluent; flip :: exogenousAction.\nflip causes lit.\n"
+                     ":- query maxstep :: 0..infinity; 0: lit & -lit.\n")
+    f = jobs_file(tmp_path, [{"id": "quick", "domain": str(LAMP), "query": "on"},
+                             {"id": "search", "domain": str(never), "options": {"jobs": 2}},
+                             {"id": "race", "domain": str(never), "portfolio": ["glucose4", "minisat22"]},
+                             {"id": "endless", "domain": str(never)}])
+    proc = subprocess.Popen([sys.executable, "-m", "cplus", "batch", str(f), "--workers", "3"],
+                            stderr=subprocess.PIPE, text=True, cwd=ROOT, start_new_session=True)
+    try:
+        seen = ""
+        while "quick: found" not in seen:
+            line = proc.stderr.readline()      # type: ignore[union-attr]
+            assert line, seen
+            seen += line
+        started: set[int] = set()
+        for _ in range(600):                   # the pool's workers, the search's two, the race's two
+            started |= _descendants(proc.pid)
+            if len(started) >= 9 or proc.poll() is not None:
+                break
+            time.sleep(0.1)
+        proc.send_signal(signal.SIGTERM)
+        _, err = proc.communicate(timeout=60)
+    except subprocess.TimeoutExpired:
+        pass
+    finally:
+        if proc.poll() is None:
+            os.killpg(proc.pid, signal.SIGKILL)
+            proc.wait()
+    assert proc.returncode == 143 and "Traceback" not in err, err
+    assert "cplus batch: stopped by SIGTERM: 1 of 4 jobs recorded" in err and "run the same command to resume" in err
+    assert len(started) >= 9, started          # resource tracker, fork server, 3 workers, 2 + 2 below them
+    for _ in range(100):                       # a killed process is reaped by init in its own time
+        left = {p for p in started if _alive(p)}
+        if not left:
+            break
+        time.sleep(0.1)
+    assert not left, left
 
 
 # ------------------------------------------------------------------------------------- Ray

@@ -256,4 +256,5 @@ def test_the_api_values_are_the_json_values(lamp, capsys):
 def test_ground_checks_its_output_before_grounding(lamp, tmp_path, capsys, target, fragment):
     target = str(tmp_path / target.replace("NODIR", "missing")) if target != "." else str(tmp_path)
     code, out, err = run(["ground", lamp, "--maxstep", "1", "--dimacs", target], capsys)
-    assert code == 2 and err.startswith(f"cplus ground: cannot write '{target}': {fragment}") and out == ""
+    assert code == 2 and err.startswith(f"cplus ground: error: --dimacs {target}: {fragment}") and out == ""
+    assert not (tmp_path / "missing").exists()      # a missing folder is not created

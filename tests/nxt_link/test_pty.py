@@ -112,9 +112,9 @@ def test_cplus_brick_prints_the_path_and_stops_cleanly_on_sigterm():
 @pytest.mark.parametrize("argv, message", [
     ([], "the following arguments are required: --name"),
     (["--name", "r1", "--drop", "1.5"], "probability must be in [0, 1)"),
-    (["--name", "r1", "--delay", "-3"], "must be a finite number >= 0"),
+    (["--name", "r1", "--delay", "-3"], "must be at least 0 and at most 10000 milliseconds, got '-3'"),
     (["--name", "r1", "--disconnect-after", "0"], "must be >= 1"),
-    (["--name", "r1", "--time-scale", "0"], "must be > 0"),
+    (["--name", "r1", "--time-scale", "0"], "must be at least 0.001 and at most 1000 times real time"),
     (["--name", "r1", "--bogus"], "unrecognized arguments: --bogus"),
     (["--name", "a/b"], "invalid brick name"),
 ])

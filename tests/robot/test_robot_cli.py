@@ -58,14 +58,14 @@ def test_an_output_that_cannot_be_written_is_refused_before_planning(tmp_path, c
     blocker.write_text("")
     code, out, err = run(capsys, "plan", DOMAIN, "--trajectory", blocker / "t.json")
     assert code == 2 and out == "" and "% refinement" not in err
-    assert err.strip() == f"error: --trajectory {blocker / 't.json'}: cannot write: '{blocker}' is not a directory"
+    assert err.strip() == f"cplus plan: error: --trajectory {blocker / 't.json'}: {blocker} is not a directory"
     code, _, err = run(capsys, "plan", DOMAIN, "--csv", tmp_path)
     assert code == 2 and "it is a directory" in err
 
 
 def test_one_file_for_two_outputs_is_refused(tmp_path, capsys):
     code, _, err = run(capsys, "plan", DOMAIN, "--trajectory", tmp_path / "x", "--csv", tmp_path / "x")
-    assert code == 2 and "--trajectory and --csv name the same file" in err
+    assert code == 2 and f"--trajectory and --csv are the same file {tmp_path / 'x'}" in err
 
 
 def test_outputs_need_a_single_query(tmp_path, capsys):

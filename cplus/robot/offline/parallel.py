@@ -167,8 +167,8 @@ def refine_parallel(task: RobotTask, label: str = "0", max_iterations: int | Non
                           r["result"] == "sat") for r in sorted(out.records, key=lambda r: r["maxstep"])
              if r["result"] in ("sat", "unsat") and r["maxstep"] <= top]
     result.horizon_stats = stats
-    result.parallel = parallel_info(n, strategy, gamma, any_length, None, out.unproved, out.records, out.replaced,
-                                    not out.unproved)
+    result.parallel = parallel_info(out.workers, strategy, gamma, any_length, None, out.unproved, out.records,
+                                    out.replaced, not out.unproved, asked=n)
     hi = query.hi if query.hi is not None else max_horizon
     limit = "" if query.hi is not None else " (--max-horizon)"
     if out.stopped_early:
