@@ -108,9 +108,17 @@ class Domain:
         return [q.label for q in self.program.nmqueries]
 
     def query(self, label: str) -> QuerySpec:
-        """The query with this label; ``"states"`` is every state (maxstep 0, no conditions)."""
+        """The query with this label; ``"states"`` is every state (maxstep 0, no conditions).
+
+        Raises:
+            QueryError: no query has this label.
+            CPlusError: the query's own located error, when it could not be resolved (the
+                file's other queries are answered, as CCALC answers them).
+        """
         q = self.program.query(label)
         if q is not None:
+            if q.error is not None:
+                raise q.error
             return q
         if label == "states":
             return states_query()
@@ -120,9 +128,11 @@ class Domain:
                          f"this file's labels: {known}){hint}")
 
     def nmquery(self, label: str) -> QuerySpec:
-        """The nmquery with this label (CCALC's ``nmquery label``)."""
+        """The nmquery with this label (CCALC's ``nmquery label``); raises as :meth:`query`."""
         q = self.program.nmquery(label)
         if q is not None:
+            if q.error is not None:
+                raise q.error
             return q
         known = ", ".join(self.nm_labels) or "none"
         raise QueryError(f"no nmquery with label '{label}' ({_did_you_mean(label, self.nm_labels)}"

@@ -8,7 +8,7 @@ abnormalities) are left to the grounder, which knows each constant's kind.
 from __future__ import annotations
 
 from cplus import ir
-from cplus.errors import Diagnostics, Location
+from cplus.errors import CPlusError, Diagnostics, Location
 from cplus.record import Record
 from cplus.signature import ConstDecl, Signature
 
@@ -132,9 +132,13 @@ class QuerySpec(Record):
 
     ``invariant`` is the ``invariant: F`` item of a ``maxstep :: any`` query (CCALC's proof
     that no plan of any length exists, :mod:`cplus.invariant`); such a query is never
-    searched horizon by horizon, so it keeps ``lo..hi`` at ``0..infinity``."""
+    searched horizon by horizon, so it keeps ``lo..hi`` at ``0..infinity``.
 
-    _fields = ("label", "lo", "hi", "items", "loc", "rules", "invariant")
+    ``error`` is the located error of a query that could not be resolved (CCALC fails that
+    query alone when it is asked, and answers the file's others): it holds its label, and
+    :meth:`cplus.api.Domain.query` raises the error instead of returning it."""
+
+    _fields = ("label", "lo", "hi", "items", "loc", "rules", "invariant", "error")
 
     label: str
     lo: int
@@ -143,6 +147,7 @@ class QuerySpec(Record):
     loc: Location | None
     rules: tuple[tuple[ir.Formula | None, ir.Formula, Location], ...] | None
     invariant: tuple[ir.Formula, Location] | None
+    error: CPlusError | None
 
     def __init__(
             self,
@@ -152,7 +157,8 @@ class QuerySpec(Record):
             items: tuple[tuple[ir.Formula, Location], ...],
             loc: Location | None,
             rules: tuple[tuple[ir.Formula | None, ir.Formula, Location], ...] | None = None,
-            invariant: tuple[ir.Formula, Location] | None = None) -> None:
+            invariant: tuple[ir.Formula, Location] | None = None,
+            error: CPlusError | None = None) -> None:
         self.label = label
         self.lo = lo
         self.hi = hi
@@ -160,6 +166,7 @@ class QuerySpec(Record):
         self.loc = loc
         self.rules = rules
         self.invariant = invariant
+        self.error = error
 
     @property
     def nm(self) -> bool:

@@ -45,6 +45,14 @@ RAY_MISSING = ("--ray needs Ray, an optional extra: pip install 'cplus[ray]' (fr
 Sink = Callable[[dict], None]
 
 
+def no_local_instance(exc: BaseException) -> str:
+    """One line for a local Ray instance that did not start (on a machine so loaded that its
+    raylet missed Ray's fixed 30 s, say)."""
+    reason = (str(exc).strip().splitlines() or [type(exc).__name__])[0]
+    return (f"--ray: a local Ray instance did not start: {reason} (nothing was run; without --ray the jobs run "
+            "in local processes)")
+
+
 def unreachable(address: str, exc: BaseException) -> str:
     """One line for a cluster that ``ray.init`` could not join: Ray's own reason, or the refused
     token its causes name deep in a nested traceback's text, with the two ways Ray reads one."""
@@ -202,6 +210,8 @@ def run_ray(jobs: list[Job], fn: Callable, workers: int | None, address: str | N
         import ray
     except ImportError:
         raise BatchError(RAY_MISSING) from None
+    if not jobs:                 # nothing to run: no instance started, no cluster joined
+        return
     # a local instance's workers run this checkout (its PYTHONPATH); a cluster's nodes have cplus installed
     names = ("PYTHONPATH", "OPENBLAS_NUM_THREADS") if address is None else ("OPENBLAS_NUM_THREADS",)
     env = {"env_vars": {k: os.environ[k] for k in names if k in os.environ}}
@@ -214,7 +224,12 @@ def run_ray(jobs: list[Job], fn: Callable, workers: int | None, address: str | N
         # starts it as well, and nothing listens beyond this host. address="local": a new
         # instance even where RAY_ADDRESS is set or a `ray start` cluster runs on this host
         # (ray.init() without an address would join that one instead)
-        ray.init(address="local", num_cpus=workers or os.cpu_count() or 1, _node_ip_address="127.0.0.1", **kwargs)
+        try:
+            ray.init(address="local", num_cpus=workers or os.cpu_count() or 1, _node_ip_address="127.0.0.1",
+                     **kwargs)
+        except Exception as exc:    # Ray raises a bare Exception when its raylet is not up in 30 s
+            ray.shutdown()           # what did start (GCS, raylet) is stopped
+            raise BatchError(no_local_instance(exc)) from None
     else:
         try:
             ray.init(address=address, **kwargs)

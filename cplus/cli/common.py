@@ -292,8 +292,12 @@ def clear_progress(enabled: bool) -> None:
 def query(domain, label: str, prog: str, nmquery: bool = False):
     """The query (``nmquery``: the nmquery) ``label`` of ``domain``. An unknown label is the
     command line's error, not the file's (no line of the file is wrong): one line naming the
-    option and the labels there are."""
+    option and the labels there are.  A query of the file that could not be resolved is
+    returned with its ``error`` (the caller reports it when that query's turn comes)."""
     from cplus.errors import QueryError
+    refused = (domain.program.nmquery if nmquery else domain.program.query)(label)
+    if refused is not None and refused.error is not None:
+        return refused
     try:
         return domain.nmquery(label) if nmquery else domain.query(label)
     except QueryError as exc:

@@ -172,13 +172,19 @@ def _plan_domain(args: argparse.Namespace) -> int:
     queries = [query(domain, lab, "cplus plan", nm) for lab, nm in wanted_labels]
     if args.minimize:
         from cplus.cli.optimal import cli_check
-        cli_check(domain, queries, args)
+        cli_check(domain, [q for q in queries if q.error is None], args)
     loaded = f"% {args.file}: loaded in {time.perf_counter() - t0:.3f} s; "
     code = EXIT_OK
     docs = []
     for q in queries:
         if len(queries) > 1 and not args.json:
             print(f"% {'nmquery' if q.nm else 'query'} {q.label}")
+        if q.error is not None:           # refused alone, as CCALC does; the others are answered
+            from cplus.cli import prefixed
+            sys.stdout.flush()
+            print(prefixed(q.error.render(), "plan"), file=sys.stderr)
+            code = max(code, EXIT_INPUT)
+            continue
         t1 = time.perf_counter()
         theory = domain.theory_for(q)     # only what the query's initial state can reach
         warn(domain.diagnostics)

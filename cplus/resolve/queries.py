@@ -2,14 +2,15 @@
 
 Queries are the only place for time stamps and ``maxstep``, and of two queries with one label
 the first is answered (the later is warned and ignored, as CCALC answers the first), so they
-are resolved apart from laws.
+are resolved apart from laws.  A query that cannot be resolved is kept with its error, raised
+when it is asked: as in CCALC, a bad query fails alone and the file's others are answered.
 An nmquery's items are causal rules (completed on their own when it is answered, see
 :class:`cplus.sat.horizon.QuerySession`); its labels are a namespace of their own, as in CCALC.
 """
 from __future__ import annotations
 
 from cplus import ast, ir
-from cplus.errors import DefinitenessError, Location, QueryError
+from cplus.errors import CPlusError, DefinitenessError, Location, QueryError
 from cplus.program import QuerySpec
 from cplus.resolve.core import _Scope
 from cplus.resolve.formulas import _Formulas
@@ -21,6 +22,37 @@ NM_MACROS = ("anyFluentValues", "anyActions", "anyHistory", "anyInitialState", "
 
 class _Queries(_Formulas):
     def _st_Query(self, stmt: ast.Query) -> None:
+        try:
+            spec = self._query_spec(stmt)
+        except CPlusError as exc:
+            # CCALC fails such a query when it is asked and answers the file's others: the
+            # query keeps its label (of two with one label the first still wins) and its error
+            label = self._label_of(stmt)
+            if label is None:
+                raise
+            spec = QuerySpec(label, 0, 0, (), stmt.loc, () if stmt.nm else None, error=exc)
+        what = "nmquery" if stmt.nm else "query"
+        known = self.program.nmqueries if stmt.nm else self.program.queries
+        if any(q.label == spec.label for q in known):
+            # CCALC asserts every query_problem and answers the first of a label
+            # (ccalc.pl, process_query: assertz; query/2: query_problem(Label, ...) -> true)
+            self.diag.warn(f"{what} label '{spec.label}' is used again; as in CCALC the first {what} with this "
+                           "label is the one answered, this one is ignored", stmt.loc)
+            return
+        known.append(spec)
+
+    def _label_of(self, stmt: ast.Query) -> str | None:
+        """The label of a query whose items could not be resolved (its first ``label ::``, 0
+        without one), or None when the label itself is what is wrong."""
+        for it in stmt.items:
+            if isinstance(it, ast.QueryLabel):
+                try:
+                    return self._label(it.label)
+                except CPlusError:
+                    return None
+        return "0"
+
+    def _query_spec(self, stmt: ast.Query) -> QuerySpec:
         label = "0"
         lo: int = 0
         hi: int | None = 0     # CCALC: a query without `maxstep` is answered at maxstep 0
@@ -63,16 +95,8 @@ class _Queries(_Formulas):
             from cplus.invariant import check_query_shape
             check_query_shape(items, invariant, any_length, stmt.loc)
             hi = None           # never searched horizon by horizon (QuerySpec.invariant)
-        what = "nmquery" if stmt.nm else "query"
-        known = self.program.nmqueries if stmt.nm else self.program.queries
-        if any(q.label == label for q in known):
-            # CCALC asserts every query_problem and answers the first of a label
-            # (ccalc.pl, process_query: assertz; query/2: query_problem(Label, ...) -> true)
-            self.diag.warn(f"{what} label '{label}' is used again; as in CCALC the first {what} with this label "
-                           "is the one answered, this one is ignored", stmt.loc)
-            return
-        known.append(QuerySpec(label, lo, hi, tuple(items), stmt.loc, tuple(rules) if stmt.nm else None,
-                               invariant=invariant))
+        return QuerySpec(label, lo, hi, tuple(items), stmt.loc, tuple(rules) if stmt.nm else None,
+                         invariant=invariant)
 
     def _query_word(self, e: ast.Expr, word: str) -> bool:
         """Whether ``e`` is the bare word of a query field (``any``, ``invariant``) that no

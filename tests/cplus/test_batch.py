@@ -517,6 +517,36 @@ def test_a_cluster_that_refuses_the_token_is_named_in_one_line():
     assert plain == "--ray head:6379: cannot join the Ray cluster (Failed to connect to Ray cluster at 10.0.0.1:6379)"
 
 
+def test_a_batch_with_nothing_to_run_starts_no_ray(tmp_path, capsys, monkeypatch):
+    """Every job already recorded: `--ray` neither starts an instance nor joins a cluster."""
+    ray = pytest.importorskip("ray")
+    f = jobs_file(tmp_path, [{"id": "a", "domain": str(LAMP), "query": "on"}])
+    assert run(["batch", str(f), "--quiet"], capsys)[0] == 0
+    before = (tmp_path / "jobs.results.jsonl").read_bytes()
+    started: list = []
+    monkeypatch.setattr(ray, "init", lambda *a, **k: started.append(k))
+    code, out, err = run(["batch", str(f), "--ray", "--quiet"], capsys)
+    assert code == 0 and started == [] and (tmp_path / "jobs.results.jsonl").read_bytes() == before
+
+
+def test_a_local_ray_instance_that_does_not_start_is_one_line(tmp_path, capsys, monkeypatch):
+    """Ray raises a bare Exception when its raylet misses its 30 s (a loaded machine): the batch
+    says so in one line, exit 2, and records nothing as run."""
+    ray = pytest.importorskip("ray")
+
+    def timed_out(*a, **k):
+        raise Exception("The current node timed out during startup. This could happen because some of the "
+                        "raylet failed to startup or the GCS has become overloaded.")
+    monkeypatch.setattr(ray, "init", timed_out)
+    f = jobs_file(tmp_path, [{"id": "a", "domain": str(LAMP), "query": "on"}])
+    code, out, err = run(["batch", str(f), "--ray", "--quiet"], capsys)
+    assert code == 2 and "Traceback" not in err
+    assert err == ("cplus batch: error: --ray: a local Ray instance did not start: The current node timed out "
+                   "during startup. This could happen because some of the raylet failed to startup or the GCS has "
+                   "become overloaded. (nothing was run; without --ray the jobs run in local processes)\n")
+    assert not (tmp_path / "jobs.results.jsonl").exists() or records(tmp_path / "jobs.results.jsonl") == []
+
+
 def _free_port() -> int:
     import socket
     with socket.socket() as s:

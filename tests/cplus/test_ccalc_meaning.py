@@ -51,10 +51,58 @@ caused lit if -dir=3. default -lit.
 
 def test_minus_before_a_comparison_of_a_non_integer_constant_is_refused():
     """CCALC: `Invalid expression`; the error says what to write instead."""
-    with pytest.raises(CPlusError) as exc:
-        Domain.from_text(":- sorts s. :- objects a, b :: s. :- constants c :: simpleFluent(s).\n"
+    d = Domain.from_text(":- sorts s. :- objects a, b :: s. :- constants c :: simpleFluent(s).\n"
                          ":- query maxstep :: 0; 0: -c=a.")
+    with pytest.raises(CPlusError) as exc:
+        d.solve()
     assert "2:27" in str(exc.value.loc) and "write '-(c=...)'" in exc.value.message
+
+
+# ----------------------------------------------------------------------------- a bad query alone
+
+BAD_FIRST = """:- constants p, q :: inertialFluent.
+:- query label :: 1; maxstep :: 0; 0: -p=true.
+:- query label :: 2; maxstep :: 0; 0: q & -p.
+:- query label :: 1; maxstep :: 0; 0: p.
+"""
+
+
+def test_a_bad_query_fails_alone_and_keeps_its_label():
+    """CCALC fails the query `-p=true` (p Boolean: Invalid expression) when it is asked and
+    answers the others; the later query of label 1 stays ignored (the first of a label wins)."""
+    d = Domain.from_text(BAD_FIRST)
+    assert d.labels == ["1", "2"]
+    with pytest.raises(CPlusError) as exc:
+        d.query("1")
+    assert str(exc.value.loc).endswith(":2:39") and "Invalid expression" in exc.value.message
+    with pytest.raises(CPlusError):
+        d.solve("1")
+    [h] = d.solve("2").histories
+    assert h.value("q", 0) is True and h.value("p", 0) is False
+    assert any("label '1' is used again" in w.message for w in d.diagnostics.items)
+
+
+def test_a_query_with_a_bad_label_still_refuses_the_file():
+    """Nothing to hold the error under: the file is refused, as before."""
+    with pytest.raises(CPlusError):
+        Domain.from_text(":- constants p :: inertialFluent.\n:- query label :: p + 1; maxstep :: 0.\n")
+
+
+def test_cplus_plan_answers_the_other_queries_of_a_file_with_a_bad_one(tmp_path):
+    f = tmp_path / "bad.cp"
+    f.write_text(BAD_FIRST)
+    run = lambda *a: subprocess.run([sys.executable, "-m", "cplus", "plan", str(f), *a],  # noqa: E731
+                                    capture_output=True, text=True, timeout=120)
+    every = run()
+    assert every.returncode == 2
+    assert every.stdout == "% query 1\n% query 2\n\n0:  q\n\n\n"
+    assert every.stderr.count(f"{f}:2:39: error: ") == 1 and "Traceback" not in every.stderr
+    doc = json.loads(run("--json").stdout)
+    assert [r["query"]["label"] for r in doc["results"]] == ["2"]
+    alone = run("--query", "1")
+    assert alone.returncode == 2 and alone.stdout == "" and f"{f}:2:39: error: " in alone.stderr
+    other = run("--query", "2")
+    assert other.returncode == 0 and "0:  q" in other.stdout
 
 
 # ----------------------------------------------------------------------------- maxstep
@@ -121,8 +169,9 @@ def test_queries_and_nmqueries_have_their_own_labels():
 
 
 def test_the_head_of_an_nmquery_rule_is_a_literal():
+    d = Domain.from_text(LAMP + ":- nmquery maxstep :: 0; caused (0: lit) ++ (0: -lit).")
     with pytest.raises(CPlusError, match="nmquery rule"):
-        Domain.from_text(LAMP + ":- nmquery maxstep :: 0; caused (0: lit) ++ (0: -lit).")
+        d.nmquery("0")
 
 
 def test_cplus_plan_nmquery(tmp_path):
