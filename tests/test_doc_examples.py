@@ -47,6 +47,9 @@ NOT_RUN: dict[str, str] = {
     # installing
     "python3 -m venv .venv && . .venv/bin/activate && pip install .":
         "installs the package into a new virtual environment (minutes, the network); the test runs in one",
+    "python3 -m venv .venv && . .venv/bin/activate && pip install . && cplus run domains/payload/payload.cp":
+        "installs the package into a new virtual environment (minutes, the network); `cplus run` of the "
+        "payload task is run by the README's next section's example",
     "sudo apt-get install -y nbc && python3 -m venv .venv && . .venv/bin/activate && pip install -e '.[test]' "
     "&& python -m pytest -n 2":
         "installs system packages as root and runs the whole suite",
@@ -88,6 +91,11 @@ NOT_RUN: dict[str, str] = {
     "nice -n 10 python bench/mutants.py nxt_link/framing.py": "mutation testing: minutes per module",
     "nice -n 10 python bench/mutants.py cplus/sat/cnf.py --sample 60": "mutation testing: minutes per module",
     "python bench/mutants.py nxt_link/framing.py --report": "the survivors of an earlier mutation run",
+    "python bench/busy.py 12 -- python -m pytest -q -n 2": "the whole suite beside 12 busy processes: an hour",
+    "python bench/busy.py 12 -- python -m pytest -q -n 2 tests/test_interrupts.py tests/test_signals.py "
+    "tests/test_serve_stress_*.py tests/nxt_link/test_brick_faults.py tests/cplus/test_parallel.py "
+    "tests/cplus/test_batch.py tests/test_execute.py tests/test_run_*.py tests/test_online_*.py":
+        "a third of the suite beside 12 busy processes: many minutes",
     # sketches: names that come from their context
     "from nxt_link import Brick, EmulatorConfig, SetpointStream, execute_streams":
         "a sketch: `streams` as in the block before it",
@@ -149,7 +157,7 @@ def _setup_for(first: str) -> Setup | None:
     """The setup of the block whose first command (or python line) is ``first``."""
     if first.startswith("cplus execute out/trajectory.json"):   # docs/robot.md: a plan's trajectory, a program
         return Setup(files={"prog.nxc": NXC_PROGRAM},
-                     before=["cplus plan domains/payload/payload.cp --trajectory out/trajectory.json",
+                     before=["mkdir -p out", "cplus plan domains/payload/payload.cp --trajectory out/trajectory.json",
                              "nbc -O=my_program.rxe prog.nxc"])
     if first == "cplus batch jobs.toml":
         return Setup(files={"jobs.toml": _block_text("docs/batch.md", "toml")})

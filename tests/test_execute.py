@@ -466,8 +466,9 @@ def test_cplus_plan_checks_the_animation_first(tmp_path, capsys):
 
 
 def scene_found(trajectory_file: Path):
-    from cplus.cli.execute import _scene_for, build_parser
-    return _scene_for(build_parser().parse_args([str(trajectory_file)]), tj.load_trajectory(trajectory_file))
+    from cplus.cli.execute import _scene_path, build_parser
+    path = _scene_path(build_parser().parse_args([str(trajectory_file)]), tj.load_trajectory(trajectory_file))
+    return None if path is None else tj.load_scene(path)
 
 
 @pytest.fixture
@@ -480,6 +481,7 @@ def planned_elsewhere(tmp_path, monkeypatch) -> Path:
     (work / "domains" / "payload" / "scene.toml").write_text(SCENE.read_text())
     (work / "domains" / "payload" / "scenes" / "renamed.toml").write_text(
         SCENE.read_text().replace('name = "payload"', 'name = "renamed"', 1))
+    (work / "out").mkdir()
     monkeypatch.chdir(work)
     assert main(["plan", "domains/payload/payload.cp", "--scene", "domains/payload/scenes/renamed.toml",
                  "--trajectory", "out/t.json"]) == 0

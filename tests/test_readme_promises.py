@@ -140,3 +140,18 @@ def test_cplus_serve_listens_on_127_0_0_1_7070_when_no_channel_is_given(monkeypa
     assert calls[0][0].listen == ("127.0.0.1", 7070)           # _run takes the checked options
     assert serve.main(serve.build_parser().parse_args([str(MAILBOT), "--listen", "127.0.0.1:0"])) == 0
     assert calls[1][0].listen == ("127.0.0.1", 0)
+
+
+# -- the README's first two commands ------------------------------------------------------------
+
+def test_the_readme_starts_with_the_main_job_and_the_test_command():
+    """The first two command blocks: one installs and runs the payload pipeline, one installs
+    and runs the suite as CI does (.ci/run ends with the same pytest command)."""
+    text = (ROOT / "README.md").read_text(encoding="utf-8")
+    blocks = re.findall(r"```sh\n(.*?)\n```", text, re.S)
+    run, test = blocks[0], blocks[1]
+    assert text.index("```sh") < text.index("\n## ")          # before any section
+    assert "pip install ." in run and run.endswith("cplus run domains/payload/payload.cp")
+    assert "pip install -e '.[test]'" in test and test.endswith("python -m pytest -n 2")
+    ci = (ROOT / ".ci" / "run").read_text(encoding="utf-8")
+    assert re.search(r"^python -m pytest (-q )?-n 2$", ci, re.M)

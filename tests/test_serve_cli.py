@@ -71,7 +71,7 @@ def test_bad_options_and_files_are_one_line_errors(tmp_path, capsys):
     assert run_bad([DOMAIN, "--requests", str(requests), "--script", str(bad)], capsys).startswith(
         f"{requests}:5:1: error: unknown sort 'parcel'")
     assert run_bad([DOMAIN, "--script", str(tmp_path / "none.jsonl")], capsys).startswith(
-        "error: cannot read script")
+        "cplus serve: error: cannot read script")
     assert "expected seconds >= 0" in run_bad([DOMAIN, "--action-time", "-1"], capsys)
 
 

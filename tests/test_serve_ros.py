@@ -104,6 +104,9 @@ def roscore(tmp_path_factory):
 
 CLIENT = textwrap.dedent("""
     import json, sys, time
+    import os
+    def wall(seconds):   # tests/walltime.py's scale, which conftest exports
+        return seconds * float(os.environ.get("CPLUS_TEST_TIME_SCALE", "1"))
     import rospy, actionlib
     from actionlib_msgs.msg import GoalStatus
     from cplus_msgs.msg import ServeAction, ServeGoal
@@ -196,6 +199,9 @@ def test_an_actionlib_client_sends_hears_cancels_and_gets_results(roscore, tmp_p
 
 STATES = textwrap.dedent("""
     import json, sys, time
+    import os
+    def wall(seconds):   # tests/walltime.py's scale, which conftest exports
+        return seconds * float(os.environ.get("CPLUS_TEST_TIME_SCALE", "1"))
     import rospy, actionlib
     from actionlib import CommState
     from actionlib_msgs.msg import GoalStatus

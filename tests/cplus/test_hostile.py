@@ -227,7 +227,7 @@ def test_hostile_files_end_in_one_located_error(tmp_path, name):
 def test_dev_zero_is_one_line():
     proc = cplus(["plan", "/dev/zero"], timeout=60)
     assert proc.returncode == 2
-    assert proc.stderr.decode() == "error: '/dev/zero' is a character device, not a C+ file\n"
+    assert proc.stderr.decode() == "cplus plan: error: '/dev/zero' is a character device, not a C+ file\n"
 
 
 def test_long_input_plans_in_the_box(tmp_path):
@@ -321,4 +321,4 @@ def test_an_extern_file_that_exits_while_loading_is_one_line(tmp_path, capsys):
     domain, ext = hops(tmp_path, top="import sys\nsys.exit(3)")
     code, out, err = plan(["plan", domain, "--extern", ext], capsys)
     assert code == 2 and out == ""
-    assert err == f"error: loading extern file '{ext}' tried to end the program (sys.exit(3))\n"
+    assert err == f"cplus plan: error: loading extern file '{ext}' tried to end the program (sys.exit(3))\n"

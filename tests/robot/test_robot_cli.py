@@ -189,7 +189,7 @@ _THREADS_AFTER_NUMPY = r"""
 import os, sys
 import cplus.cli
 
-def report(argv=None):
+def report(argv=None, exiting=False):
     import numpy  # noqa: F401  (what a robot task's command loads)
     threads = next(line.split()[1] for line in open("/proc/self/status") if line.startswith("Threads:"))
     print(os.environ.get("OPENBLAS_NUM_THREADS"), threads, flush=True)
