@@ -104,6 +104,9 @@ def located(tmp_path, text: str, name: str = "bad.cp", extra: dict[str, str] | N
         (tmp_path / n).write_text(t, encoding="utf-8")
     with pytest.raises(CPlusError) as info:
         prog = load_program(str(path))
+        for q in (*prog.queries, *prog.nmqueries):    # a bad query fails alone, when it is asked
+            if q.error is not None:
+                raise q.error
         from cplus.ground.theory import ground_program
         ground_program(prog)
     return info.value

@@ -20,8 +20,12 @@ ADD = ":- maxAdditive :: 3. :- constants n :: additiveFluent(0..3); go :: exogen
 
 
 def error(text: str) -> str:
+    """The first error of a file: its loading's, or a query's that fails alone when asked."""
     with pytest.raises(CPlusError) as info:
-        load_text(text, "t.cp")
+        prog = load_text(text, "t.cp")
+        for q in (*prog.queries, *prog.nmqueries):
+            if q.error is not None:
+                raise q.error
     return info.value.render().splitlines()[0]
 
 
