@@ -289,15 +289,18 @@ def clear_progress(enabled: bool) -> None:
         print("\r\033[K", end="", file=sys.stderr, flush=True)
 
 
-def query(domain, label: str, prog: str, nmquery: bool = False):
+def query(domain, label: str, prog: str, nmquery: bool = False, refused: bool = False):
     """The query (``nmquery``: the nmquery) ``label`` of ``domain``. An unknown label is the
     command line's error, not the file's (no line of the file is wrong): one line naming the
-    option and the labels there are.  A query of the file that could not be resolved is
-    returned with its ``error`` (the caller reports it when that query's turn comes)."""
+    option and the labels there are.  A query of the file that could not be resolved raises
+    its located error, or, with ``refused``, is returned with it (``cplus plan`` reports it when
+    that query's turn comes and answers the others)."""
     from cplus.errors import QueryError
-    refused = (domain.program.nmquery if nmquery else domain.program.query)(label)
-    if refused is not None and refused.error is not None:
-        return refused
+    spec = (domain.program.nmquery if nmquery else domain.program.query)(label)
+    if spec is not None and spec.error is not None:
+        if not refused:
+            raise spec.error
+        return spec
     try:
         return domain.nmquery(label) if nmquery else domain.query(label)
     except QueryError as exc:

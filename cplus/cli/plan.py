@@ -169,7 +169,7 @@ def _plan_domain(args: argparse.Namespace) -> int:
         from cplus.errors import QueryError
         raise QueryError("this file has no queries; use '--query states' to list its states",
                          file_loc(args.file))
-    queries = [query(domain, lab, "cplus plan", nm) for lab, nm in wanted_labels]
+    queries = [query(domain, lab, "cplus plan", nm, refused=True) for lab, nm in wanted_labels]
     if args.minimize:
         from cplus.cli.optimal import cli_check
         cli_check(domain, [q for q in queries if q.error is None], args)

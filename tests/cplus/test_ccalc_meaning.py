@@ -103,6 +103,10 @@ def test_cplus_plan_answers_the_other_queries_of_a_file_with_a_bad_one(tmp_path)
     assert alone.returncode == 2 and alone.stdout == "" and f"{f}:2:39: error: " in alone.stderr
     other = run("--query", "2")
     assert other.returncode == 0 and "0:  q" in other.stdout
+    cnf = tmp_path / "q1.cnf"
+    ground = subprocess.run([sys.executable, "-m", "cplus", "ground", str(f), "--query", "1", "--maxstep", "0",
+                             "--dimacs", str(cnf)], capture_output=True, text=True, timeout=120)
+    assert ground.returncode == 2 and f"{f}:2:39: error: " in ground.stderr and not cnf.exists()
 
 
 # ----------------------------------------------------------------------------- maxstep
