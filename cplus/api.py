@@ -202,7 +202,7 @@ class Domain:
             raise ValueError(f"time_limit must be a positive number of seconds, not {time_limit!r}")
         from cplus.sat.optimize import Objective, run_optimal
         query = self._searchable(label, nmquery)
-        objective = Objective.parse(term, self.program.signature)
+        objective = Objective.parse(term, self.program.signature, option="")
         return run_optimal(self.theory_for(query), query, objective, solutions, solver, max_horizon,
                            over_lengths, time_limit)
 

@@ -51,10 +51,12 @@ class Objective:
         self.constants = constants
 
     @classmethod
-    def parse(cls, text: str, sig) -> Objective:
+    def parse(cls, text: str, sig, option: str = "--minimize") -> Objective:
         """``cost``, ``has(buyer,money)``, ``fuel(t1) + fuel(t2)``: ground constants named as
         the output prints them, joined by ``+``.  Refused in one line (exit 2) when a name is
-        no constant, or not one with integer values."""
+        no constant, or not one with integer values; the message starts with ``option`` (the
+        command's flag; the API gives none)."""
+        lead = f"{option}: " if option else ""
         parts: list[str] = []
         cur: list[str] = []
         depth = 0
@@ -73,14 +75,14 @@ class Objective:
             name = "".join(part.split())
             gc = by_text.get(name)
             if gc is None:
-                raise CPlusError(f"--minimize: '{name or text}' is not a ground constant of this domain "
+                raise CPlusError(f"{lead}'{name or text}' is not a ground constant of this domain "
                                  "(write a fluent as the output prints it, e.g. cost or has(buyer,money), "
                                  "or a sum of them with +)")
             if gc.decl.is_action:
-                raise CPlusError(f"--minimize: '{name}' is an action; the term is read at the last state, so "
+                raise CPlusError(f"{lead}'{name}' is an action; the term is read at the last state, so "
                                  "it must be a fluent (an additive fluent sums an action's costs)")
             if not gc.domain or not all(isinstance(v, int) for v in gc.domain):
-                raise CPlusError(f"--minimize: '{name}' does not have integer values (its domain is "
+                raise CPlusError(f"{lead}'{name}' does not have integer values (its domain is "
                                  f"{gc.decl.domain})")
             constants.append(gc)
         return cls(" + ".join("".join(p.split()) for p in parts), constants)

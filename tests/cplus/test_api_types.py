@@ -229,3 +229,9 @@ def test_the_command_and_the_shell_say_the_closest_label():
     shell = subprocess.run([sys.executable, "-m", "cplus", "shell", VACUUM], input="query tdy.\n",
                            capture_output=True, text=True, timeout=120)
     assert "no query with label 'tdy' (did you mean 'tidy'?" in shell.stderr
+
+
+def test_a_bad_term_of_the_api_names_no_command_line_flag():
+    with pytest.raises(CPlusError) as info:
+        ROUTES.minimize("there", "cst")
+    assert info.value.message.startswith("'cst' is not a ground constant of this domain")
