@@ -278,16 +278,18 @@ def _ray_loop(ray, jobs: list[Job], fn: Callable, retries: int, sink: Sink, prog
                 groups[job.id].remove(ref)
                 try:
                     record = ray.get(ref)
-                except ray.exceptions.TaskCancelledError:
-                    continue
                 except (ray.exceptions.WorkerCrashedError, ray.exceptions.NodeDiedError,
                         ray.exceptions.OutOfMemoryError, ray.exceptions.RayTaskError,
-                        ray.exceptions.RaySystemError) as exc:
+                        ray.exceptions.RaySystemError, ray.exceptions.TaskCancelledError) as exc:
+                    # a cancelled task here is one the time limit's backstop below cancelled (a
+                    # portfolio's losers left their group before they were cancelled): recorded
+                    # as over its time, never dropped
                     status = "timeout" if _over_time(job, started) else "lost"
                     if isinstance(exc, ray.exceptions.OutOfMemoryError):
                         status = "memory"
-                    record = lost_record(job, retries + 1, f"{type(exc).__name__}: {_last_line(exc)}",
-                                         status)
+                    cancelled = isinstance(exc, ray.exceptions.TaskCancelledError)    # never retried
+                    record = lost_record(job, 1 if cancelled else retries + 1,
+                                         f"{type(exc).__name__}: {_last_line(exc)}", status)
                 if name is not None:
                     finished.setdefault(job.id, {})[name] = record
                     if record["status"] not in definite and groups[job.id]:

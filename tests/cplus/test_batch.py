@@ -153,7 +153,11 @@ def test_a_job_over_its_memory_limit(tmp_path):
 
 
 def killer(job: dict, attempt: int = 1) -> dict:
-    """A job function whose first run of the job 'victim' kills its own worker process."""
+    """A job function whose first run of the job 'victim' kills its own worker process, and
+    whose job 'stuck' never returns (ignoring its time limit, as a native solver may)."""
+    if job["id"] == "stuck":
+        import time
+        time.sleep(3600)
     marker = Path(job["domain"]).with_name("killed-once")
     if job["id"] == "victim" and not marker.exists():
         marker.write_text("x")
@@ -488,13 +492,16 @@ def test_a_batch_on_a_local_ray_instance(tmp_path, monkeypatch):
     f = jobs_file(tmp_path, [{"id": "victim", "domain": "lamp.cp", "query": "on"},
                              {"id": "ferry", "domain": str(FERRY), "portfolio": ["glucose4", "minisat22"]},
                              {"id": "slow", "domain": str(HANOI), "timeout": 0.5},
-                             {"id": "lamp", "domain": "lamp.cp", "query": "on"}])
+                             {"id": "lamp", "domain": "lamp.cp", "query": "on"},
+                             {"id": "stuck", "domain": "lamp.cp", "query": "on", "timeout": 0.5}])
     from cplus.batch import run_ray
     from cplus.cli.batch_job import DEFINITE, variant
     out: list[dict] = []
-    run_ray(read_jobs(str(f)), killer, 2, None, 1, out.append, Progress(4, quiet=True), variant, DEFINITE)
+    run_ray(read_jobs(str(f)), killer, 2, None, 1, out.append, Progress(5, quiet=True), variant, DEFINITE)
     got = {r["id"]: r for r in out}
-    assert set(got) == {"victim", "ferry", "slow", "lamp"} and len(out) == 4
+    assert set(got) == {"victim", "ferry", "slow", "lamp", "stuck"} and len(out) == 5
+    # cancelled by the time limit's backstop: recorded, not dropped
+    assert got["stuck"]["status"] == "timeout" and "TaskCancelledError" in got["stuck"]["error"]
     assert got["victim"]["status"] == "found" and (tmp_path / "killed-once").exists()
     assert got["ferry"]["status"] == "found" and got["ferry"]["maxstep"] == 17
     assert got["ferry"]["portfolio"]["winner"] in ("glucose4", "minisat22")
