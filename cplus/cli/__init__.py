@@ -50,6 +50,10 @@ def version() -> str:
         return "unknown"
 
 
+_STOPPED_IN_ORDER = ("execute", "online", "run")
+"""The commands whose SIGINT/SIGTERM is an orderly stop under a watchdog (:mod:`cplus.cli.signals`)."""
+
+
 def main(argv: list[str] | None = None, *, exiting: bool = False) -> int:
     """Run ``cplus`` with ``argv`` (default: the process's arguments); return the exit code.
 
@@ -75,6 +79,9 @@ def main(argv: list[str] | None = None, *, exiting: bool = False) -> int:
     # creates almost no reference cycles: the cyclic collector only costs time here.
     gc.disable()
     try:
+        if name in _STOPPED_IN_ORDER:     # its environment variable, checked before any work
+            from cplus.cli.signals import stop_grace
+            stop_grace(f"cplus {name}")
         module = importlib.import_module(f"cplus.cli.{name}")
         try:
             args = module.build_parser().parse_args(rest)

@@ -11,7 +11,8 @@ the operator wants it to end. :class:`Shutdown` gives them one behaviour:
   gets its end record, and the command exits with ``128 + signal`` (130 for SIGINT, 143 for
   SIGTERM) after one line on stderr;
 * **a watchdog** starts with the first signal. If the orderly stop has not finished after
-  ``grace_s`` (1.5 s), because the main thread is stuck somewhere (a link retrying, a slow
+  ``grace_s`` (1.5 s, or the seconds in ``CPLUS_STOP_GRACE``: a slow controller PC, or a test
+  that checks the orderly path on a loaded machine, may give it longer), because the main thread is stuck somewhere (a link retrying, a slow
   write), it runs the ``on_force`` callbacks itself (each in its own thread, bounded: motors
   off by direct commands that need no reply, the log's end record), says so on stderr and ends
   the process with the same code, within 2 s of the signal;
@@ -39,22 +40,30 @@ puts the previous handlers back on exit.
 """
 from __future__ import annotations
 
+import math
 import os
 import signal
 import sys
 import threading
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Iterable, Mapping
 from types import FrameType
 from typing import TextIO
 
-__all__ = ["EXIT_FORCED", "GRACE_S", "Shutdown", "Stopped", "exit_code_of", "motors_off", "reason_of"]
+__all__ = ["EXIT_FORCED", "GRACE_ENV", "GRACE_S", "Shutdown", "Stopped", "exit_code_of",
+           "motors_off", "reason_of", "stop_grace"]
 
 EXIT_FORCED = 124
 """A second SIGINT/SIGTERM ended the command at once (motors commanded off, best effort)."""
 
 GRACE_S = 1.5
 """How long the orderly stop may take before the watchdog takes over (the whole stop stays
-within 2 s: the forced callbacks get the rest)."""
+within 2 s: the forced callbacks get the rest), unless ``CPLUS_STOP_GRACE`` says otherwise."""
+
+GRACE_ENV = "CPLUS_STOP_GRACE"
+"""The environment variable that replaces :data:`GRACE_S` (seconds, more than 0, at most
+:data:`MAX_GRACE_S`)."""
+
+MAX_GRACE_S = 600.0
 
 _FORCE_BUDGET_S = 0.4
 _SECOND_BUDGET_S = 0.3
@@ -72,6 +81,24 @@ class Stopped(KeyboardInterrupt):
         self.code = 128 + signum
 
 
+def stop_grace(prog: str, environ: Mapping[str, str] | None = None) -> float:
+    """The orderly stop's time limit: :data:`GRACE_S`, or ``CPLUS_STOP_GRACE`` when it is set.
+    A value that is not a number of seconds in (0, 600] is refused with one line naming the
+    variable (a :class:`~cplus.cli.common.CliError`), never silently replaced."""
+    text = (os.environ if environ is None else environ).get(GRACE_ENV, "").strip()
+    if not text:
+        return GRACE_S
+    try:
+        value = float(text)
+    except ValueError:
+        value = math.nan
+    if not 0.0 < value <= MAX_GRACE_S:
+        from cplus.cli.common import CliError
+        raise CliError(f"{prog}: error: {GRACE_ENV} must be a number of seconds > 0 and at most "
+                       f"{MAX_GRACE_S:g}, got {text!r}")
+    return value
+
+
 def exit_code_of(exc: BaseException) -> int:
     """The exit code of a ``KeyboardInterrupt``: ``128 + signal`` for :class:`Stopped`, 130
     for a plain one (Ctrl-C caught inside the SAT solver)."""
@@ -87,9 +114,9 @@ class Shutdown:
 
     _active: Shutdown | None = None
 
-    def __init__(self, prog: str, *, grace_s: float = GRACE_S, err: TextIO | None = None) -> None:
+    def __init__(self, prog: str, *, grace_s: float | None = None, err: TextIO | None = None) -> None:
         self.prog = prog
-        self.grace_s = grace_s
+        self.grace_s = stop_grace(prog) if grace_s is None else grace_s
         self.err = err
         self._signum: int | None = None
         self._stop: list[Callable[[], None]] = []
