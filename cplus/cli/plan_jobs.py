@@ -30,6 +30,7 @@ def _options(args: argparse.Namespace) -> dict:
 def record_line(r: dict) -> str:
     """A ``--stats`` line for one worker's run of one horizon."""
     verdict = {"sat": "solution", "unsat": "no solution", "dropped": "cancelled (a shorter plan was found)",
+               "taken": "taken over (by the worker of the shortest unfinished horizon)",
                "stopped": "stopped (not needed)"}.get(r["result"], str(r["result"]))
     return (f"% worker {r['worker']}, maxstep {r['maxstep']}: {r['variables']} variables, {r['clauses']} clauses, "
             f"encode {r['encode_s']:.3f} s, solve {r['solve_s']:.3f} s (processor {r['cpu_s']:.3f} s in all, "

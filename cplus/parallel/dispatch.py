@@ -31,7 +31,7 @@ from collections.abc import Callable
 
 from cplus.errors import CPlusError
 from cplus.options import worker_bound
-from cplus.parallel.strategy import Strategy, in_flight, share, window_based
+from cplus.parallel.strategy import Strategy, chained, in_flight, share, window_based
 from cplus.parallel.work import Outcome, Work
 from cplus.parallel.worker import worker_main
 
@@ -70,6 +70,7 @@ class _Search:
         self.on_record = on_record
         self.on_learned = on_learned
         self.width = in_flight(strategy, self.jobs, gamma)
+        self.chain = chained(strategy, self.jobs)    # B: k alone on procs[0] (strategy.chained)
         self.next_h = self.lo
         self.k = self.lo
         self.proved: set[int] = set()
@@ -149,8 +150,14 @@ class _Search:
         if self.on_record:
             self.on_record(st)
 
-    def _pick(self) -> _Proc:
-        live = [p for p in self.procs if p.alive]
+    def _pick(self, m: int) -> _Proc:
+        if self.chain:
+            head = self.procs[0]
+            if m == self.k and head.alive:
+                return head
+            live = [p for p in self.procs[1:] if p.alive] or [p for p in self.procs if p.alive]
+        else:
+            live = [p for p in self.procs if p.alive]
         # least loaded; among equals the one whose session is highest (it extends least)
         return min(live, key=lambda p: (sum(p.load.values()), -p.last, p.wid))
 
@@ -171,7 +178,7 @@ class _Search:
             self.next_h += 1
 
     def _give(self, m: int) -> None:
-        p = self._pick()
+        p = self._pick(m)
         sh = share(self.strategy, self.gamma, m - self.k)
         _send(p, ("add", m, sh))
         p.load[m] = sh
@@ -194,6 +201,22 @@ class _Search:
             self.done = True
         elif self.sat and self.k == min(self.sat):
             self._finish(self.k)
+        elif self.chain:
+            self._take_over()
+
+    def _take_over(self) -> None:
+        """B's chain (:func:`~cplus.parallel.strategy.chained`): the shortest unfinished
+        horizon k, when another worker holds it, is dropped there and given to the first worker,
+        whose solver has just proved the horizon below empty (one not started yet goes there from
+        :meth:`_fill`)."""
+        k = self.k
+        p = self.running.get(k)
+        if p is None or p is self.procs[0]:
+            return
+        del self.running[k]
+        p.load.pop(k, None)
+        _send(p, ("drop", k, "taken"))
+        self._give(k)
 
     def _finish(self, m: int) -> None:
         self.done = True

@@ -82,7 +82,7 @@ class _Worker:
         elif kind == "drop":
             slot = self.slots.pop(msg[1], None)
             if slot is not None:
-                slot.stat["result"] = "dropped"
+                slot.stat["result"] = msg[2] if len(msg) > 2 else "dropped"   # "taken": see strategy.chained
                 self.conn.send(("dropped", self.wid, slot.m, slot.stat))
                 self.free.append(slot.session)
         elif kind == "enumerate":

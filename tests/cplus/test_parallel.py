@@ -139,6 +139,40 @@ def test_any_length_says_what_is_not_proved():
     assert sorted(set(r.failed) | set(info["not_proved_empty"])) == list(range(1, r.maxstep))
 
 
+def test_b_runs_the_shortest_horizon_alone_on_the_first_worker(monkeypatch):
+    """Strategy B on two workers (issue 37): the first worker holds one horizon at a time, the
+    shortest unfinished one, taken over from the worker that held it; never more horizons
+    open than B's window; the answer is the sequential one."""
+    from cplus.parallel import dispatch
+    seen: list[tuple[int, int, int]] = []
+    give = dispatch._Search._give
+
+    def spy(self, m: int) -> None:
+        give(self, m)
+        head = self.procs[0]
+        assert self.chain and set(head.load) <= {self.k}, (self.k, head.load)
+        assert len(self.running) <= self.width
+        seen.append((m, self.k, len(self.running)))
+    monkeypatch.setattr(dispatch._Search, "_give", spy)
+    expected = Domain.load(str(FERRY)).solve("0", max_horizon=200)
+    got = solve_parallel(Domain.load(str(FERRY)), "0", max_horizon=200, jobs=2, strategy="B")
+    assert (got.maxstep, got.failed) == (expected.maxstep, expected.failed)
+    assert max(n for _, _, n in seen) <= dispatch.in_flight(Strategy.B, 2, 0.8)
+    runs = got.parallel["runs"]
+    first = [r["maxstep"] for r in runs if r["worker"] == 0 and r["result"] in ("sat", "unsat")]
+    assert first == sorted(set(first)) and first, "the first worker goes up one horizon at a time"
+    assert all(r["worker"] != 0 for r in runs if r["result"] == "taken")
+
+
+def test_b_on_one_worker_time_shares_its_window():
+    from cplus.parallel.strategy import chained
+    assert chained(Strategy.B, 2) and chained(Strategy.B, 8)
+    assert not chained(Strategy.B, 1) and not chained(Strategy.A, 2) and not chained(Strategy.SEQUENTIAL, 2)
+    r = solve_parallel(Domain.load(str(FERRY)), "0", max_horizon=200, jobs=1, strategy="B")
+    assert r.maxstep == 17 and r.failed == list(range(1, 17))
+    assert not any(run["result"] == "taken" for run in r.parallel["runs"])
+
+
 def test_no_plan_in_a_closed_range_is_proved_on_workers():
     d = Domain.from_text(""":- constants lit :: inertialFluent; flip :: exogenousAction.
 flip causes lit.
