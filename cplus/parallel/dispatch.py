@@ -41,6 +41,13 @@ MAX_REPLACEMENTS = 3
 """Workers lost (killed, out of memory) and replaced in one search before it gives up."""
 
 
+SPECULATIVE_NICE = 10
+"""Under strategy B on two workers or more, the workers other than the first (the horizons
+above the shortest unfinished one, :func:`~cplus.parallel.strategy.chained`) lower their
+priority by this much (``nice``): they run on the cores nobody else wants, and on a busy
+machine the first worker, which runs what the sequential search would, keeps its share."""
+
+
 class _Proc:
     __slots__ = ("wid", "proc", "conn", "load", "last", "alive")
 
@@ -279,7 +286,10 @@ class _Search:
             self.running.pop(m, None)
             self.sat.pop(m, None)
         new = self._start(p.wid)
-        self.procs[self.procs.index(p)] = new
+        at = self.procs.index(p)
+        self.procs[at] = new
+        if self.chain and at > 0:
+            _send(new, ("nice", SPECULATIVE_NICE))
         self.out.replaced += 1
         for _, _, learned in self.out.learned:
             _send(new, ("learn", learned))
@@ -298,6 +308,9 @@ class _Search:
         try:
             for w in range(self.jobs):
                 self.procs.append(self._start(w))
+            if self.chain:
+                for p in self.procs[1:]:
+                    _send(p, ("nice", SPECULATIVE_NICE))
             if self.hi is not None and self.lo > self.hi:
                 self.done = True
             self._fill()

@@ -89,6 +89,11 @@ class _Worker:
             self.enumerate(self.slots[msg[1]], msg[2])
         elif kind == "learn":
             self.work.learn(self.sessions(), msg[1])
+        elif kind == "nice":
+            try:
+                os.nice(msg[1])
+            except OSError:     # pragma: no cover - not allowed here: run at the parent's priority
+                pass
         elif kind == "stop":
             left = []
             for slot in self.slots.values():
