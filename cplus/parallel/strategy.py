@@ -21,7 +21,13 @@ from enum import StrEnum
 
 from cplus.options import available_cores
 
-__all__ = ["Strategy", "B_FLOOR", "B_MAX", "in_flight", "share", "chained", "DEFAULT_GAMMA", "available_cores"]
+__all__ = ["Strategy", "B_FLOOR", "B_MAX", "in_flight", "share", "chained", "DEFAULT_GAMMA", "DEFAULT_STRATEGY", "available_cores"]
+
+DEFAULT_STRATEGY = "B"
+"""What ``--jobs N`` runs without ``--strategy`` (and ``solve_parallel``, a batch's ``jobs``):
+B, measured best on two workers (docs/parallel.md, issue 37: ferryman-30-4 0.76× against A's
+0.43×, hanoi-7 1.01× against 0.85×, bw-18-s5 0.76× against 0.77×, at load 4 to 6).  Robot
+tasks' refinement keeps A (not measured with B)."""
 
 DEFAULT_GAMMA = 0.8
 """γ of strategy B unless told: the plasp paper's worked example (S 46, A 40, B 38 time units)."""

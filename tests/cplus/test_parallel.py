@@ -154,6 +154,13 @@ def test_b_runs_the_shortest_horizon_alone_on_the_first_worker(monkeypatch):
         assert len(self.running) <= self.width
         seen.append((m, self.k, len(self.running)))
     monkeypatch.setattr(dispatch._Search, "_give", spy)
+    sent: list[tuple[int, tuple]] = []
+    send = dispatch._send
+
+    def spy_send(p, msg: tuple) -> None:
+        sent.append((p.wid, msg))
+        send(p, msg)
+    monkeypatch.setattr(dispatch, "_send", spy_send)
     expected = Domain.load(str(FERRY)).solve("0", max_horizon=200)
     got = solve_parallel(Domain.load(str(FERRY)), "0", max_horizon=200, jobs=2, strategy="B")
     assert (got.maxstep, got.failed) == (expected.maxstep, expected.failed)
@@ -162,6 +169,8 @@ def test_b_runs_the_shortest_horizon_alone_on_the_first_worker(monkeypatch):
     first = [r["maxstep"] for r in runs if r["worker"] == 0 and r["result"] in ("sat", "unsat")]
     assert first == sorted(set(first)) and first, "the first worker goes up one horizon at a time"
     assert all(r["worker"] != 0 for r in runs if r["result"] == "taken")
+    assert [w for w, msg in sent if msg[0] == "nice"] == [1], "only the other workers give way"
+    assert all(w == 0 for w, msg in sent if msg[0] == "add" and msg[2] == 1.0), "k runs on the first worker"
 
 
 def test_b_on_one_worker_time_shares_its_window():
@@ -204,7 +213,7 @@ def test_json_has_the_parallel_account(capsys):
 def test_stats_are_per_worker_and_horizon(capsys):
     code, out, err = run(["plan", str(FERRY), "--jobs", "2", "--stats"], capsys)
     assert code == 0 and "17:" in out
-    assert "% worker 0, maxstep" in err and "% worker 1, maxstep" in err and "strategy A" in err
+    assert "% worker 0, maxstep" in err and "% worker 1, maxstep" in err and "strategy B" in err
 
 
 @pytest.mark.parametrize("argv, message", [
