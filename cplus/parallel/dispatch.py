@@ -82,6 +82,8 @@ class _Search:
         self.k = self.lo
         self.proved: set[int] = set()
         self.running: dict[int, _Proc] = {}
+        self.taken: set[tuple[int, int]] = set()    # (worker, horizon) taken over, its drop not yet answered
+        self.stale: set[tuple[int, int]] = set()    # ... answered by a result sent before the drop arrived
         self.sat: dict[int, _Proc] = {}
         self.procs: list[_Proc] = []
         self.out = Outcome(None, [], [], [], workers=self.jobs)
@@ -222,6 +224,7 @@ class _Search:
             return
         del self.running[k]
         p.load.pop(k, None)
+        self.taken.add((p.wid, k))
         _send(p, ("drop", k, "taken"))
         self._give(k)
 
@@ -239,6 +242,16 @@ class _Search:
         kind = msg[0]
         if kind == "done":
             _, _, m, ok, st, extra = msg
+            if (p.wid, m) in self.taken:
+                # Sent before the take-over's drop arrived: the first worker runs m now, and its
+                # answer is the one used (a model found here could not be enumerated: the drop
+                # removes it). A model's slot is still answered by the drop: not recorded twice.
+                self.taken.discard((p.wid, m))
+                if ok:
+                    self.stale.add((p.wid, m))
+                st["result"] = "taken"
+                self._record(st)
+                return
             self._record(st)
             self.running.pop(m, None)
             p.load.pop(m, None)
@@ -255,6 +268,11 @@ class _Search:
             self._advance()
             self._fill()
         elif kind == "dropped":
+            key = (msg[1], msg[2])
+            self.taken.discard(key)
+            if key in self.stale:       # recorded with the result that crossed the drop
+                self.stale.discard(key)
+                return
             self._record(msg[3])
         elif kind == "learn":
             _, wid, m, learned = msg
@@ -285,6 +303,8 @@ class _Search:
         for m in mine:
             self.running.pop(m, None)
             self.sat.pop(m, None)
+        self.taken = {key for key in self.taken if key[0] != p.wid}    # the new worker starts clean
+        self.stale = {key for key in self.stale if key[0] != p.wid}
         new = self._start(p.wid)
         at = self.procs.index(p)
         self.procs[at] = new

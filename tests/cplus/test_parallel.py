@@ -173,6 +173,36 @@ def test_b_runs_the_shortest_horizon_alone_on_the_first_worker(monkeypatch):
     assert all(w == 0 for w, msg in sent if msg[0] == "add" and msg[2] == 1.0), "k runs on the first worker"
 
 
+def test_a_result_that_crosses_the_take_over_is_not_used(monkeypatch):
+    """Worker 1 finds horizon 1 satisfiable just as the first worker takes it over (its "done"
+    was on the way when the drop was sent): the search must not take that model (the drop
+    removes it, so it could not be enumerated), record it once, as taken, and end with the
+    first worker's answer. The scheduler is driven message by message with stand-in workers."""
+    import types
+
+    from cplus.parallel import dispatch
+    sent: list[tuple[int, tuple]] = []
+    monkeypatch.setattr(dispatch, "_send", lambda p, msg: sent.append((p.wid, msg)))
+    work = types.SimpleNamespace(query=types.SimpleNamespace(lo=0, hi=None), max_horizon=10)
+    search = dispatch._Search(work, 2, Strategy.B, 0.8, 1, False, None, None)
+    search.procs = [dispatch._Proc(w, None, None) for w in range(2)]
+    search._fill()
+    head, other = search.procs
+    assert search.running[0] is head and search.running[1] is other
+
+    def stat(w: int, m: int, result: str) -> dict:
+        return {"worker": w, "maxstep": m, "result": result}
+    search._handle(head, ("done", 0, 0, False, stat(0, 0, "unsat"), None))     # 0 proved empty
+    assert (1, ("drop", 1, "taken")) in sent and search.running[1] is head    # 1 taken over
+    search._handle(other, ("done", 1, 1, True, stat(1, 1, "sat"), "model"))   # crossed the drop
+    assert not search.done and 1 not in search.sat and search.running[1] is head
+    search._handle(other, ("dropped", 1, 1, stat(1, 1, "taken")))             # the drop's answer
+    search._handle(head, ("done", 0, 1, True, stat(0, 1, "sat"), "model"))
+    assert search.done and search.answer == 1 and search.sat[1] is head
+    assert [(r["worker"], r["maxstep"], r["result"]) for r in search.out.records] == [
+        (0, 0, "unsat"), (1, 1, "taken"), (0, 1, "sat")]
+
+
 def test_b_on_one_worker_time_shares_its_window():
     from cplus.parallel.strategy import chained
     assert chained(Strategy.B, 2) and chained(Strategy.B, 8)
