@@ -4,12 +4,16 @@
     python bench/bench_parallel.py --corpus [--runs 5]           # corpus benchmarks: sequential vs --jobs auto
     python bench/bench_parallel.py --batch [--jobs 100] [--no-ray]   # 100 small jobs: loop, pool, Ray
     python bench/bench_parallel.py --ceiling [--runs 5] [--only NAME] # what two cores can give at best
+    python bench/bench_parallel.py --files bench/data DIR ... [--config "B on 2"]  # these C+ files instead
 
 **Instances.**  Generated here, harder than the corpus: random blocks worlds with one move at a
 time (``noconcurrency``: plans two to three times longer than with concurrent moves, and the
 proofs that no shorter plan exists get hard near the shortest length), ferryman crossings with
 more animals or a smaller boat than the corpus's, Hanoi with more disks.  Each is written to a
 temporary folder and run as a user runs it (``cplus plan FILE``, a new process each time).
+``--files`` runs C+ files instead (folders: every ``*.cp`` in them; ``bench/data``, or a draw of
+``bench/gen_instances.py``), every query of each, and ``--config`` only some configurations
+(the sequential one always: it is what the others are compared with).
 
 **Side by side.**  For each instance the configurations run in turn, run after run (so a change
 of the machine's load hits all of them alike): sequential, ``--jobs 2`` with strategies
@@ -182,25 +186,31 @@ def load() -> float:
     return os.getloadavg()[0]
 
 
-def side_by_side(names: list[str], runs: int) -> None:
+def side_by_side(names: list[str], runs: int, files: list[Path] | None = None, only: list[str] | None = None) -> None:
+    """The generated instances ``names``, then the C+ files ``files`` (first query), run with
+    every configuration (or those named in ``only``) in turn."""
+    configs = [(c, extra) for c, extra in CONFIGS if not only or c in only]
+    if "sequential" not in {c for c, _ in configs}:
+        configs.insert(0, CONFIGS[0])
+    texts = [(name, INSTANCES[name]) for name in names] + [(f.stem, f.read_text) for f in files or []]
     folder = Path(tempfile.mkdtemp(prefix="cplus-bench-parallel-"))
     print(f"# cplus plan sequentially vs --jobs 2, {runs} runs each, medians; {os.cpu_count()} cores; "
           f"load average (1 min) per instance")
     head = "| instance | length | seq: sat / unsat solving | " + " | ".join(
-        f"{c}: wall / cpu s (×)" for c, _ in CONFIGS) + " | load |"
+        f"{c}: wall / cpu s (×)" for c, _ in configs) + " | load |"
     print(head)
     print("|" + "---|" * (head.count("|") - 1))
     try:
-        for name in names:
+        for name, text in texts:
             path = folder / f"{name}.cp"
-            path.write_text(INSTANCES[name]())
-            walls: dict[str, list[float]] = {c: [] for c, _ in CONFIGS}
-            cpus: dict[str, list[float]] = {c: [] for c, _ in CONFIGS}
-            paths: dict[str, list[float]] = {c: [] for c, _ in CONFIGS}
+            path.write_text(text())
+            walls: dict[str, list[float]] = {c: [] for c, _ in configs}
+            cpus: dict[str, list[float]] = {c: [] for c, _ in configs}
+            paths: dict[str, list[float]] = {c: [] for c, _ in configs}
             loads = []
             sat_unsat = []
             for _ in range(runs):
-                for c, extra in CONFIGS:
+                for c, extra in configs:
                     loads.append(load())
                     wall, cpu, err, code = timed([*cplus_cmd(), "plan", str(path), "--stats", *extra])
                     if code not in (0, 1, 3):
@@ -217,7 +227,7 @@ def side_by_side(names: list[str], runs: int) -> None:
             share = unsat / seq if seq else 0.0
             cells = []
             seq_cpu = statistics.median(cpus["sequential"])
-            for c, _ in CONFIGS:
+            for c, _ in configs:
                 w, p, path = statistics.median(walls[c]), statistics.median(cpus[c]), statistics.median(paths[c])
                 cells.append(f"{w:.2f} / {p:.2f} ({seq / w:.2f}×; idle {seq_cpu / path:.2f}×)")
             print(f"| {name} | {length} | {sat:.2f} / {unsat:.2f} s ({share:.0%} of wall in unsat) | "
@@ -336,6 +346,10 @@ def main() -> None:
     ap.add_argument("--workers", type=int, default=2, help="workers of --batch")
     ap.add_argument("--no-ray", action="store_true")
     ap.add_argument("--ceiling", action="store_true", help="one run alone vs two copies at once")
+    ap.add_argument("--files", nargs="+", type=Path, default=None,
+                    help="C+ files or folders of them (bench/data, gen_instances.py's output) instead of the generated instances")
+    ap.add_argument("--config", action="append", choices=[c for c, _ in CONFIGS],
+                    help="only these configurations (sequential is always run: it is the baseline)")
     a = ap.parse_args()
     if a.ceiling:
         ceiling(a.only or list(INSTANCES), a.runs)
@@ -344,7 +358,8 @@ def main() -> None:
     elif a.batch:
         batch(a.jobs, not a.no_ray, a.workers)
     else:
-        side_by_side(a.only or list(INSTANCES), a.runs)
+        files = sorted(f for p in a.files for f in (p.glob("*.cp") if p.is_dir() else [p])) if a.files else None
+        side_by_side(a.only or ([] if files else list(INSTANCES)), a.runs, files, a.config)
 
 
 if __name__ == "__main__":

@@ -219,8 +219,9 @@ def _run(job: dict, record: dict, timings: dict) -> None:
             result = domain.solve(label, n, solver, opts.get("max_horizon"), nmquery=True)
         elif opts.get("jobs") is not None:
             from cplus.parallel import DEFAULT_GAMMA, solve_parallel
+            from cplus.parallel.strategy import DEFAULT_STRATEGY
             result = solve_parallel(domain, label, n, solver, opts.get("max_horizon"), jobs=opts["jobs"],
-                                    strategy=opts.get("strategy", "A"), gamma=opts.get("gamma", DEFAULT_GAMMA),
+                                    strategy=opts.get("strategy", DEFAULT_STRATEGY), gamma=opts.get("gamma", DEFAULT_GAMMA),
                                     any_length=opts.get("any_length", False))
         else:
             result = domain.solve(label, n, solver, opts.get("max_horizon"))

@@ -13,8 +13,7 @@ __all__ = ["check_options", "solve", "refine_on_jobs", "record_line"]
 
 def check_options(args: argparse.Namespace) -> str | None:
     """What does not go together, as the one-line usage error to print (None: all is well)."""
-    strategy = args.strategy or "A"
-    if args.gamma is not None and strategy != "B":
+    if args.gamma is not None and args.strategy != "B":    # asked for by name, even now that B is the default
         return "cplus plan: error: --gamma applies to --strategy B"
     if args.no_refine:
         print("cplus plan: warning: --no-refine checks one plan in this process; --jobs ignored", file=sys.stderr)
@@ -23,13 +22,15 @@ def check_options(args: argparse.Namespace) -> str | None:
 
 def _options(args: argparse.Namespace) -> dict:
     from cplus.parallel import DEFAULT_GAMMA
-    return {"jobs": args.jobs, "strategy": args.strategy or "A",
+    from cplus.parallel.strategy import DEFAULT_STRATEGY
+    return {"jobs": args.jobs, "strategy": args.strategy or DEFAULT_STRATEGY,
             "gamma": args.gamma if args.gamma is not None else DEFAULT_GAMMA, "any_length": args.any_length}
 
 
 def record_line(r: dict) -> str:
     """A ``--stats`` line for one worker's run of one horizon."""
     verdict = {"sat": "solution", "unsat": "no solution", "dropped": "cancelled (a shorter plan was found)",
+               "taken": "taken over (by the worker of the shortest unfinished horizon)",
                "stopped": "stopped (not needed)"}.get(r["result"], str(r["result"]))
     return (f"% worker {r['worker']}, maxstep {r['maxstep']}: {r['variables']} variables, {r['clauses']} clauses, "
             f"encode {r['encode_s']:.3f} s, solve {r['solve_s']:.3f} s (processor {r['cpu_s']:.3f} s in all, "
@@ -77,6 +78,8 @@ def refine_on_jobs(task, label: str, args: argparse.Namespace, options: dict):
     """A robot task's refinement on ``--jobs`` workers."""
     from cplus.robot import refine_parallel
     options = dict(options, on_record=_on_record(args), **_options(args))
+    if args.strategy is None:       # robot tasks keep A (B is the default measured on plain planning only)
+        options["strategy"] = "A"
     result = refine_parallel(task, label, args.max_iterations, args.max_horizon, args.solver, **options)
     clear_progress(args.stats)
     if result.history is not None:

@@ -31,7 +31,7 @@ from collections.abc import Callable
 
 from cplus.errors import CPlusError
 from cplus.options import worker_bound
-from cplus.parallel.strategy import Strategy, in_flight, share, window_based
+from cplus.parallel.strategy import Strategy, chained, in_flight, share, window_based
 from cplus.parallel.work import Outcome, Work
 from cplus.parallel.worker import worker_main
 
@@ -39,6 +39,13 @@ __all__ = ["search", "workers_for", "MAX_REPLACEMENTS"]
 
 MAX_REPLACEMENTS = 3
 """Workers lost (killed, out of memory) and replaced in one search before it gives up."""
+
+
+SPECULATIVE_NICE = 10
+"""Under strategy B on two workers or more, the workers other than the first (the horizons
+above the shortest unfinished one, :func:`~cplus.parallel.strategy.chained`) lower their
+priority by this much (``nice``): they run on the cores nobody else wants, and on a busy
+machine the first worker, which runs what the sequential search would, keeps its share."""
 
 
 class _Proc:
@@ -70,10 +77,13 @@ class _Search:
         self.on_record = on_record
         self.on_learned = on_learned
         self.width = in_flight(strategy, self.jobs, gamma)
+        self.chain = chained(strategy, self.jobs)    # B: k alone on procs[0] (strategy.chained)
         self.next_h = self.lo
         self.k = self.lo
         self.proved: set[int] = set()
         self.running: dict[int, _Proc] = {}
+        self.taken: set[tuple[int, int]] = set()    # (worker, horizon) taken over, its drop not yet answered
+        self.stale: set[tuple[int, int]] = set()    # ... answered by a result sent before the drop arrived
         self.sat: dict[int, _Proc] = {}
         self.procs: list[_Proc] = []
         self.out = Outcome(None, [], [], [], workers=self.jobs)
@@ -149,8 +159,14 @@ class _Search:
         if self.on_record:
             self.on_record(st)
 
-    def _pick(self) -> _Proc:
-        live = [p for p in self.procs if p.alive]
+    def _pick(self, m: int) -> _Proc:
+        if self.chain:
+            head = self.procs[0]
+            if m == self.k and head.alive:
+                return head
+            live = [p for p in self.procs[1:] if p.alive] or [p for p in self.procs if p.alive]
+        else:
+            live = [p for p in self.procs if p.alive]
         # least loaded; among equals the one whose session is highest (it extends least)
         return min(live, key=lambda p: (sum(p.load.values()), -p.last, p.wid))
 
@@ -171,7 +187,7 @@ class _Search:
             self.next_h += 1
 
     def _give(self, m: int) -> None:
-        p = self._pick()
+        p = self._pick(m)
         sh = share(self.strategy, self.gamma, m - self.k)
         _send(p, ("add", m, sh))
         p.load[m] = sh
@@ -194,6 +210,23 @@ class _Search:
             self.done = True
         elif self.sat and self.k == min(self.sat):
             self._finish(self.k)
+        elif self.chain:
+            self._take_over()
+
+    def _take_over(self) -> None:
+        """B's chain (:func:`~cplus.parallel.strategy.chained`): the shortest unfinished
+        horizon k, when another worker holds it, is dropped there and given to the first worker,
+        whose solver has just proved the horizon below empty (one not started yet goes there from
+        :meth:`_fill`)."""
+        k = self.k
+        p = self.running.get(k)
+        if p is None or p is self.procs[0]:
+            return
+        del self.running[k]
+        p.load.pop(k, None)
+        self.taken.add((p.wid, k))
+        _send(p, ("drop", k, "taken"))
+        self._give(k)
 
     def _finish(self, m: int) -> None:
         self.done = True
@@ -209,6 +242,16 @@ class _Search:
         kind = msg[0]
         if kind == "done":
             _, _, m, ok, st, extra = msg
+            if (p.wid, m) in self.taken:
+                # Sent before the take-over's drop arrived: the first worker runs m now, and its
+                # answer is the one used (a model found here could not be enumerated: the drop
+                # removes it). A model's slot is still answered by the drop: not recorded twice.
+                self.taken.discard((p.wid, m))
+                if ok:
+                    self.stale.add((p.wid, m))
+                st["result"] = "taken"
+                self._record(st)
+                return
             self._record(st)
             self.running.pop(m, None)
             p.load.pop(m, None)
@@ -225,6 +268,11 @@ class _Search:
             self._advance()
             self._fill()
         elif kind == "dropped":
+            key = (msg[1], msg[2])
+            self.taken.discard(key)
+            if key in self.stale:       # recorded with the result that crossed the drop
+                self.stale.discard(key)
+                return
             self._record(msg[3])
         elif kind == "learn":
             _, wid, m, learned = msg
@@ -255,8 +303,13 @@ class _Search:
         for m in mine:
             self.running.pop(m, None)
             self.sat.pop(m, None)
+        self.taken = {key for key in self.taken if key[0] != p.wid}    # the new worker starts clean
+        self.stale = {key for key in self.stale if key[0] != p.wid}
         new = self._start(p.wid)
-        self.procs[self.procs.index(p)] = new
+        at = self.procs.index(p)
+        self.procs[at] = new
+        if self.chain and at > 0:
+            _send(new, ("nice", SPECULATIVE_NICE))
         self.out.replaced += 1
         for _, _, learned in self.out.learned:
             _send(new, ("learn", learned))
@@ -275,6 +328,9 @@ class _Search:
         try:
             for w in range(self.jobs):
                 self.procs.append(self._start(w))
+            if self.chain:
+                for p in self.procs[1:]:
+                    _send(p, ("nice", SPECULATIVE_NICE))
             if self.hi is not None and self.lo > self.hi:
                 self.done = True
             self._fill()

@@ -9,7 +9,7 @@ planner does, in this process (the same session, committing to slow horizons the
 on an easy instance no worker is ever started, so it costs what the sequential planner
 costs.  Once a horizon's solve takes :data:`AUTO_SWITCH_S` or more, the remaining horizons
 go to workers forked from this process, each inheriting the live session (what its solver
-learned included) and extending it upwards.  The workers then run strategy A unless told.
+learned included) and extending it upwards.  The workers then run strategy B unless told (:data:`~cplus.parallel.strategy.DEFAULT_STRATEGY`).
 """
 from __future__ import annotations
 
@@ -17,7 +17,7 @@ from collections.abc import Callable
 from typing import TYPE_CHECKING
 
 from cplus.options import check_gamma, check_jobs, check_strategy, named
-from cplus.parallel.strategy import DEFAULT_GAMMA, Strategy, available_cores
+from cplus.parallel.strategy import DEFAULT_GAMMA, DEFAULT_STRATEGY, Strategy, available_cores
 from cplus.planner import PlanStatus, QueryResult
 from cplus.sat.horizon import HorizonStats, QuerySession
 from cplus.sat.solver import DEFAULT_SOLVER
@@ -55,7 +55,7 @@ def resolve_jobs(jobs: int | str) -> int:
 
 def solve_parallel(domain, label: str = "0", solutions: int = 1, solver: str = DEFAULT_SOLVER,
                    max_horizon: int | None = None, *, jobs: int | str = 2,
-                   strategy: Strategy | str = Strategy.A, gamma: float = DEFAULT_GAMMA, any_length: bool = False,
+                   strategy: Strategy | str = DEFAULT_STRATEGY, gamma: float = DEFAULT_GAMMA, any_length: bool = False,
                    on_record: Callable[[dict], None] | None = None,
                    on_horizon: Callable[[HorizonStats], None] | None = None) -> ParallelResult:
     """Answer query ``label`` of a :class:`~cplus.api.Domain` on ``jobs`` worker processes

@@ -7,7 +7,10 @@ evaluation strategies; pure functions, no processes).
   proved empty the next horizon not yet started takes its place;
 * ``B``: horizon k+i gets the share γ^i of the shortest unfinished horizon k's time; every
   horizon whose share is at least :data:`B_FLOOR` runs (at most :data:`B_MAX` of them, since
-  each holds a solver with all its steps), placed on the worker with the least share.
+  each holds a solver with all its steps), placed on the worker with the least share.  On two
+  workers or more (:func:`chained`) horizon k runs alone on the first worker, which takes
+  each next k over from the worker that held it, so that its solver goes up one horizon at a
+  time as the sequential search's does; k+1, k+2, ... share the other workers, γ^i as above.
 
 The scheduler of :mod:`cplus.parallel.dispatch` asks these functions and nothing else, so a
 strategy is one place here.
@@ -18,7 +21,13 @@ from enum import StrEnum
 
 from cplus.options import available_cores
 
-__all__ = ["Strategy", "B_FLOOR", "B_MAX", "in_flight", "share", "DEFAULT_GAMMA", "available_cores"]
+__all__ = ["Strategy", "B_FLOOR", "B_MAX", "in_flight", "share", "chained", "DEFAULT_GAMMA", "DEFAULT_STRATEGY", "available_cores"]
+
+DEFAULT_STRATEGY = "B"
+"""What ``--jobs N`` runs without ``--strategy`` (and ``solve_parallel``, a batch's ``jobs``):
+B, measured best on two workers (docs/parallel.md, issue 37: ferryman-30-4 0.76× against A's
+0.43×, hanoi-7 1.01× against 0.85×, bw-18-s5 0.76× against 0.77×, at load 4 to 6).  Robot
+tasks' refinement keeps A (not measured with B)."""
 
 DEFAULT_GAMMA = 0.8
 """γ of strategy B unless told: the plasp paper's worked example (S 46, A 40, B 38 time units)."""
@@ -62,3 +71,18 @@ def window_based(strategy: Strategy) -> bool:
     return strategy is Strategy.B
 
 
+
+
+def chained(strategy: Strategy, workers: int) -> bool:
+    """Whether the shortest unfinished horizon k runs alone on the first worker (strategy B on
+    two workers or more), taken over there from whichever worker held it when k reached it.
+
+    Why: what makes the sequential search fast on long plans is that each horizon's solver has
+    just proved the horizon below empty.  On ferryman-30-4, horizon 56 is proved empty in
+    0.10 s by a solver that proved 55, 0.27 s after 54, 1.13 s after 48 and 1.69 s by a fresh
+    one (docs/parallel.md).  B's shares put 8 horizons in flight and give k a share
+    1/(1 + γ + ... + γ^7) of the machine, about half a core on two workers, and its solver had
+    last seen k-8: each proof took ten times the sequential one.  With the chain, k has a core
+    and a solver one horizon behind, as in the sequential search, and the horizons above it
+    run on what is left; with one worker there is nothing left, so B time-shares as before."""
+    return strategy is Strategy.B and workers >= 2

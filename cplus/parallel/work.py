@@ -80,7 +80,8 @@ class Work:
 class Outcome:
     """What a search found.  ``records``: one per (worker, horizon) that ran, in the order they
     ended (``result``: ``unsat``, ``sat``, ``dropped`` for one cancelled by a shorter plan,
-    ``stopped`` for one still running at the end)."""
+    ``taken`` for one handed to strategy B's first worker
+    (:func:`~cplus.parallel.strategy.chained`), ``stopped`` for one still running at the end)."""
 
     maxstep: int | None
     histories: list[History]

@@ -82,13 +82,18 @@ class _Worker:
         elif kind == "drop":
             slot = self.slots.pop(msg[1], None)
             if slot is not None:
-                slot.stat["result"] = "dropped"
+                slot.stat["result"] = msg[2] if len(msg) > 2 else "dropped"   # "taken": see strategy.chained
                 self.conn.send(("dropped", self.wid, slot.m, slot.stat))
                 self.free.append(slot.session)
         elif kind == "enumerate":
             self.enumerate(self.slots[msg[1]], msg[2])
         elif kind == "learn":
             self.work.learn(self.sessions(), msg[1])
+        elif kind == "nice":
+            try:
+                os.nice(msg[1])
+            except OSError:     # pragma: no cover - not allowed here: run at the parent's priority
+                pass
         elif kind == "stop":
             left = []
             for slot in self.slots.values():

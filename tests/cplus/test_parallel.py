@@ -139,6 +139,79 @@ def test_any_length_says_what_is_not_proved():
     assert sorted(set(r.failed) | set(info["not_proved_empty"])) == list(range(1, r.maxstep))
 
 
+def test_b_runs_the_shortest_horizon_alone_on_the_first_worker(monkeypatch):
+    """Strategy B on two workers (issue 37): the first worker holds one horizon at a time, the
+    shortest unfinished one, taken over from the worker that held it; never more horizons
+    open than B's window; the answer is the sequential one."""
+    from cplus.parallel import dispatch
+    seen: list[tuple[int, int, int]] = []
+    give = dispatch._Search._give
+
+    def spy(self, m: int) -> None:
+        give(self, m)
+        head = self.procs[0]
+        assert self.chain and set(head.load) <= {self.k}, (self.k, head.load)
+        assert len(self.running) <= self.width
+        seen.append((m, self.k, len(self.running)))
+    monkeypatch.setattr(dispatch._Search, "_give", spy)
+    sent: list[tuple[int, tuple]] = []
+    send = dispatch._send
+
+    def spy_send(p, msg: tuple) -> None:
+        sent.append((p.wid, msg))
+        send(p, msg)
+    monkeypatch.setattr(dispatch, "_send", spy_send)
+    expected = Domain.load(str(FERRY)).solve("0", max_horizon=200)
+    got = solve_parallel(Domain.load(str(FERRY)), "0", max_horizon=200, jobs=2, strategy="B")
+    assert (got.maxstep, got.failed) == (expected.maxstep, expected.failed)
+    assert max(n for _, _, n in seen) <= dispatch.in_flight(Strategy.B, 2, 0.8)
+    runs = got.parallel["runs"]
+    first = [r["maxstep"] for r in runs if r["worker"] == 0 and r["result"] in ("sat", "unsat")]
+    assert first == sorted(set(first)) and first, "the first worker goes up one horizon at a time"
+    assert all(r["worker"] != 0 for r in runs if r["result"] == "taken")
+    assert [w for w, msg in sent if msg[0] == "nice"] == [1], "only the other workers give way"
+    assert all(w == 0 for w, msg in sent if msg[0] == "add" and msg[2] == 1.0), "k runs on the first worker"
+
+
+def test_a_result_that_crosses_the_take_over_is_not_used(monkeypatch):
+    """Worker 1 finds horizon 1 satisfiable just as the first worker takes it over (its "done"
+    was on the way when the drop was sent): the search must not take that model (the drop
+    removes it, so it could not be enumerated), record it once, as taken, and end with the
+    first worker's answer. The scheduler is driven message by message with stand-in workers."""
+    import types
+
+    from cplus.parallel import dispatch
+    sent: list[tuple[int, tuple]] = []
+    monkeypatch.setattr(dispatch, "_send", lambda p, msg: sent.append((p.wid, msg)))
+    work = types.SimpleNamespace(query=types.SimpleNamespace(lo=0, hi=None), max_horizon=10)
+    search = dispatch._Search(work, 2, Strategy.B, 0.8, 1, False, None, None)
+    search.procs = [dispatch._Proc(w, None, None) for w in range(2)]
+    search._fill()
+    head, other = search.procs
+    assert search.running[0] is head and search.running[1] is other
+
+    def stat(w: int, m: int, result: str) -> dict:
+        return {"worker": w, "maxstep": m, "result": result}
+    search._handle(head, ("done", 0, 0, False, stat(0, 0, "unsat"), None))     # 0 proved empty
+    assert (1, ("drop", 1, "taken")) in sent and search.running[1] is head    # 1 taken over
+    search._handle(other, ("done", 1, 1, True, stat(1, 1, "sat"), "model"))   # crossed the drop
+    assert not search.done and 1 not in search.sat and search.running[1] is head
+    search._handle(other, ("dropped", 1, 1, stat(1, 1, "taken")))             # the drop's answer
+    search._handle(head, ("done", 0, 1, True, stat(0, 1, "sat"), "model"))
+    assert search.done and search.answer == 1 and search.sat[1] is head
+    assert [(r["worker"], r["maxstep"], r["result"]) for r in search.out.records] == [
+        (0, 0, "unsat"), (1, 1, "taken"), (0, 1, "sat")]
+
+
+def test_b_on_one_worker_time_shares_its_window():
+    from cplus.parallel.strategy import chained
+    assert chained(Strategy.B, 2) and chained(Strategy.B, 8)
+    assert not chained(Strategy.B, 1) and not chained(Strategy.A, 2) and not chained(Strategy.SEQUENTIAL, 2)
+    r = solve_parallel(Domain.load(str(FERRY)), "0", max_horizon=200, jobs=1, strategy="B")
+    assert r.maxstep == 17 and r.failed == list(range(1, 17))
+    assert not any(run["result"] == "taken" for run in r.parallel["runs"])
+
+
 def test_no_plan_in_a_closed_range_is_proved_on_workers():
     d = Domain.from_text(""":- constants lit :: inertialFluent; flip :: exogenousAction.
 flip causes lit.
@@ -170,7 +243,7 @@ def test_json_has_the_parallel_account(capsys):
 def test_stats_are_per_worker_and_horizon(capsys):
     code, out, err = run(["plan", str(FERRY), "--jobs", "2", "--stats"], capsys)
     assert code == 0 and "17:" in out
-    assert "% worker 0, maxstep" in err and "% worker 1, maxstep" in err and "strategy A" in err
+    assert "% worker 0, maxstep" in err and "% worker 1, maxstep" in err and "strategy B" in err
 
 
 @pytest.mark.parametrize("argv, message", [
