@@ -1,0 +1,156 @@
+"""Planning for a PDDL problem through its C+ translation, and the plans it gives: each step's
+actions linearized, every plan checked by unified-planning's validator before it is returned.
+"""
+from __future__ import annotations
+
+from typing import Any
+
+from cplus.errors import CPlusError
+from cplus.pddl.translate import COST_FLUENT, QUERY_LABEL, Translation, action_cost, translate
+
+__all__ = ["PddlPlan", "PlanInvalidError", "plan_problem", "ipc_text", "plan_json", "PROOF_ATOMS", "FORMAT"]
+
+FORMAT = "cplus.pddl-plan/1"
+
+PROOF_ATOMS = 16
+"""A problem whose actions change at most this many ground atoms has at most 2^n states, so no
+plan of 2^n - 1 steps or fewer means no plan at all: its search range is closed there and a
+failure is a proof.  Beyond it the range is open (``--max-horizon`` bounds it)."""
+
+
+class PlanInvalidError(CPlusError):
+    """An internal error: a plan found that unified-planning's validator refuses (never printed)."""
+
+
+class PddlPlan:
+    """The answer to a PDDL problem.
+
+    ``status``: ``"found"``, ``"no_plan"`` (the whole range searched: ``proved`` says whether the
+    range covered every plan, see :data:`PROOF_ATOMS`) or ``"horizon_limit"`` (``max_horizon``
+    reached); ``steps``: the parallel steps, each a list of unified-planning ``ActionInstance``
+    in a valid order; ``plan``: their linearization (a ``SequentialPlan``, validated);
+    ``cost``: its total cost (unit costs without :action-costs); ``optimal``: what is proved
+    optimal (``"length"``, ``"cost"`` or None)."""
+
+    def __init__(self, problem: Any, status: str, steps: list[list[Any]], maxstep: int | None, proved: bool,
+                 cost: int | None, action_costs: bool, optimal: str | None, sequential: bool) -> None:
+        self.problem = problem
+        self.status = status
+        self.steps = steps
+        self.maxstep = maxstep
+        self.proved = proved
+        self.cost = cost
+        self.action_costs = action_costs
+        self.optimal = optimal
+        self.sequential = sequential
+
+    @property
+    def plan(self) -> Any:
+        from unified_planning.plans import SequentialPlan
+        return SequentialPlan([a for step in self.steps for a in step], self.problem.environment)
+
+
+def _instance_text(a: Any) -> str:
+    args = " ".join(str(o.object().name) for o in a.actual_parameters)
+    return f"({a.action.name}{' ' + args if args else ''})".lower()
+
+
+def _steps(tr: Translation, history: Any) -> list[list[Any]]:
+    from cplus.history import executed_actions
+    steps = []
+    for table in history.actions:
+        done = sorted(executed_actions(table), key=lambda gc: gc.text)
+        steps.append([tr.action_instance(gc.decl.name, gc.args) for gc in done if gc.decl.name in tr.actions])
+    return steps
+
+
+def validate(problem: Any, steps: list[list[Any]]) -> None:
+    """Raise :class:`PlanInvalidError` unless unified-planning's sequential validator accepts
+    the linearized plan."""
+    from unified_planning.engines import SequentialPlanValidator, ValidationResultStatus
+    from unified_planning.plans import SequentialPlan
+    plan = SequentialPlan([a for step in steps for a in step], problem.environment)
+    with SequentialPlanValidator(environment=problem.environment) as validator:
+        result = validator.validate(problem, plan)
+    if result.status is not ValidationResultStatus.VALID:
+        raise PlanInvalidError(f"internal error: the plan found for {problem.name} is not valid "
+                               f"({result.reason or 'refused by the validator'}); not printed")
+
+
+def plan_cost(problem: Any, steps: list[list[Any]]) -> int:
+    metrics = [m for m in problem.quality_metrics if m.is_minimize_action_costs()]
+    if not metrics:
+        return sum(len(s) for s in steps)
+    total = 0
+    for step in steps:
+        for a in step:
+            args = {q.name: o.object() for q, o in zip(a.action.parameters, a.actual_parameters)}
+            total += action_cost(problem, metrics[0].get_action_cost(a.action), args)
+    return total
+
+
+def plan_problem(problem: Any, sequential: bool = False, minimize: bool = False, over_lengths: bool = False,
+                 max_horizon: int | None = None, solver: str | None = None,
+                 time_limit: float | None = None, name: str = "<pddl>") -> PddlPlan:
+    """Plan for a unified-planning problem (read and checked by :func:`cplus.pddl.read_problem`,
+    or built in Python and checked by :func:`cplus.pddl.check_kind`): the plan of fewest steps
+    (forall-step, or one action a step with ``sequential``); with ``minimize`` (a problem with
+    action costs) the cheapest plan of that length, or of any length with ``over_lengths``."""
+    from cplus.api import Domain
+    from cplus.sat.solver import DEFAULT_SOLVER
+    solver = solver or DEFAULT_SOLVER
+    action_costs = any(m.is_minimize_action_costs() for m in problem.quality_metrics)
+    if minimize and not action_costs:
+        from cplus.pddl.read import PddlError
+        raise PddlError(f"problem {problem.name} has no action costs to minimize (its domain does not declare "
+                        ":action-costs, or it has no total-cost metric)")
+    probe = translate(problem, sequential, None, None)
+    bound = 2 ** probe.fluent_atoms - 1 if probe.fluent_atoms <= PROOF_ATOMS else None
+    horizon = bound if max_horizon is None else max_horizon if bound is None else min(bound, max_horizon)
+    proved_range = bound is not None and horizon == bound
+    tr = translate(problem, sequential, None, horizon)
+    domain = Domain.from_text(tr.text, name)
+    result = domain.solve(QUERY_LABEL, 1, solver, None if horizon is not None else max_horizon)
+    status = result.status.value
+    if status != "found":
+        return PddlPlan(problem, status, [], None, status == "no_plan" and proved_range, None, action_costs, None,
+                        sequential)
+    steps = _steps(tr, result.histories[0])
+    validate(problem, steps)
+    cost = plan_cost(problem, steps)
+    optimal = "length" if sequential and not action_costs else None
+    if minimize and cost > 0:
+        tr2 = translate(problem, sequential, cost, horizon)
+        d2 = Domain.from_text(tr2.text, name)
+        limit = max_horizon if horizon is None else None
+        if over_lengths and horizon is None and limit is None:
+            raise CPlusError("--over-lengths needs a bounded range: give --max-horizon")
+        best = d2.minimize(QUERY_LABEL, COST_FLUENT, 1, over_lengths, time_limit, solver, limit)
+        if best.histories:
+            steps = _steps(tr2, best.histories[0])
+            validate(problem, steps)
+            cost = plan_cost(problem, steps)
+        proved = best.optimum is not None and best.optimum.proved
+        optimal = "cost" if proved and over_lengths and proved_range else None
+    elif minimize and over_lengths:
+        optimal = "cost"                       # cost 0: nothing is cheaper
+    return PddlPlan(problem, "found", steps, len(steps), False, cost, action_costs, optimal, sequential)
+
+
+def ipc_text(plan: PddlPlan) -> str:
+    """The IPC plan format: one ``(action arg ...)`` a line, then the cost line."""
+    lines = [_instance_text(a) for step in plan.steps for a in step]
+    kind = "general cost" if plan.action_costs else "unit cost"
+    lines.append(f"; cost = {plan.cost} ({kind})")
+    return "\n".join(lines) + "\n"
+
+
+def plan_json(plan: PddlPlan, domain: str, problem: str) -> dict:
+    """The ``cplus.pddl-plan/1`` document of a plan (docs/pddl.md has the schema)."""
+    return {"format": FORMAT, "domain": domain, "problem": problem,
+            "semantics": "sequential" if plan.sequential else "forall-step",
+            "status": plan.status, "proved": plan.proved,
+            "steps": [[_instance_text(a) for a in step] for step in plan.steps] if plan.status == "found" else None,
+            "plan": [_instance_text(a) for step in plan.steps for a in step] if plan.status == "found" else None,
+            "cost": plan.cost, "cost_kind": "action-costs" if plan.action_costs else "unit",
+            "optimal": plan.optimal, "validated": plan.status == "found"}
