@@ -1,0 +1,116 @@
+"""``cplus plan DOMAIN.pddl PROBLEM.pddl`` and ``cplus translate``: the plans (IPC format,
+JSON), the concurrency, action costs, and every bad input as one located error, exit 2."""
+from __future__ import annotations
+
+import json
+
+import pytest
+from pddl_support import DOMAINS, need_up, run, validate_text
+
+need_up()
+
+BLOCKS = (DOMAINS / "blocks-domain.pddl", DOMAINS / "blocks-problem.pddl")
+GRIPPER = (DOMAINS / "gripper-domain.pddl", DOMAINS / "gripper-problem.pddl")
+
+
+def test_blocks_plan_is_printed_in_the_ipc_format_and_valid(capsys):
+    code, out, err = run(["plan", *BLOCKS], capsys)
+    assert code == 0, err
+    lines = out.splitlines()
+    assert lines[-1] == "; cost = 6 (unit cost)"
+    assert all(line.startswith("(") and line == line.lower() for line in lines[:-1])
+    assert len(lines) == 7
+    assert validate_text(*BLOCKS, out)
+
+
+def test_forall_step_puts_independent_actions_in_one_step(capsys):
+    code, out, _ = run(["plan", *GRIPPER, "--json"], capsys)
+    doc = json.loads(out)
+    assert code == 0 and doc["format"] == "cplus.pddl-plan/1" and doc["semantics"] == "forall-step"
+    assert doc["status"] == "found" and doc["validated"] is True
+    assert len(doc["steps"]) < len(doc["plan"])                   # two picks share a step
+    assert [a for s in doc["steps"] for a in s] == doc["plan"]
+    assert doc["cost_kind"] == "action-costs" and doc["cost"] == 7
+    code, out, _ = run(["plan", *GRIPPER, "--json", "--sequential"], capsys)
+    seq = json.loads(out)
+    assert seq["semantics"] == "sequential" and all(len(s) == 1 for s in seq["steps"])
+    assert len(seq["plan"]) == 5
+
+
+def test_minimize_total_cost_over_lengths(capsys):
+    code, out, err = run(["plan", *GRIPPER, "--minimize", "total-cost", "--over-lengths", "--max-horizon", "6"],
+                         capsys)
+    assert code == 0, err
+    assert out.splitlines()[-1] == "; cost = 7 (general cost)"
+    assert validate_text(*GRIPPER, out)
+
+
+def test_translate_writes_the_c_plus_theory_that_plans_alike(tmp_path, capsys):
+    out_cp = tmp_path / "blocks.cp"
+    code, _, err = run(["translate", *BLOCKS, "-o", out_cp], capsys)
+    assert code == 0, err
+    text = out_cp.read_text()
+    assert "pick_up(block) :: exogenousAction" in text and "nonexecutable pick_up(Block1) & " in text
+    code, out, err = run(["plan", out_cp], capsys)
+    assert code == 0, err
+    assert "ACTIONS:  unstack(c,b)" in out
+
+
+def test_no_plan_in_a_small_state_space_is_a_proof(tmp_path, capsys):
+    d = tmp_path / "d.pddl"
+    p = tmp_path / "p.pddl"
+    d.write_text("(define (domain d) (:requirements :strips) (:predicates (p) (r))\n"
+                 " (:action a :parameters () :precondition (r) :effect (p)))\n")
+    p.write_text("(define (problem q) (:domain d) (:init) (:goal (p)))\n")
+    code, out, err = run(["plan", d, p], capsys)
+    assert code == 10 and out == "" and "no plan exists" in err
+
+
+BAD_DOMAIN = {
+    "durative": ("(define (domain d)\n  (:requirements :strips :durative-actions)\n  (:predicates (p)))\n",
+                 ":2:26: error: requirement :durative-actions is not supported"),
+    "numeric": ("(define (domain d)\n  (:requirements :strips :numeric-fluents)\n  (:predicates (p)))\n",
+                ":2:26: error: requirement :numeric-fluents is not supported"),
+    "derived": ("(define (domain d)\n (:predicates (p))\n (:derived (p) (p)))\n",
+                ":3:2: error: :derived needs :derived-predicates"),
+    "syntax": ("(define (domain d)\n (:requirements :strips)\n (:predicates (p))\n"
+               " (:action a :parameters () :precondition (and (p) (q)) :effect (not (p))))\n",
+               ":4:52: error: Found invalid expression: q"),
+    "not pddl": ("% a C+ file\n:- sorts a.\n", ":1:1: error: not a PDDL domain"),
+}
+
+
+@pytest.mark.parametrize("case", sorted(BAD_DOMAIN))
+def test_a_bad_domain_is_one_located_error(case, tmp_path, capsys):
+    text, wanted = BAD_DOMAIN[case]
+    d = tmp_path / "d.pddl"
+    p = tmp_path / "p.pddl"
+    d.write_text(text)
+    p.write_text("(define (problem q) (:domain d) (:init) (:goal (p)))\n")
+    code, out, err = run(["plan", d, p], capsys)
+    assert code == 2 and out == ""
+    assert err.startswith(f"{d}{wanted}"), err
+    assert "Traceback" not in err
+
+
+def test_other_bad_inputs(tmp_path, capsys):
+    code, _, err = run(["plan", tmp_path / "missing.pddl", BLOCKS[1]], capsys)
+    assert code == 2 and err.strip() == f"cplus plan: error: {tmp_path / 'missing.pddl'}: no such file"
+    code, _, err = run(["plan", GRIPPER[0], BLOCKS[1]], capsys)
+    assert code == 2 and ":3:12: error: this problem is for domain 'blocks'" in err.splitlines()[0]
+    code, _, err = run(["plan", *BLOCKS, "--minimize", "total-cost"], capsys)
+    assert code == 2 and "has no action costs to minimize" in err and len(err.strip().splitlines()) == 1
+    code, _, err = run(["plan", BLOCKS[0]], capsys)
+    assert code == 2 and "give the domain and the problem" in err
+    code, _, err = run(["plan", *BLOCKS, "--query", "x"], capsys)
+    assert code == 2 and "--query applies to C+ files" in err
+    code, _, err = run(["translate", *BLOCKS, "-o", BLOCKS[1]], capsys)
+    assert code == 2 and "it is the problem this command reads" in err
+
+
+def test_without_unified_planning_the_error_names_the_extra(monkeypatch, capsys):
+    import sys
+    monkeypatch.setitem(sys.modules, "unified_planning.io", None)
+    code, _, err = run(["plan", *BLOCKS], capsys)
+    assert code == 2 and err.strip() == ("cplus plan: error: PDDL input needs unified-planning: install the 'up' "
+                                         "extra (pip install 'cplus[up]')")
