@@ -88,14 +88,15 @@ def _check_requirements(source: Source) -> None:
                                 f"{' '.join(sorted(SUPPORTED_REQUIREMENTS))})", Location(source, at, at + len(r.group())))
     for opener, requirement in _REFUSED_SECTIONS.items():
         for s in re.finditer(re.escape(opener) + r"\b", code):
-            if opener == "(:functions":       # only the action-costs function (total-cost) is translated
+            if opener == "(:functions":       # with :action-costs: total-cost and static costs (checked after reading)
                 body = code[s.end():_matching(code, s.start())]
                 names = re.findall(r"\(\s*([^\s()]+)", body)
                 bad = [n for n in names if n != "total-cost"]
-                if bad:
+                if bad and not (m and ":action-costs" in m.group(1)):
                     at = s.start() + code[s.start():].find(bad[0])
                     raise PddlError(f"function '{bad[0]}' needs :numeric-fluents, which is not supported by cplus "
-                                    "(only :action-costs' total-cost is)", Location(source, at, at + len(bad[0])))
+                                    "(only :action-costs' total-cost and static costs are)",
+                                    Location(source, at, at + len(bad[0])))
                 continue
             raise PddlError(f"{opener[1:]} needs {requirement}, which is not supported by cplus",
                             Location(source, s.start(), s.end()))
@@ -163,15 +164,27 @@ def read_problem(domain_path: str, problem_path: str):
     if named and wanted and named[0] != wanted[0]:
         raise PddlError(f"this problem is for domain '{wanted[0]}', and {os.path.basename(domain_path)} "
                         f"defines domain '{named[0]}'", wanted[1])
-    reader = reader_class()
+    # PDDL lets a type and a predicate share a name (IPC 2000's schedule: temperature);
+    # unified-planning refuses it unless its environment says otherwise. The global environment:
+    # its reader builds forall variables there whatever environment it is given.
+    from unified_planning.environment import get_environment
+    env = get_environment()
+    strict = env.error_used_name
+    env.error_used_name = False
+    import warnings
     try:
-        reader.parse_problem_string(domain.text)
-    except Exception as exc:  # noqa: BLE001 - every complaint of the reader is the file's
-        raise _located(exc, [domain]) from None
-    try:
-        parsed = reader_class().parse_problem_string(domain.text, problem.text)
-    except Exception as exc:  # noqa: BLE001
-        raise _located(exc, [problem, domain]) from None
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")      # its warning of the shared name, pyparsing's deprecations
+            try:
+                reader_class().parse_problem_string(domain.text)
+            except Exception as exc:  # noqa: BLE001 - every complaint of the reader is the file's
+                raise _located(exc, [domain]) from None
+            try:
+                parsed = reader_class().parse_problem_string(domain.text, problem.text)
+            except Exception as exc:  # noqa: BLE001
+                raise _located(exc, [problem, domain]) from None
+    finally:
+        env.error_used_name = strict
     from cplus.pddl.translate import check_kind
     check_kind(parsed, Location(domain, 0, 1))
     return parsed

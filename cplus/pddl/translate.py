@@ -37,7 +37,9 @@ SUPPORTED_FEATURES = {
                         "EXISTENTIAL_CONDITIONS", "UNIVERSAL_CONDITIONS"},
     "EFFECTS_KIND": {"CONDITIONAL_EFFECTS", "FORALL_EFFECTS"},
     "QUALITY_METRICS": {"ACTIONS_COST", "PLAN_LENGTH"},
-    "ACTIONS_COST_KIND": {"INT_NUMBERS_IN_ACTIONS_COST", "STATIC_FLUENTS_IN_ACTIONS_COST"},
+    # costs must be non-negative integers: checked instance by instance (action_cost)
+    "ACTIONS_COST_KIND": {"INT_NUMBERS_IN_ACTIONS_COST", "REAL_NUMBERS_IN_ACTIONS_COST",
+                          "STATIC_FLUENTS_IN_ACTIONS_COST"},
     # numeric functions only as static action costs (checked by check_kind)
     "FLUENTS_TYPE": {"INT_FLUENTS", "REAL_FLUENTS", "NUMERIC_FLUENTS"},
     "NUMBERS": {"BOUNDED_TYPES", "DISCRETE_NUMBERS", "CONTINUOUS_NUMBERS"},
@@ -51,6 +53,12 @@ _KINDS = {"inertialFluent", "simpleFluent", "sdFluent", "additiveFluent", "exoge
           "possibly", "any", QUERY_LABEL, COST_FLUENT}
 
 
+_REQUIREMENT = {"PROBLEM_TYPE": "requirement :numeric-fluents", "TIME": "requirement :durative-actions",
+                "EXPRESSION_DURATION": "requirement :durative-actions",
+                "FLUENTS_IN_ACTIONS_COST": "costs that change: requirement :numeric-fluents",
+                "INITIAL_STATE": "an initial state not given in full", "HIERARCHICAL": "hierarchical planning"}
+
+
 def check_kind(problem: Any, loc: Location | None = None) -> None:
     """Refuse a problem with a feature the translation does not handle, naming it."""
     from unified_planning.model.problem_kind import FEATURES
@@ -61,8 +69,9 @@ def check_kind(problem: Any, loc: Location | None = None) -> None:
         allowed = SUPPORTED_FEATURES.get(category, set())
         for feature in features:
             if feature in present and feature not in allowed:
+                needs = _REQUIREMENT.get(category) or _REQUIREMENT.get(feature)
                 raise PddlError(f"not supported by cplus: {feature.lower().replace('_', ' ')} "
-                                f"({category.lower().replace('_', ' ')})", loc)
+                                f"({category.lower().replace('_', ' ')}{', ' + needs if needs else ''})", loc)
     numeric = {f.name for f in problem.fluents if not f.type.is_bool_type()}
     if not numeric:
         return

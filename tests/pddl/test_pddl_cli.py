@@ -114,3 +114,54 @@ def test_without_unified_planning_the_error_names_the_extra(monkeypatch, capsys)
     code, _, err = run(["plan", *BLOCKS], capsys)
     assert code == 2 and err.strip() == ("cplus plan: error: PDDL input needs unified-planning: install the 'up' "
                                          "extra (pip install 'cplus[up]')")
+
+
+ROADS = """(define (domain roads)
+  (:requirements :typing :action-costs)
+  (:types place)
+  (:predicates (at ?p - place) (road ?a ?b - place))
+  (:functions (road-length ?a ?b - place) - number (total-cost) - number)
+  (:action drive :parameters (?a ?b - place)
+    :precondition (and (at ?a) (road ?a ?b))
+    :effect (and (not (at ?a)) (at ?b) (increase (total-cost) (road-length ?a ?b)))))
+"""
+ROADS_PROBLEM = """(define (problem r1) (:domain roads)
+  (:objects s m t - place)
+  (:init (at s) (road s t) (road s m) (road m t) (= (road-length s t) 10) (= (road-length s m) 2)
+         (= (road-length m t) 3) (= (road-length t s) 1) (= (road-length m s) 1) (= (road-length t m) 1)
+         (= (road-length s s) 0) (= (road-length m m) 0) (= (road-length t t) 0) (= (total-cost) 0))
+  (:goal (at t)) (:metric minimize (total-cost)))
+"""
+
+
+def test_static_costs_and_the_proved_cheapest_plan(tmp_path, capsys):
+    d, p = tmp_path / "roads.pddl", tmp_path / "r1.pddl"
+    d.write_text(ROADS)
+    p.write_text(ROADS_PROBLEM)
+    code, out, _ = run(["plan", d, p], capsys)
+    assert code == 0 and out == "(drive s t)\n; cost = 10 (general cost)\n"     # the shortest plan
+    code, out, _ = run(["plan", d, p, "--minimize", "total-cost", "--over-lengths", "--json"], capsys)
+    doc = json.loads(out)
+    assert doc["plan"] == ["(drive s m)", "(drive m t)"] and doc["cost"] == 5
+    assert doc["optimal"] == "cost"            # 3 atoms: every plan length was in the range
+
+
+def test_a_numeric_fluent_beyond_costs_is_refused(tmp_path, capsys):
+    d, p = tmp_path / "fuel.pddl", tmp_path / "f1.pddl"
+    d.write_text(ROADS.replace("(increase (total-cost) (road-length ?a ?b))", "(decrease (road-length ?a ?b) 1)"))
+    p.write_text(ROADS_PROBLEM)
+    code, out, err = run(["plan", d, p], capsys)
+    assert code == 2 and out == "" and "numeric" in err.splitlines()[0] and "Traceback" not in err
+
+
+def test_a_type_and_a_predicate_may_share_a_name(tmp_path, capsys):
+    d, p = tmp_path / "d.pddl", tmp_path / "p.pddl"
+    d.write_text("(define (domain heat) (:requirements :typing) (:types temperature)\n"
+                 " (:predicates (temperature ?x - object ?t - temperature) (hot ?t - temperature))\n"
+                 " (:action warm :parameters (?x - object ?t - temperature) :precondition (hot ?t)\n"
+                 "  :effect (temperature ?x ?t)))\n")
+    p.write_text("(define (problem h) (:domain heat) (:objects cup - object warm - temperature)\n"
+                 " (:init (hot warm)) (:goal (temperature cup warm)))\n")
+    code, out, err = run(["plan", d, p], capsys)
+    assert code == 0, err
+    assert out == "(warm cup warm)\n; cost = 1 (unit cost)\n" and err == ""
