@@ -18,6 +18,7 @@ The result keeps the names both ways: C+ names must be identifiers, PDDL names n
 """
 from __future__ import annotations
 
+import math
 import re
 from collections.abc import Iterable
 from typing import Any
@@ -28,6 +29,9 @@ from cplus.parser import RESERVED
 __all__ = ["Translation", "translate", "check_kind", "SUPPORTED_FEATURES", "QUERY_LABEL", "COST_FLUENT"]
 
 QUERY_LABEL = "pddl"
+MAX_ATOMS = 2_000_000
+"""The most ground atoms (or instances of an action with a cost of its own) translated; a
+larger problem is refused in one line before anything is enumerated."""
 COST_FLUENT = "total_cost"
 
 SUPPORTED_FEATURES = {
@@ -351,6 +355,11 @@ class _Translator:
         return count
 
     def initial(self) -> str:
+        total = sum(self.ground_atoms(f) for f in self.p.fluents if f.name in self.pred)
+        if total > MAX_ATOMS:
+            from cplus.pddl.read import PddlError
+            raise PddlError(f"problem {self.p.name} has {total} ground atoms: more than cplus grounds "
+                            f"({MAX_ATOMS})")
         true = set()
         for fe, v in self.p.explicit_initial_values.items():
             if fe.is_fluent_exp() and fe.fluent().name in self.pred and v.is_true():
@@ -381,6 +390,11 @@ class _Translator:
                     env = {q.name: self.var(q.type, used) for q in a.parameters}
                     laws.append(f"{self.head(a, env)} increments {COST_FLUENT} by {k}.")
                 continue
+            count = math.prod(len(self.objects_of(q.type)) for q in a.parameters)
+            if count > MAX_ATOMS:
+                from cplus.pddl.read import PddlError
+                raise PddlError(f"action {a.name} has {count} instances, each with a cost of its own: more than "
+                                f"cplus grounds ({MAX_ATOMS})")
             for args in _product([self.objects_of(q.type) for q in a.parameters]):
                 k = action_cost(self.p, expr, {q.name: o for q, o in zip(a.parameters, args)})
                 if k:

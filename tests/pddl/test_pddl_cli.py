@@ -165,3 +165,18 @@ def test_a_type_and_a_predicate_may_share_a_name(tmp_path, capsys):
     code, out, err = run(["plan", d, p], capsys)
     assert code == 0, err
     assert out == "(warm cup warm)\n; cost = 1 (unit cost)\n" and err == ""
+
+
+def test_hostile_inputs_end_in_one_line(tmp_path, capsys):
+    d, p = tmp_path / "big.pddl", tmp_path / "b.pddl"
+    d.write_text("(define (domain big) (:requirements :strips) (:predicates (r ?x ?y))\n"
+                 " (:action a :parameters (?x ?y) :precondition (r ?x ?y) :effect (not (r ?x ?y))))\n")
+    p.write_text(f"(define (problem b) (:domain big) (:objects {' '.join(f'o{i}' for i in range(1500))})\n"
+                 " (:init (r o1 o2)) (:goal (not (r o1 o2))))\n")
+    code, out, err = run(["plan", d, p], capsys)
+    assert code == 2 and out == ""
+    assert err == "cplus plan: error: problem b has 2250000 ground atoms: more than cplus grounds (2000000)\n"
+    code, out, err = run(["plan", "/dev/zero", p], capsys)
+    assert code == 2 and err == "cplus plan: error: /dev/zero: larger than 8 MiB: not read as PDDL\n"
+    code, out, err = run(["plan", tmp_path, p], capsys)
+    assert code == 2 and err == f"cplus plan: error: {tmp_path}: is a directory, not a PDDL file\n"
