@@ -82,3 +82,22 @@ def test_unsolvable_proven_and_timeout():
         assert planner.solve(problem, timeout=60).status is Status.UNSOLVABLE_PROVEN   # in a child process
     with OneshotPlanner(name="cplus", params={"max_horizon": 0}) as planner:
         assert planner.solve(problem).status is Status.UNSOLVABLE_INCOMPLETELY
+
+
+def test_a_search_that_cannot_end_times_out():
+    """No plan and 20 atoms (over PROOF_ATOMS): the range is open and the search would go on
+    for ever; with a timeout the engine answers TIMEOUT (the child process is ended)."""
+    from unified_planning.shortcuts import BoolType, Fluent, InstantaneousAction, Not, Problem
+    problem = Problem("endless")
+    bits = [Fluent(f"b{i}", BoolType()) for i in range(20)]
+    goal = Fluent("goal", BoolType())
+    for f in (*bits, goal):
+        problem.add_fluent(f, default_initial_value=False)
+    for i, f in enumerate(bits):
+        flip = InstantaneousAction(f"flip{i}")
+        flip.add_precondition(Not(f))
+        flip.add_effect(f, True)
+        problem.add_action(flip)
+    problem.add_goal(goal)                     # nothing makes it true
+    with OneshotPlanner(name="cplus") as planner:
+        assert planner.solve(problem, timeout=2).status is Status.TIMEOUT
