@@ -171,7 +171,7 @@ class _Translator:
         s = self.sort[t.name]
         used[s] = used.get(s, 0) + 1
         self.var_count[s] = max(self.var_count.get(s, 0), used[s])
-        return f"{s[0].upper()}{s[1:]}{used[s]}"
+        return f"{_var_prefix(s)}{used[s]}"
 
     # --- formulas -------------------------------------------------------------------------
     def term(self, n: Any, env: dict[str, str]) -> str:
@@ -428,7 +428,7 @@ class _Translator:
         init = self.initial()
         if self.var_count:
             lines.append(":- variables\n" + ";\n".join(
-                f"  {', '.join(f'{s[0].upper()}{s[1:]}{i}' for i in range(1, n + 1))} :: {s}"
+                f"  {', '.join(f'{_var_prefix(s)}{i}' for i in range(1, n + 1))} :: {s}"
                 for s, n in sorted(self.var_count.items())) + ".")
         decls = []
         for f in p.fluents:
@@ -440,7 +440,8 @@ class _Translator:
         for a in p.actions:
             args = f"({','.join(self.sort[q.type.name] for q in a.parameters)})" if a.parameters else ""
             decls.append(f"  {self.act[a.name]}{args} :: exogenousAction")
-        lines.append(":- constants\n" + ";\n".join(decls) + ".")
+        if decls:
+            lines.append(":- constants\n" + ";\n".join(decls) + ".")
         lines.append("")
         lines.extend(x for x in body if x)
         lines.append("")
@@ -460,6 +461,14 @@ class _Translator:
         if not children:
             return name
         return f"{name} >> ({'; '.join(self.sort_tree(c) for c in children)})"
+
+
+def _var_prefix(sort: str) -> str:
+    """The variables of a sort: its name capitalized (``Block1``), with a ``V`` where the name
+    ends in a digit or ``_`` (sort ``b2``: ``B2V1``), so that no two sorts' variables meet (the
+    sort names are lower case)."""
+    prefix = sort[0].upper() + sort[1:]
+    return prefix + "V" if prefix[-1].isdigit() or prefix[-1] == "_" else prefix
 
 
 def _product(pools: list[list[Any]]) -> Iterable[tuple]:
