@@ -97,3 +97,81 @@ def test_plans_are_valid_and_sequential_ones_shortest(actions, init, goal):
     assert seq.status == par.status == "found"
     assert len(seq.steps) == best and seq.optimal == "length"
     assert len(par.steps) <= best
+
+
+# conditional effects: (atom, value, condition literal or None); an existential precondition
+# "some object has p1" as an option of each action
+cond_effect = st.tuples(st.sampled_from(ATOMS), st.booleans(), st.none() | literal)
+adl_action = st.tuples(st.lists(literal, max_size=2), st.lists(cond_effect, min_size=1, max_size=3), st.booleans())
+
+
+def shortest_adl(actions, init, goal):
+    start = frozenset(init)
+    seen = {start}
+    frontier = [start]
+    depth = 0
+    while frontier:
+        if any(all((a in s) == v for a, v in goal) for s in frontier):
+            return depth
+        nxt = []
+        for s in frontier:
+            for (pre, eff, some_p1), x in itertools.product(actions, OBJECTS):
+                if not all((_ground(a, x) in s) == v for a, v in pre):
+                    continue
+                if some_p1 and not any(("p1", o) in s for o in OBJECTS):
+                    continue
+                fired = [(_ground(a, x), v) for a, v, c in eff if c is None or (_ground(c[0], x) in s) == c[1]]
+                adds = {a for a, v in fired if v}
+                dels = {a for a, v in fired if not v}
+                t = frozenset((s - dels) | adds)
+                if t not in seen:
+                    seen.add(t)
+                    nxt.append(t)
+        frontier = nxt
+        depth += 1
+    return None
+
+
+def build_adl(actions, init, goal):
+    from unified_planning.shortcuts import Exists, Not, Variable
+    problem = build([(pre, [(a, v) for a, v, _ in eff]) for pre, eff, _ in actions], init, goal)
+    t = problem.user_type("t")
+    fl = {f.name: f for f in problem.fluents}
+    objs = {o.name: o for o in problem.all_objects}
+    for i, (pre, eff, some_p1) in enumerate(actions):
+        a = problem.action(f"a{i}")
+        x = a.parameter("x")
+        a.clear_effects()
+
+        def expr(atom):
+            name, arg = atom
+            return fl[name]() if arg is None else fl[name](x if arg == "x" else objs[arg])
+        for atom, v, c in eff:
+            cond = True if c is None else (expr(c[0]) if c[1] else Not(expr(c[0])))
+            a.add_effect(expr(atom), v, cond)
+        if some_p1:
+            y = Variable("y", t)
+            a.add_precondition(Exists(fl["p1"](y), y))
+    return problem
+
+
+@settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(st.lists(adl_action, min_size=1, max_size=3), st.sets(st.sampled_from(GROUND)),
+       st.lists(st.tuples(st.sampled_from(GROUND), st.booleans()), min_size=1, max_size=3))
+def test_conditional_effects_and_quantifiers(actions, init, goal):
+    from cplus.pddl import check_kind, plan_problem
+    # one effect per atom and condition, as PDDL has no two effects on one atom in one action
+    actions = [(list(dict(pre).items()), list({(a, c): (a, v, c) for a, v, c in eff}.values()), some)
+               for pre, eff, some in actions]
+    goal = list(dict(goal).items())
+    best = shortest_adl(actions, init, goal)
+    problem = build_adl(actions, init, goal)
+    check_kind(problem)
+    seq = plan_problem(problem, sequential=True)
+    par = plan_problem(problem)
+    if best is None:
+        assert seq.status == par.status == "no_plan" and seq.proved and par.proved
+        return
+    assert seq.status == par.status == "found"
+    assert len(seq.steps) == best
+    assert len(par.steps) <= best
