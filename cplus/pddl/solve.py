@@ -6,7 +6,7 @@ from __future__ import annotations
 from typing import Any
 
 from cplus.errors import CPlusError
-from cplus.pddl.translate import COST_FLUENT, QUERY_LABEL, Translation, action_cost, translate
+from cplus.pddl.translate import COST_FLUENT, QUERY_LABEL, Translation, action_cost, changed_atoms, translate
 
 __all__ = ["PddlPlan", "PlanInvalidError", "plan_problem", "ipc_text", "plan_json", "PROOF_ATOMS", "FORMAT"]
 
@@ -104,8 +104,8 @@ def plan_problem(problem: Any, sequential: bool = False, minimize: bool = False,
         from cplus.pddl.read import PddlError
         raise PddlError(f"problem {problem.name} has no action costs to minimize (its domain does not declare "
                         ":action-costs, or it has no total-cost metric)")
-    probe = translate(problem, sequential, None, None)
-    bound = 2 ** probe.fluent_atoms - 1 if probe.fluent_atoms <= PROOF_ATOMS else None
+    atoms = changed_atoms(problem)
+    bound = 2 ** atoms - 1 if atoms <= PROOF_ATOMS else None
     horizon = bound if max_horizon is None else max_horizon if bound is None else min(bound, max_horizon)
     proved_range = bound is not None and horizon == bound
     tr = translate(problem, sequential, None, horizon)

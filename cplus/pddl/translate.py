@@ -463,6 +463,13 @@ class _Translator:
         return f"{name} >> ({'; '.join(self.sort_tree(c) for c in children)})"
 
 
+def changed_atoms(problem: Any) -> int:
+    """The ground atoms some action may change (their count bounds the states: PROOF_ATOMS)."""
+    t = _Translator(problem, True, None, None)
+    changed = {e.fluent.fluent().name for a in problem.actions for e in a.effects}
+    return sum(t.ground_atoms(f) for f in problem.fluents if f.name in t.pred and f.name in changed)
+
+
 def _var_prefix(sort: str) -> str:
     """The variables of a sort: its name capitalized (``Block1``), with a ``V`` where the name
     ends in a digit or ``_`` (sort ``b2``: ``B2V1``), so that no two sorts' variables meet (the
