@@ -86,6 +86,10 @@ def _check_requirements(source: Source) -> None:
                 at = m.start(1) + r.start()
                 raise PddlError(f"requirement {r.group()} is not supported by cplus (supported: "
                                 f"{' '.join(sorted(SUPPORTED_REQUIREMENTS))})", Location(source, at, at + len(r.group())))
+    either = re.search(r"\(\s*either\b", code)
+    if either:
+        raise PddlError("'either' types are not read by unified-planning's PDDL reader, which cplus uses: "
+                        "declare a common supertype instead", Location(source, either.start(), either.end()))
     for opener, requirement in _REFUSED_SECTIONS.items():
         for s in re.finditer(re.escape(opener) + r"\b", code):
             if opener == "(:functions":       # with :action-costs: total-cost and static costs (checked after reading)

@@ -3,6 +3,8 @@ actions linearized, every plan checked by unified-planning's validator before it
 """
 from __future__ import annotations
 
+from collections.abc import Iterator
+from contextlib import contextmanager
 from typing import Any
 
 from cplus.errors import CPlusError
@@ -69,12 +71,35 @@ def validate(problem: Any, steps: list[list[Any]]) -> None:
     the linearized plan."""
     from unified_planning.engines import SequentialPlanValidator, ValidationResultStatus
     from unified_planning.plans import SequentialPlan
-    plan = SequentialPlan([a for step in steps for a in step], problem.environment)
-    with SequentialPlanValidator(environment=problem.environment) as validator:
-        result = validator.validate(problem, plan)
+    try:
+        with SequentialPlanValidator(environment=problem.environment) as validator:
+            target = problem if validator.supports(problem.kind) else _without_costs(problem)
+            plan = SequentialPlan([a for step in steps for a in step], problem.environment)
+            result = validator.validate(target, plan)
+    except Exception as exc:  # noqa: BLE001 - whatever stops the validator, the plan is not printed
+        raise PlanInvalidError(f"internal error: the plan found for {problem.name} could not be validated "
+                               f"({type(exc).__name__}: {exc}); not printed") from None
     if result.status is not ValidationResultStatus.VALID:
         raise PlanInvalidError(f"internal error: the plan found for {problem.name} is not valid "
                                f"({result.reason or 'refused by the validator'}); not printed")
+
+
+def _without_costs(problem: Any) -> Any:
+    """The problem as the validator takes it when static cost functions are left undefined for
+    some arguments (IPC 2008's transport): without its cost metric, the undefined values set to 0.
+    What they stood for, that such an instance is not applicable, the translation enforces and
+    :func:`plan_cost` checks."""
+    import itertools
+    clone = problem.clone()
+    clone.clear_quality_metrics()
+    for f in clone.fluents:
+        if f.type.is_bool_type():
+            continue
+        pools = [list(clone.objects(q.type)) for q in f.signature]
+        for args in itertools.product(*pools):
+            if clone.initial_value(f(*args)) is None:
+                clone.set_initial_value(f(*args), 0)
+    return clone
 
 
 def plan_cost(problem: Any, steps: list[list[Any]]) -> int:
@@ -82,10 +107,15 @@ def plan_cost(problem: Any, steps: list[list[Any]]) -> int:
     if not metrics:
         return sum(len(s) for s in steps)
     total = 0
+    values = problem.initial_values
     for step in steps:
         for a in step:
             args = {q.name: o.object() for q, o in zip(a.action.parameters, a.actual_parameters)}
-            total += action_cost(problem, metrics[0].get_action_cost(a.action), args)
+            k = action_cost(problem, metrics[0].get_action_cost(a.action), args, values)
+            if k is None:
+                raise PlanInvalidError(f"internal error: the plan found for {problem.name} has {a}, whose cost "
+                                       "is undefined; not printed")
+            total += k
     return total
 
 
@@ -109,8 +139,9 @@ def plan_problem(problem: Any, sequential: bool = False, minimize: bool = False,
     horizon = bound if max_horizon is None else max_horizon if bound is None else min(bound, max_horizon)
     proved_range = bound is not None and horizon == bound
     tr = translate(problem, sequential, None, horizon)
-    domain = Domain.from_text(tr.text, name)
-    result = domain.solve(QUERY_LABEL, 1, solver, None if horizon is not None else max_horizon)
+    with _translation_errors(problem, name):
+        domain = Domain.from_text(tr.text, name)
+        result = domain.solve(QUERY_LABEL, 1, solver, None if horizon is not None else max_horizon)
     status = result.status.value
     if status != "found":
         return PddlPlan(problem, status, [], None, status == "no_plan" and proved_range, None, action_costs, None,
@@ -121,11 +152,13 @@ def plan_problem(problem: Any, sequential: bool = False, minimize: bool = False,
     optimal = "length" if sequential and not action_costs else None
     if minimize and cost > 0:
         tr2 = translate(problem, sequential, cost, horizon)
-        d2 = Domain.from_text(tr2.text, name)
+        with _translation_errors(problem, name):
+            d2 = Domain.from_text(tr2.text, name)
         limit = max_horizon if horizon is None else None
         if over_lengths and horizon is None and limit is None:
             raise CPlusError("--over-lengths needs a bounded range: give --max-horizon")
-        best = d2.minimize(QUERY_LABEL, COST_FLUENT, 1, over_lengths, time_limit, solver, limit)
+        with _translation_errors(problem, name):
+            best = d2.minimize(QUERY_LABEL, COST_FLUENT, 1, over_lengths, time_limit, solver, limit)
         if best.histories:
             steps = _steps(tr2, best.histories[0])
             validate(problem, steps)
@@ -135,6 +168,23 @@ def plan_problem(problem: Any, sequential: bool = False, minimize: bool = False,
     elif minimize and over_lengths:
         optimal = "cost"                       # cost 0: nothing is cheaper
     return PddlPlan(problem, "found", steps, len(steps), False, cost, action_costs, optimal, sequential)
+
+
+@contextmanager
+def _translation_errors(problem: Any, name: str) -> Iterator[None]:
+    """An error of the C+ front end, grounder or encoder located in the translation (a problem
+    beyond cplus's size limits: an action declared over a million argument tuples) as one line
+    about the PDDL problem, naming the line of the C+ that ``cplus translate`` prints."""
+    try:
+        yield
+    except CPlusError as exc:
+        if exc.loc is None or exc.loc.path != name:
+            raise
+        from cplus.pddl.read import PddlError
+        law = exc.loc.source.line_text(exc.loc.line)
+        hint = "; --sequential has no such laws" if law.startswith("nonexecutable") and " & " in law else ""
+        raise PddlError(f"problem {problem.name} is beyond cplus's limits once translated to C+: {exc.message} "
+                        f"(line {exc.loc.line} of what cplus translate prints{hint})") from None
 
 
 def ipc_text(plan: PddlPlan) -> str:

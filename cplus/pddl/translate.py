@@ -47,6 +47,8 @@ SUPPORTED_FEATURES = {
     # numeric functions only as static action costs (checked by check_kind)
     "FLUENTS_TYPE": {"INT_FLUENTS", "REAL_FLUENTS", "NUMERIC_FLUENTS"},
     "NUMBERS": {"BOUNDED_TYPES", "DISCRETE_NUMBERS", "CONTINUOUS_NUMBERS"},
+    # a static cost function left undefined for some arguments: those instances are not applicable
+    "INITIAL_STATE": {"UNDEFINED_INITIAL_NUMERIC"},
 }
 """The unified-planning problem features the translation handles (by category); numeric
 fluents only as the static functions of action costs."""
@@ -379,13 +381,17 @@ class _Translator:
             return None
         return {self.act[a.name]: metrics[0].get_action_cost(a) for a in self.p.actions}
 
-    def cost_laws(self, costs: dict[str, Any]) -> list[str]:
+    def cost_laws(self, costs: dict[str, Any], increments: bool) -> list[str]:
+        """``A increments total_cost by K`` (with ``increments``), and ``nonexecutable A(..)``
+        for each instance whose cost reads a static function the initial state leaves
+        undefined (PDDL: such an instance is not applicable)."""
         laws = []
+        values = self.p.initial_values
         for a in self.p.actions:
             expr = costs[self.act[a.name]]
             if not any(True for _ in _fluents_in(expr)) and not any(x.is_parameter_exp() for x in _walk(expr)):
-                k = action_cost(self.p, expr, {})
-                if k:
+                k = action_cost(self.p, expr, {}, values)
+                if k and increments:
                     used: dict[str, int] = {}
                     env = {q.name: self.var(q.type, used) for q in a.parameters}
                     laws.append(f"{self.head(a, env)} increments {COST_FLUENT} by {k}.")
@@ -396,9 +402,11 @@ class _Translator:
                 raise PddlError(f"action {a.name} has {count} instances, each with a cost of its own: more than "
                                 f"cplus grounds ({MAX_ATOMS})")
             for args in _product([self.objects_of(q.type) for q in a.parameters]):
-                k = action_cost(self.p, expr, {q.name: o for q, o in zip(a.parameters, args)})
-                if k:
-                    env = {q.name: self.obj[o.name] for q, o in zip(a.parameters, args)}
+                k = action_cost(self.p, expr, {q.name: o for q, o in zip(a.parameters, args)}, values)
+                env = {q.name: self.obj[o.name] for q, o in zip(a.parameters, args)}
+                if k is None:
+                    laws.append(f"nonexecutable {self.head(a, env)}.")
+                elif k and increments:
                     laws.append(f"{self.head(a, env)} increments {COST_FLUENT} by {k}.")
         return laws
 
@@ -422,8 +430,8 @@ class _Translator:
         body.append("noconcurrency." if self.sequential else "")
         if not self.sequential:
             body.extend(self.interference_laws())
-        if self.cost_bound is not None and costs is not None:
-            body.extend(self.cost_laws(costs))
+        if costs is not None:
+            body.extend(self.cost_laws(costs, self.cost_bound is not None))
         goal = " & ".join(self.formula(g, {}, {}) for g in p.goals) or "true"
         init = self.initial()
         if self.var_count:
@@ -491,9 +499,11 @@ def _walk(n: Any) -> Iterable[Any]:
         stack.extend(x.args)
 
 
-def action_cost(problem: Any, expr: Any, args: dict[str, Any]) -> int:
+def action_cost(problem: Any, expr: Any, args: dict[str, Any], values: dict | None = None) -> int | None:
     """The cost of an action instance: ``expr`` with the parameters bound to objects
-    (``args``: parameter name -> object) and static functions read in the initial state."""
+    (``args``: parameter name -> object) and static functions read in the initial state
+    (``values``: ``problem.initial_values``, given when called in a loop); None where the
+    initial state leaves a function it reads undefined."""
     if expr is None:
         return 1
     from cplus.pddl.read import PddlError
@@ -503,11 +513,15 @@ def action_cost(problem: Any, expr: Any, args: dict[str, Any]) -> int:
         if x.is_parameter_exp():
             subst[x] = em.ObjectExp(args[x.parameter().name])
     ground = expr.substitute(subst) if subst else expr
-    values = problem.initial_values
     fsub = {}
     for x in _walk(ground):
         if x.is_fluent_exp():
-            fsub[x] = values[x]
+            if values is None:
+                values = problem.initial_values
+            value = values.get(x)
+            if value is None:
+                return None
+            fsub[x] = value
     value = problem.environment.simplifier.simplify(ground.substitute(fsub) if fsub else ground)
     if not (value.is_int_constant() or value.is_real_constant()):
         raise PddlError(f"the cost {expr} is not a number")

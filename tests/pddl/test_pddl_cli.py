@@ -76,6 +76,8 @@ BAD_DOMAIN = {
     "syntax": ("(define (domain d)\n (:requirements :strips)\n (:predicates (p))\n"
                " (:action a :parameters () :precondition (and (p) (q)) :effect (not (p))))\n",
                ":4:52: error: Found invalid expression: q"),
+    "either": ("(define (domain d)\n (:requirements :typing)\n (:types a b)\n (:predicates (p ?x - (either a b))))\n",
+               ":4:23: error: 'either' types are not read by unified-planning's PDDL reader"),
     "not pddl": ("% a C+ file\n:- sorts a.\n", ":1:1: error: not a PDDL domain"),
 }
 
@@ -180,3 +182,41 @@ def test_hostile_inputs_end_in_one_line(tmp_path, capsys):
     assert code == 2 and err == "cplus plan: error: /dev/zero: larger than 8 MiB: not read as PDDL\n"
     code, out, err = run(["plan", tmp_path, p], capsys)
     assert code == 2 and err == f"cplus plan: error: {tmp_path}: is a directory, not a PDDL file\n"
+
+
+UNDEFINED_COSTS = """(define (domain hops)
+  (:requirements :typing :action-costs)
+  (:types place)
+  (:predicates (at ?p - place) (link ?a ?b - place))
+  (:functions (hop-cost ?a ?b - place) - number (total-cost) - number)
+  (:action hop :parameters (?a ?b - place)
+    :precondition (at ?a)
+    :effect (and (not (at ?a)) (at ?b) (increase (total-cost) (hop-cost ?a ?b)))))
+"""
+
+
+def test_an_instance_of_undefined_cost_is_not_applicable(tmp_path, capsys):
+    """hop has no link precondition: only the cost function, defined for s-m and m-t alone,
+    says where it goes (PDDL: an instance whose cost is undefined is not applicable)."""
+    d, p = tmp_path / "hops.pddl", tmp_path / "h1.pddl"
+    d.write_text(UNDEFINED_COSTS)
+    p.write_text("(define (problem h1) (:domain hops) (:objects s m t - place)\n"
+                 " (:init (at s) (= (hop-cost s m) 4) (= (hop-cost m t) 5) (= (total-cost) 0))\n"
+                 " (:goal (at t)) (:metric minimize (total-cost)))\n")
+    code, out, err = run(["plan", d, p], capsys)
+    assert code == 0, err
+    assert out == "(hop s m)\n(hop m t)\n; cost = 9 (general cost)\n"
+    code, out, err = run(["translate", d, p], capsys)
+    assert "nonexecutable hop(s,t)." in out and "nonexecutable hop(s,m)." not in out
+
+
+def test_a_translation_beyond_the_limits_of_cplus_is_one_line(tmp_path, capsys):
+    d, p = tmp_path / "wide.pddl", tmp_path / "w.pddl"
+    d.write_text("(define (domain wide) (:requirements :typing) (:types o) (:predicates (p ?x - o))\n"
+                 " (:action a :parameters (?a ?b ?c ?d ?e ?f ?g - o) :precondition (p ?a) :effect (not (p ?a))))\n")
+    p.write_text(f"(define (problem w) (:domain wide) (:objects {' '.join(f'x{i}' for i in range(8))} - o)\n"
+                 " (:init (p x1)) (:goal (not (p x1))))\n")
+    code, out, err = run(["plan", d, p], capsys)
+    assert code == 2 and out == "" and len(err.splitlines()) == 1
+    assert err.startswith("cplus plan: error: problem w is beyond cplus's limits once translated to C+: 'a/7' has "
+                          "2,097,152 ground instances")

@@ -138,12 +138,12 @@ def build_adl(actions, init, goal):
     t = problem.user_type("t")
     fl = {f.name: f for f in problem.fluents}
     objs = {o.name: o for o in problem.all_objects}
-    for i, (pre, eff, some_p1) in enumerate(actions):
+    for i, (_pre, eff, some_p1) in enumerate(actions):
         a = problem.action(f"a{i}")
         x = a.parameter("x")
         a.clear_effects()
 
-        def expr(atom):
+        def expr(atom, x=x):
             name, arg = atom
             return fl[name]() if arg is None else fl[name](x if arg == "x" else objs[arg])
         for atom, v, c in eff:
