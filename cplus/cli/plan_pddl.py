@@ -9,7 +9,7 @@ from __future__ import annotations
 import argparse
 import sys
 
-from cplus.cli.common import EXIT_INPUT, EXIT_LIMIT, EXIT_NO_PLAN, EXIT_NO_PLAN_PROVED, EXIT_OK
+from cplus.cli.common import EXIT_INPUT, EXIT_LIMIT, EXIT_NO_PLAN_PROVED, EXIT_OK
 
 __all__ = ["EXIT_INTERNAL", "plan_pddl", "pddl_files", "refused_options"]
 
@@ -73,10 +73,10 @@ def plan_pddl(args: argparse.Namespace) -> int:
             print(f"% {len(plan.steps)} steps, {sum(map(len, plan.steps))} actions"
                   + (f", optimal {plan.optimal}" if plan.optimal else ""), file=sys.stderr)
         return EXIT_OK
-    if plan.status == "no_plan":
+    if plan.status == "no_plan":         # proved: every plan length up to the bound searched
         if not args.json:
-            print("; no plan" + (" exists (every plan length searched)" if plan.proved else ""), file=sys.stderr)
-        return EXIT_NO_PLAN_PROVED if plan.proved else EXIT_NO_PLAN
+            print("; no plan exists (every plan length searched)", file=sys.stderr)
+        return EXIT_NO_PLAN_PROVED
     if not args.json:
         print(f"% no plan up to maxstep {args.max_horizon} (--max-horizon)", file=sys.stderr)
     return EXIT_LIMIT

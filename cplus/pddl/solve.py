@@ -143,9 +143,10 @@ def plan_problem(problem: Any, sequential: bool = False, minimize: bool = False,
         domain = Domain.from_text(tr.text, name)
         result = domain.solve(QUERY_LABEL, 1, solver, None if horizon is not None else max_horizon)
     status = result.status.value
+    if status == "no_plan" and not proved_range:
+        status = "horizon_limit"           # the range was closed by max_horizon, not by the proof bound
     if status != "found":
-        return PddlPlan(problem, status, [], None, status == "no_plan" and proved_range, None, action_costs, None,
-                        sequential)
+        return PddlPlan(problem, status, [], None, status == "no_plan", None, action_costs, None, sequential)
     steps = _steps(tr, result.histories[0])
     validate(problem, steps)
     cost = plan_cost(problem, steps)

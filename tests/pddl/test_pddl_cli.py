@@ -64,6 +64,9 @@ def test_no_plan_in_a_small_state_space_is_a_proof(tmp_path, capsys):
     p.write_text("(define (problem q) (:domain d) (:init) (:goal (p)))\n")
     code, out, err = run(["plan", d, p], capsys)
     assert code == 10 and out == "" and "no plan exists" in err
+    code, out, err = run(["plan", *BLOCKS, "--max-horizon", "3", "--json"], capsys)
+    doc = json.loads(out)
+    assert code == 3 and doc["status"] == "horizon_limit" and doc["proved"] is False and doc["plan"] is None
 
 
 BAD_DOMAIN = {
