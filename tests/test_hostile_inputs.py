@@ -524,7 +524,8 @@ def _sandbox(folder: Path) -> None:
     for src in (ROOT / "domains/examples/lamp.cp",
                 DELIVERY / "delivery.cp", DELIVERY / "robot.toml", DELIVERY / "world.toml",
                 MAILBOT / "mailbot.cp", MAILBOT / "core.cp", MAILBOT / "moves.cp", MAILBOT / "requests.toml",
-                MAILBOT / "table1.jsonl"):
+                MAILBOT / "table1.jsonl", ROOT / "domains/pddl/blocks-domain.pddl",
+                ROOT / "domains/pddl/blocks-problem.pddl"):
         shutil.copy(src, folder / src.name)
     (folder / "t.json").write_text(_payload_trajectory_text())
     (folder / "jobs.jsonl").write_text('{"domain": "lamp.cp"}\n')
@@ -559,6 +560,8 @@ PATH_COMMANDS: dict[str, tuple[list[str], list[str], dict[str, str]]] = {
     "replay": (["S/run.jsonl"], ["run.jsonl"], {"--animate": ".gif"}),
     "batch": (["S/jobs.jsonl", "--quiet"], ["jobs.jsonl", "lamp.cp"], {"--results": ".jsonl", "--csv": ".csv"}),
     "brick": (["--name", "r1", "--world", "S/world.toml"], ["world.toml"], {"--link": ""}),
+    "translate": (["S/blocks-domain.pddl", "S/blocks-problem.pddl"], ["blocks-domain.pddl", "blocks-problem.pddl"],
+                  {"--output": ".cp"}),
 }
 
 BAD = ("input", "symlink", "hardlink", "folder", "missing")

@@ -66,6 +66,19 @@ def test_arrows_point_one_way(rel, names):
         assert not any(n.startswith("cplus.") for n in names), rel
 
 
+@pytest.mark.parametrize("rel, names", list(modules("cplus")))
+def test_unified_planning_stays_in_the_pddl_modules(rel, names):
+    """unified-planning is the optional extra ``up``: only the PDDL front end and the engine use
+    it, and the PDDL front end only inside functions (``cplus plan`` of a C+ file never needs it)."""
+    if "unified_planning" in top(names):
+        assert rel.startswith("cplus/pddl/") or rel == "cplus/up.py", rel
+    if rel.startswith("cplus/pddl/"):
+        tree = ast.parse((ROOT / rel).read_text(encoding="utf-8"))
+        at_top = {a.name for n in tree.body if isinstance(n, ast.Import) for a in n.names}
+        at_top |= {n.module for n in tree.body if isinstance(n, ast.ImportFrom) and n.module}
+        assert "unified_planning" not in top(at_top), rel
+
+
 #: The concerns of ``cplus/robot/`` and which others each may use: serving builds on the online
 #: loop, the online loop re-plans with the offline task and streams through execution, and the
 #: offline task and execution stand alone.

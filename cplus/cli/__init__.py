@@ -18,7 +18,8 @@ from cplus.cli.common import EXIT_INPUT, EXIT_OK, CliError
 __all__ = ["COMMANDS", "main", "run"]
 
 COMMANDS = {
-    "plan": "answer the queries of a C+ file (CCALC's output, or JSON)",
+    "plan": "answer the queries of a C+ file (CCALC's output, or JSON), or plan for a PDDL domain and problem",
+    "translate": "write the C+ theory of a PDDL domain and problem",
     "ground": "write the CNF of one horizon in DIMACS form",
     "run": "the whole robot job: plan, refine, trajectory, execute, report, pictures",
     "execute": "run a trajectory file on NXT bricks (emulated when none is given)",

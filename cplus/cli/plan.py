@@ -49,7 +49,10 @@ __all__ = ["build_parser", "main", "add_common", "add_robot_options", "inputs_of
 
 def build_parser() -> OneLineArgumentParser:
     p = OneLineArgumentParser(prog="cplus plan", description="Answer the queries of a C+ file.")
-    p.add_argument("file", help="the C+ file ('-' reads standard input)")
+    p.add_argument("file", help="the C+ file ('-' reads standard input), or a PDDL domain (DOMAIN.pddl)")
+    p.add_argument("problem", nargs="?", help="with a PDDL domain: the PDDL problem (docs/pddl.md)")
+    p.add_argument("--sequential", action="store_true",
+                   help="PDDL input: one action a step (default: forall-step, several non-interfering actions)")
     which = p.add_mutually_exclusive_group()
     which.add_argument("--query", "-q", type=query_label, metavar="LABEL", help="run only this query ('states': every state)")
     which.add_argument("--nmquery", type=query_label, metavar="LABEL",
@@ -61,7 +64,7 @@ def build_parser() -> OneLineArgumentParser:
     g = p.add_argument_group("cost-optimal plans")
     g.add_argument("--minimize", type=checked(check_term), metavar="TERM",
                    help="the cheapest plan by TERM, an integer fluent or a sum of them at the last step "
-                        "(shortest plan first, then cheapest at that length, proved)")
+                        "(shortest plan first, then cheapest at that length, proved); PDDL input: total-cost")
     g.add_argument("--over-lengths", action="store_true",
                    help="with --minimize: the cheapest over the query's whole maxstep range")
     g.add_argument("--time-limit", type=checked(check_time_limit, float), default=None, metavar="SECONDS",
@@ -121,6 +124,12 @@ ROBOT_OPTIONS = ("no_refine", "max_iterations", "nogoods", "eager", "trajectory"
 
 def main(args: argparse.Namespace) -> int:
     from cplus.load import STDIN
+    if args.problem is not None or args.file.lower().endswith(".pddl"):
+        from cplus.cli.plan_pddl import plan_pddl
+        return plan_pddl(args)
+    if args.sequential:
+        print("cplus plan: error: --sequential applies to PDDL input (a C+ file says noconcurrency)", file=sys.stderr)
+        return EXIT_INPUT
     if args.jobs is not None:
         if args.minimize:
             print("cplus plan: error: --minimize runs in one process: leave out --jobs", file=sys.stderr)
