@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import os
 import threading
 import time
 
@@ -16,6 +17,7 @@ from nxt_link.clock import (
     TIME,
     SimClock,
     SimulationStalled,
+    clock_of_device,
     join_threads,
     new_lock,
     start_thread,
@@ -213,3 +215,67 @@ def test_a_brick_switched_off_mid_run_is_lost():
     log = nxt_link.ExecutionLog.loads(text)
     assert log.stopped is not None and log.stopped.brick == "r1"
     assert "could not be reopened within 10 s" in log.stopped.reason
+
+
+def test_a_released_lock_is_handed_to_its_first_waiter_before_the_releaser_can_take_it_again():
+    """On release the lock goes, still held, to the participant that has waited longest: the
+    releaser, which keeps the baton, cannot take it back in between (first come, first served)."""
+    clock = SimClock()
+    lock = new_lock(clock)
+    order: list[tuple[str, float]] = []
+
+    def holder() -> None:
+        with lock:
+            clock.sleep(1.0)
+            order.append(("holder", clock.now()))
+        with lock:                                 # at once, still running: it queues behind b and c
+            order.append(("holder again", clock.now()))
+
+    def waiter(name: str, delay: float) -> None:
+        clock.sleep(delay)
+        with lock:
+            order.append((name, clock.now()))
+            clock.sleep(0.5)
+    with clock.participant("main"):
+        threads = [start_thread(clock, "holder", holder), start_thread(clock, "b", waiter, ("b", 0.1)),
+                   start_thread(clock, "c", waiter, ("c", 0.2))]
+        join_threads(clock, threads)
+    assert order == [("holder", 1.0), ("b", 1.0), ("c", 1.5), ("holder again", 2.0)]
+    assert not lock.held and lock.waiters == []
+
+
+def test_joining_waits_for_every_participant_even_when_one_has_already_ended():
+    clock = SimClock()
+    with clock.participant("main"):
+        threads = [start_thread(clock, "a", clock.sleep, (1.0,)), start_thread(clock, "b", clock.sleep, (2.0,))]
+        clock.sleep(1.5)                           # a has ended, b has not
+        join_threads(clock, threads)
+        assert clock.now() == 2.0
+    assert not any(t.is_alive() for t in threads)
+
+
+def test_bytes_consumed_beyond_those_counted_leave_none_pending():
+    clock = SimClock()
+    ch = clock.open_channel("x")
+    clock.wrote(ch.to_pc, 2)
+    clock.consumed(ch.to_pc, 5)                    # a read that took more than was counted
+    assert ch.to_pc.pending == 0
+    clock.wrote(ch.to_pc, 1)
+    assert ch.to_pc.pending == 1
+    with clock.participant("main"):
+        assert clock.wait_readable(ch.to_pc, until=10.0) == READABLE and clock.now() == 0.0
+        clock.consumed(ch.to_pc, 1)
+        assert clock.wait_readable(ch.to_pc, until=10.0) == TIME and clock.now() == 10.0
+
+
+def test_a_device_is_found_through_a_symlink_to_its_pty(tmp_path):
+    pty = tmp_path / "pts0"
+    pty.touch()
+    link = tmp_path / "rfcomm-brick"
+    link.symlink_to(pty)
+    clock = SimClock()
+    ch = clock.open_channel(os.path.realpath(pty))
+    assert clock_of_device(str(link)) is clock and clock_of_device(str(pty)) is clock
+    assert clock_of_device(str(tmp_path / "other")) is None
+    clock.close_channel(ch)
+    assert clock_of_device(str(link)) is None
