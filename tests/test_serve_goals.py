@@ -17,7 +17,7 @@ from walltime import wall
 
 from cplus.api import Domain
 from cplus.robot.online.loop import CycleRecord, OnlineStatus
-from cplus.robot.serving.goals import GoalBoard, GoalStatus, GoalWatcher, Limits
+from cplus.robot.serving.goals import GoalBoard, GoalRecorder, GoalStatus, GoalWatcher, Limits
 from cplus.robot.serving.reactive import Server, ServerSettings
 from cplus.robot.serving.script import ScriptError, parse_script
 from cplus.robot.serving.vocabulary import Rejected, RequestsError, load_requests, parse_requests
@@ -606,3 +606,57 @@ def test_ids_before_the_first_are_an_earlier_runs_and_none_is_zero(domain):
     assert not board.forgotten(5) and board.summary() == {"pending": 1, "forgotten": 4}
     fresh = GoalBoard(vocabulary(domain))
     assert not fresh.forgotten(0) and fresh.submit("deliver(office1,office2)").id == 1
+
+
+def test_the_default_limits_are_the_documented_ones():
+    """docs/serve.md: 256 goals open in all, 32 per client, the last 1000 final ones remembered."""
+    limits = Limits()
+    assert (limits.open_goals, limits.client_goals, limits.kept_final) == (256, 32, 1000)
+
+
+def test_a_long_request_is_kept_as_its_first_80_characters_and_its_length(domain):
+    text = "deliver(" + "o" * 1200 + ")"
+    goal = GoalBoard(vocabulary(domain)).submit(text)
+    assert goal.request == text[:80] + f"... ({len(text)} characters)"
+
+
+def test_the_log_is_made_durable_before_a_result_only(domain):
+    """The dispatcher syncs the recorder before it tells a final status, and not for the
+    others (an fsync per status would slow every client down)."""
+    class Recorder(GoalRecorder):
+        def __init__(self) -> None:
+            self.changes: list[str] = []
+
+        def goal_changed(self, goal) -> None:
+            self.changes.append(goal.status.value)
+
+        def sync(self) -> None:
+            self.changes.append("sync")
+    board = GoalBoard(vocabulary(domain))
+    board.recorder = rec = Recorder()
+    board.watch(GoalWatcher())
+    goal = board.submit("deliver(office1,office2)")
+    assert board.drain(wall(30))
+    board.poll(1)
+    assert board.drain(wall(30)) and rec.changes == ["pending", "active"]
+    board.on_cycle(record(2, done(board, 1)))
+    assert board.drain(wall(30)) and goal.status is GoalStatus.SUCCEEDED
+    assert rec.changes == ["pending", "active", "succeeded", "sync"]
+    board.close()
+
+
+def test_the_reaction_is_timed_to_the_first_action_sent_after_the_goal_was_taken(domain):
+    now = [10.0]
+    board = GoalBoard(vocabulary(domain), clock=lambda: now[0])
+    goal = board.submit("deliver(office1,office2)")
+    now[0] = 11.0
+    board.poll(3)                                  # taken at cycle 3
+    board.on_act(record(2))                        # an earlier cycle's act: not its reaction
+    assert goal.reaction_s is None
+    now[0] = 12.5
+    board.on_act(record(4))                        # the first act since (cycle 3 sent nothing)
+    assert goal.reaction_s == 2.5
+    now[0] = 20.0
+    board.on_act(record(5))
+    assert goal.reaction_s == 2.5
+    board.close()
