@@ -12,11 +12,14 @@ import pytest
 
 import nxt_link
 from nxt_link.clock import (
+    MONOTONIC,
     READABLE,
     STOPPED,
     TIME,
+    Deadline,
     SimClock,
     SimulationStalled,
+    VirtualClock,
     clock_of_device,
     join_threads,
     new_lock,
@@ -279,3 +282,47 @@ def test_a_device_is_found_through_a_symlink_to_its_pty(tmp_path):
     assert clock_of_device(str(tmp_path / "other")) is None
     clock.close_channel(ch)
     assert clock_of_device(str(link)) is None
+
+
+def test_a_closed_channel_has_nothing_in_flight_and_wakes_its_readers():
+    clock = SimClock()
+    ch = clock.open_channel("x")
+    clock.wrote(ch.to_brick, 4)
+    clock.wrote(ch.to_pc, 2)
+    got: list[tuple[str, float]] = []
+    with clock.participant("main"):
+        reader = start_thread(clock, "reader", lambda: got.append((clock.wait_readable(ch.to_pc, None), clock.now())))
+        clock.consumed(ch.to_pc, 2)
+        clock.sleep(1.0)                           # the reader waits, with no deadline
+        clock.close_channel(ch)
+        join_threads(clock, [reader])
+    assert got == [(READABLE, 1.0)]
+    assert (ch.to_brick.pending, ch.to_pc.pending) == (0, 0) and ch.closed
+    assert clock.channel("x") is None
+    clock.wrote(ch.to_pc, 3)                       # bytes written to a closed pty are not counted
+    assert ch.to_pc.pending == 0
+
+
+def test_the_virtual_clock_moves_only_forward_and_only_when_told():
+    clock = VirtualClock(5.0)
+    clock.sleep(0.0)
+    clock.sleep(-1.0)
+    assert clock.now() == 5.0
+    clock.sleep(0.25)
+    assert clock.now() == 5.25
+    clock.advance_to(4.0)
+    assert clock.now() == 5.25
+    clock.advance_to(7.0)
+    assert clock.now() == 7.0
+    d = Deadline(clock, 1.0)
+    assert d.remaining() == 1.0 and not d.expired()
+    clock.sleep(1.0)
+    assert d.remaining() == 0.0 and d.expired()
+    clock.sleep(1.0)
+    assert d.remaining() == 0.0
+    never = Deadline(clock, None)
+    assert never.remaining() is None and not never.expired()
+    past = Deadline(clock, -3.0)                   # a negative timeout is "now"
+    assert past.at == clock.now() and past.expired()
+    MONOTONIC.sleep(-1.0)                          # returns at once
+    MONOTONIC.sleep(0.0)
