@@ -11,7 +11,7 @@ from pathlib import Path
 from types import SimpleNamespace
 
 import pytest
-from hypothesis import given, settings
+from hypothesis import example, given, settings
 from hypothesis import strategies as st
 from walltime import wall
 
@@ -570,6 +570,7 @@ def test_aborting_frees_every_slot_and_every_client_share(domain):
 
 @settings(max_examples=60)
 @given(st.lists(st.one_of(st.just("submit"), st.integers(1, 3)), max_size=25))
+@example(["submit"] * 3 + [2, 3, "submit"])       # 2 and 3 free: the one after the last given (3) is 1, then 2
 def test_slots_are_given_round_robin_from_the_one_after_the_last_given(domain, ops):
     """Each poll gives the oldest request the first free slot after the last one given
     (wrapping round), so that a slot just freed is not at once taken again. An integer op:
