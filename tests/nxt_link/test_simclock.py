@@ -111,7 +111,7 @@ def test_a_lock_waits_on_the_clock():
 
 
 def test_a_participant_blocked_outside_the_clock_fails_the_run_instead_of_freezing_it():
-    clock = SimClock(stall_timeout_s=1.0)
+    clock = SimClock(stall_timeout_s=1.5)         # over a second: the real time blocked, not a ratio
     errors: list[BaseException] = []
 
     def waiter() -> None:
@@ -326,3 +326,16 @@ def test_the_virtual_clock_moves_only_forward_and_only_when_told():
     assert past.at == clock.now() and past.expired()
     MONOTONIC.sleep(-1.0)                          # returns at once
     MONOTONIC.sleep(0.0)
+
+
+def test_sleeping_zero_keeps_the_baton_and_fails_only_once_the_clock_has():
+    clock = SimClock()
+    with clock.participant("main"):
+        t = start_thread(clock, "other", clock.sleep, (1.0,))
+        clock.sleep(0)                             # returns at once, the other thread still waits
+        clock.sleep(-1.0)
+        assert clock.now() == 0.0 and t.is_alive()
+        join_threads(clock, [t])
+    clock._failed = "simulated time stood still (test)"
+    with pytest.raises(SimulationStalled, match="stood still"):
+        clock.sleep(0)
