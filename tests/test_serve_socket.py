@@ -463,3 +463,38 @@ def test_listen_ports_are_0_to_65535():
     for bad in ("127.0.0.1:65536", "127.0.0.1:065535", "127.0.0.1:-1", "127.0.0.1:", "127.0.0.1"):
         with pytest.raises(ValueError, match="expected HOST:PORT"):
             parse_listen(bad)
+
+
+def test_a_client_is_disconnected_past_out_bytes_unsent_not_at_it(unit):
+    c = unit.client
+    line = len(json.dumps({"type": "error", "message": "x"}, separators=(",", ":"))) + 1
+    unit.channel.limits = SocketLimits(out_bytes=2 * line)
+    c.answer({"type": "error", "message": "x"})
+    c.answer({"type": "error", "message": "x"})   # exactly out_bytes kept: still a client
+    assert len(c.out) == 2 * line and not c.overflow
+    c.answer({"type": "error", "message": "x"})   # one line more: it does not read, it goes
+    assert c.overflow and len(c.out) == 2 * line
+    unit.channel._work()
+    assert unit.client not in unit.channel._clients
+    got = unit.peer.makefile("rb").read()
+    assert got.endswith(b'{"type":"error","message":"answers not read (more than %d bytes waiting): '
+                        b'disconnected; your goals go on"}\n' % (2 * line))
+
+
+def test_a_connection_beyond_the_limit_is_told_why_and_closed(mailbot):
+    board = GoalBoard(mailbot)
+    channel = SocketChannel(board, limits=SocketLimits(clients=2))
+    channel.start()
+    a, b = Client(channel.address), Client(channel.address)
+    for c in (a, b):                              # both taken: each is answered
+        c.send({"status": 1})
+        assert c.line() == {"type": "error", "message": "no goal 1"}
+    extra = Client(channel.address)
+    extra.sock.settimeout(wall(30))
+    assert extra.line() == {"type": "error", "message": "too many connections (2 at most): try again when "
+                                                        "another client has hung up"}
+    assert extra.rfile.readline() == b"" and channel.refused == 1
+    extra.close()
+    a.close()
+    channel.close(timeout=wall(30))
+    board.close()
