@@ -289,6 +289,7 @@ def test_a_closed_channel_has_nothing_in_flight_and_wakes_its_readers():
     ch = clock.open_channel("x")
     clock.wrote(ch.to_brick, 4)
     clock.wrote(ch.to_pc, 2)
+    assert not ch.closed
     got: list[tuple[str, float]] = []
     with clock.participant("main"):
         reader = start_thread(clock, "reader", lambda: got.append((clock.wait_readable(ch.to_pc, None), clock.now())))
@@ -339,3 +340,30 @@ def test_sleeping_zero_keeps_the_baton_and_fails_only_once_the_clock_has():
     clock._failed = "simulated time stood still (test)"
     with pytest.raises(SimulationStalled, match="stood still"):
         clock.sleep(0)
+
+
+def test_the_real_clock_sleeps_at_least_what_it_is_asked():
+    t0 = MONOTONIC.now()
+    MONOTONIC.sleep(0.02)
+    assert MONOTONIC.now() - t0 >= 0.02
+
+
+def test_nested_participant_blocks_of_one_thread_are_one_participant():
+    clock = SimClock(stall_timeout_s=2.0)          # a second participant for the thread would stall
+    with clock.participant("main"):
+        with clock.participant("again"):
+            clock.sleep(1.0)
+        assert clock.is_participant()
+        clock.sleep(1.0)
+    assert not clock.is_participant() and clock.now() == 2.0
+
+
+def test_a_detached_participant_that_takes_a_lock_holds_it():
+    clock = SimClock()
+    lock = new_lock(clock)
+    with clock.participant("main"):
+        clock.detach(clock._participants[threading.get_ident()])
+        lock.acquire()                             # no longer scheduled: takes it at once
+        assert lock.held
+        lock.release()
+        assert not lock.held
