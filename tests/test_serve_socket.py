@@ -358,6 +358,10 @@ def test_an_unfinished_line_may_hold_max_line_bytes_and_no_more(unit):
     c.inbuf += b"bbb\nc\n"
     assert c.next_line() == b"c" and not c.discarding
     assert unit.answers() == [{"type": "error", "message": f"line longer than {MAX_LINE} bytes, dropped"}]
+    c.out.clear()
+    c.inbuf += b"\n" + b"d" * (MAX_LINE - 1)      # what is left after a line is what counts
+    assert c.next_line() == b"" and c.next_line() is None and not c.discarding
+    assert c.unhandled() == MAX_LINE - 1 and unit.answers() == []
 
 
 def test_a_last_line_without_its_newline_is_answered(unit):
@@ -423,9 +427,11 @@ class LongSelect:
     def __init__(self, channel: SocketChannel) -> None:
         self.real = channel._sel.select
         self.entered = threading.Event()
+        self.timeouts: list = []
         channel._sel.select = self.select
 
     def select(self, timeout=None):
+        self.timeouts.append(timeout)
         self.entered.set()
         return self.real(None if timeout else 0)
 
@@ -439,7 +445,15 @@ def test_close_wakes_the_io_thread(mailbot):
     assert spy.entered.wait(wall(30))
     channel.close(timeout=wall(30))
     assert not channel._thread.is_alive(), "close() left the I/O thread in its select"
+    assert 0.5 in spy.timeouts and all(t in (0, 0.5) for t in spy.timeouts)   # idle: it waits, never spins
     board.close()
+
+
+def test_what_is_queued_for_a_client_is_sent_before_the_channel_hangs_up(unit):
+    unit.client.answer({"type": "error", "message": "last words"})
+    unit.channel._shutdown()
+    assert unit.peer.makefile("rb").read() == b'{"type":"error","message":"last words"}\n'
+    assert unit.client.closed
 
 
 def test_lines_beyond_a_round_are_handled_without_waiting_for_the_next_select(mailbot):
