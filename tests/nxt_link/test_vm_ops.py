@@ -28,6 +28,11 @@ unsigned long n = 65539;
 string s = "1.5.3x";
 float f;
 long past;
+char cmin = -128, cm1 = -1, cq;
+int imin = -32768, iq;
+long minus4 = -4, root;
+float fa = 1.5, fb = 2.5;
+long flags = 0;
 
 void put(int box, long v)
 {
@@ -49,6 +54,20 @@ task main()
   put(3, ArrayLen(ai)); put(3, ai[2]);
   asm { strtonum f, past, s, 0, 0 }
   put(4, f * 10); put(4, past);
+  asm { div cq, cmin, cm1 }
+  asm { div iq, imin, cm1 }
+  asm { sqrt root, minus4 }
+  put(5, cq); put(5, iq); put(5, root);
+  asm {
+    brcmp LT, Lless, fa, fb
+    add flags, flags, 1
+  Lless:
+    mul flags, flags, 10
+    brcmp LT, Lmore, fb, fa
+    add flags, flags, 1
+  Lmore:
+  }
+  put(6, flags);
 }
 """
 
@@ -78,6 +97,12 @@ def edges(tmp_path_factory):
     (3, ["3", "7"], "arrinit with a count beyond 16 bits"),
     # STRINGTONUM reads one decimal point: "1.5.3x" is 1.5, and its end is the second dot
     (4, ["15", "3"], "strtonum stops at a second dot"),
+    # a signed division wraps to its destination's width: -128 / -1 in a char is -128, and
+    # -32768 / -1 in an int -32768; SQRT of an integer is 0, cCmdUnop2's default case (as
+    # nxt_link.vm.poly.int_unop has it; only SQRT of a float computes a root)
+    (5, ["-128", "-32768", "0"], "div wrapped to a char and an int, sqrt of a long"),
+    # BRCMP between floats: 1.5 < 2.5 branches (flags stays 0, then 0 * 10), 2.5 < 1.5 does not (+ 1)
+    (6, ["1"], "brcmp of floats"),
 ])
 def test_instruction_edges(edges, box, expected, what):
     assert results(edges, box) == expected, what
