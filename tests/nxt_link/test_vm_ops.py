@@ -157,6 +157,41 @@ def test_ports_beyond_the_bricks_stop_the_program(tmp_path, pin, pout, error):
         assert fw.program_errors == [f"program t.rxe aborted: {error}, clump 0"] and results(fw, 0) == []
 
 
+
+MORE = """
+long n;
+float fa[] = {1.5, 2.5};
+float x;
+long k = 3;
+byte p0 = 0, p3 = 3;
+long v;
+
+task main()
+{
+  n++;
+  Wait(0);
+  string t = NumToStr(n);
+  SendMessage(0, t);
+  asm { setout p0, Power, 50 }
+  asm { setout p3, Power, 60 }
+  asm { getout v, p0, Power }
+  t = NumToStr(v);
+  SendMessage(0, t);
+  asm { index x, fa, k }
+  SendMessage(0, "not here");
+}
+"""
+
+
+def test_a_yield_a_scalar_port_and_an_index_past_the_end_of_a_float_array(tmp_path):
+    """WAIT 0 gives the CPU away and goes on after it (once: ``n`` is 1); SETOUT to a port in a
+    scalar sets it, to port 3 is ignored; INDEX past the end (not only at it) of an array of
+    floats stops the program."""
+    fw = run_program(compiled(tmp_path, "more", MORE))
+    assert results(fw, 0) == ["1", "50"]
+    assert fw.program_errors == ["program t.rxe aborted: INDEX: index 3 is outside the array at dataspace "
+                                 "entry 28 (2 elements) at pc 72 (0x0048), clump 0"]
+
 # -- written word by word ------------------------------------------------------------------------
 
 def run_words(code: tuple[int, ...]) -> Firmware:
