@@ -8,13 +8,16 @@ import io
 import json
 import threading
 from pathlib import Path
+from types import SimpleNamespace
 
 import pytest
+from hypothesis import example, given, settings
+from hypothesis import strategies as st
 from walltime import wall
 
 from cplus.api import Domain
-from cplus.robot.online.loop import OnlineStatus
-from cplus.robot.serving.goals import GoalBoard, GoalStatus, GoalWatcher, Limits
+from cplus.robot.online.loop import CycleRecord, OnlineStatus
+from cplus.robot.serving.goals import GoalBoard, GoalRecorder, GoalStatus, GoalWatcher, Limits
 from cplus.robot.serving.reactive import Server, ServerSettings
 from cplus.robot.serving.script import ScriptError, parse_script
 from cplus.robot.serving.vocabulary import Rejected, RequestsError, load_requests, parse_requests
@@ -433,3 +436,228 @@ def test_hostile_requests_and_scripts_are_located_errors(domain):
         with pytest.raises(ScriptError) as e:
             parse_script(text, "script.jsonl")
         assert e.value.render().startswith(message), e.value.render()[:200]
+
+
+# ---------------------------------------------------------------- the board driven by hand
+# The loop's side of the board (poll, ready, wait, on_cycle, abort_all) called directly with
+# cycle records made here: a state is a mapping from a goal's open fluent to "false" once done.
+
+def record(cycle: int, state: dict | None = None, executed: tuple[str, ...] = ()) -> CycleRecord:
+    return CycleRecord(cycle, 0.0, {} if state is None else state,
+                       executed=[SimpleNamespace(text=a) for a in executed])
+
+
+def done(board: GoalBoard, *slots) -> dict:
+    return {board.vocabulary.open_fluent(s): "false" for s in slots}
+
+
+class EnteredCondition(threading.Condition):
+    """The loop's idle wait, which says when a thread is inside it (set under the lock, so that
+    whatever the test does next with the lock happens while the thread waits)."""
+
+    def __init__(self, lock) -> None:
+        super().__init__(lock)
+        self.entered = threading.Event()
+
+    def wait(self, timeout=None):
+        self.entered.set()
+        return super().wait(timeout)
+
+
+@pytest.mark.parametrize("how", ["cancel", "close_channel"])
+def test_the_loops_idle_wait_ends_on_a_cancel_and_on_a_closed_channel(domain, how):
+    board = GoalBoard(vocabulary(domain))
+    board.open_channel()
+    goal = board.submit("deliver(office1,office2)")
+    assert board.poll(1) == ["request(1,office1)", "address(1,office2)"] and goal.status is GoalStatus.ACTIVE
+    assert not board.ready(1)                     # nothing to do: the loop waits idle
+    board._arrived = EnteredCondition(board._lock)
+    returned = threading.Event()
+    t = threading.Thread(target=lambda: (board.wait(3600), returned.set()), daemon=True)
+    t.start()
+    assert board._arrived.entered.wait(wall(30))
+    if how == "cancel":
+        board.cancel(goal.id)                     # the cancellation must reach the robot now
+        assert goal.status is GoalStatus.PREEMPTING
+    else:
+        board.close_channel()                     # the last client left: the loop may end
+    assert returned.wait(wall(30)), f"{how} left the loop in its idle wait"
+    board.close()
+
+
+class Counting(GoalWatcher):
+    """Blocks the dispatcher on the first status until released; records everything heard."""
+
+    def __init__(self) -> None:
+        self.entered = threading.Event()
+        self.release = threading.Event()
+        self.seen: list[tuple] = []
+
+    def status(self, goal, status) -> None:
+        self.seen.append((goal.id, status.value))
+        self.entered.set()
+        assert self.release.wait(60)
+
+    def feedback(self, goal, feedback) -> None:
+        self.seen.append((goal.id, "feedback", feedback.cycle))
+
+
+def test_a_full_outbox_drops_feedback_and_never_a_status(domain):
+    board = GoalBoard(vocabulary(domain), limits=Limits(outbox=2))
+    w = Counting()
+    board.watch(w)
+    g1 = board.submit("deliver(office1,office2)")
+    assert w.entered.wait(wall(30))               # the dispatcher holds (1, pending): the outbox is empty
+    board.poll(1)                                 # (1, active): one queued
+    board.on_cycle(record(1, executed=("move(office1)",)))   # feedback: two queued, the limit
+    board.on_cycle(record(2, executed=("pickup(1)",)))       # feedback beyond it: dropped
+    assert board.dropped_feedback == 1
+    for _ in range(3):                            # statuses beyond it: every one kept
+        board.cancel(board.submit("deliver(office2,office3)").id)
+    board.cancel(g1.id)
+    w.release.set()
+    assert board.drain(wall(30))
+    assert w.seen == [(1, "pending"), (1, "active"), (1, "feedback", 1),
+                      (2, "pending"), (2, "recalled"), (3, "pending"), (3, "recalled"),
+                      (4, "pending"), (4, "recalled"), (1, "preempting")]
+    assert board.dropped_feedback == 1
+    board.close()
+
+
+def test_a_goal_done_before_its_cancellation_reached_the_robot_succeeded(domain):
+    """preempting -> succeeded (docs/serve.md): the robot finished the goal before the
+    cancellation took effect; its cancellation is then never sent, and is no work for the loop."""
+    board = GoalBoard(vocabulary(domain))
+    goal = board.submit("deliver(office1,office2)")
+    board.poll(1)
+    board.cancel(goal.id)
+    assert goal.status is GoalStatus.PREEMPTING and board.ready(2)
+    board.on_cycle(record(2, done(board, 1)))     # delivered, the cancellation not yet polled
+    assert goal.status is GoalStatus.SUCCEEDED and goal.done_cycle == 2 and goal.cancel_cycle is None
+    assert not board.ready(3)
+    assert board.poll(3) == [] and goal.cancel_cycle is None
+    assert board.finished() and board.agenda() == []
+    # its slot is free for the next request, whose goal no stale cancellation reaches
+    nxt = board.submit("deliver(office3,office4)")
+    assert board.poll(4) == ["request(2,office3)", "address(2,office4)"] and nxt.status is GoalStatus.ACTIVE
+    board.close()
+
+
+def test_a_cancellation_delivered_then_the_goal_done_is_preempted(domain):
+    board = GoalBoard(vocabulary(domain))
+    goal = board.submit("deliver(office1,office2)")
+    board.poll(1)
+    board.cancel(goal.id)
+    assert board.poll(2) == ["cancel(1)"] and goal.cancel_cycle == 2
+    assert not board.ready(3) and board.poll(3) == []          # delivered once
+    board.on_cycle(record(3, done(board, 1)))
+    assert goal.status is GoalStatus.PREEMPTED and goal.reason == "cancelled" and goal.done_cycle == 3
+
+
+def test_aborting_frees_every_slot_and_every_client_share(domain):
+    board = GoalBoard(vocabulary(domain), limits=Limits(client_goals=2))
+    goals = [board.submit("deliver(office1,office2)", client="a") for _ in range(2)]
+    board.poll(1)
+    assert [g.slot for g in goals] == [1, 2] and len(board.agenda()) == 2
+    assert board.abort_all("the server stopped (test)")
+    assert [g.status for g in goals] == [GoalStatus.ABORTED] * 2
+    assert board.agenda() == [] and board._by_client == {} and board._open == 0
+    board.on_cycle(record(2, done(board, 1, 2)))                 # nothing in flight to close
+    assert [g.status for g in goals] == [GoalStatus.ABORTED] * 2
+    assert board.poll(3) == []
+    board.close()
+
+
+@settings(max_examples=60)
+@given(st.lists(st.one_of(st.just("submit"), st.integers(1, 3)), max_size=25))
+@example(["submit"] * 3 + [2, 3, "submit"])       # 2 and 3 free: the one after the last given (3) is 1, then 2
+def test_slots_are_given_round_robin_from_the_one_after_the_last_given(domain, ops):
+    """Each poll gives the oldest request the first free slot after the last one given
+    (wrapping round), so that a slot just freed is not at once taken again. An integer op:
+    that slot's goal is done (if it holds one)."""
+    board = GoalBoard(vocabulary(domain))
+    slots = list(board.vocabulary.slots)
+    held: dict[object, object] = {}
+    nxt = 0
+    waiting = []
+    for cycle, op in enumerate(ops, 1):
+        if op == "submit":
+            waiting.append(board.submit("deliver(office1,office2)"))
+        elif op in held:
+            board.on_cycle(record(cycle, done(board, op)))
+            assert held.pop(op).status is GoalStatus.SUCCEEDED
+        board.poll(cycle)
+        while waiting and len(held) < len(slots):
+            for i in range(len(slots)):
+                slot = slots[(nxt + i) % len(slots)]
+                if slot not in held:
+                    break
+            nxt = (nxt + i + 1) % len(slots)
+            goal = waiting.pop(0)
+            assert goal.slot == slot and goal.cycle == cycle
+            held[slot] = goal
+        assert [lit.tag for lit in board.agenda()] == sorted(g.id for g in held.values())
+    board.close()
+
+
+def test_ids_before_the_first_are_an_earlier_runs_and_none_is_zero(domain):
+    board = GoalBoard(vocabulary(domain), first_id=5)
+    assert [board.forgotten(i) for i in (-1, 0, 1, 4, 5, 6)] == [False, False, True, True, False, False]
+    assert board.submit("deliver(office1,office2)").id == 5
+    assert not board.forgotten(5) and board.summary() == {"pending": 1, "forgotten": 4}
+    fresh = GoalBoard(vocabulary(domain))
+    assert not fresh.forgotten(0) and fresh.submit("deliver(office1,office2)").id == 1
+
+
+def test_the_default_limits_are_the_documented_ones():
+    """docs/serve.md: 256 goals open in all, 32 per client, the last 1000 final ones remembered."""
+    limits = Limits()
+    assert (limits.open_goals, limits.client_goals, limits.kept_final) == (256, 32, 1000)
+
+
+def test_a_long_request_is_kept_as_its_first_80_characters_and_its_length(domain):
+    text = "deliver(" + "o" * 1200 + ")"
+    goal = GoalBoard(vocabulary(domain)).submit(text)
+    assert goal.request == text[:80] + f"... ({len(text)} characters)"
+
+
+def test_the_log_is_made_durable_before_a_result_only(domain):
+    """The dispatcher syncs the recorder before it tells a final status, and not for the
+    others (an fsync per status would slow every client down)."""
+    class Recorder(GoalRecorder):
+        def __init__(self) -> None:
+            self.changes: list[str] = []
+
+        def goal_changed(self, goal) -> None:
+            self.changes.append(goal.status.value)
+
+        def sync(self) -> None:
+            self.changes.append("sync")
+    board = GoalBoard(vocabulary(domain))
+    board.recorder = rec = Recorder()
+    board.watch(GoalWatcher())
+    goal = board.submit("deliver(office1,office2)")
+    assert board.drain(wall(30))
+    board.poll(1)
+    assert board.drain(wall(30)) and rec.changes == ["pending", "active"]
+    board.on_cycle(record(2, done(board, 1)))
+    assert board.drain(wall(30)) and goal.status is GoalStatus.SUCCEEDED
+    assert rec.changes == ["pending", "active", "succeeded", "sync"]
+    board.close()
+
+
+def test_the_reaction_is_timed_to_the_first_action_sent_after_the_goal_was_taken(domain):
+    now = [10.0]
+    board = GoalBoard(vocabulary(domain), clock=lambda: now[0])
+    goal = board.submit("deliver(office1,office2)")
+    now[0] = 11.0
+    board.poll(3)                                  # taken at cycle 3
+    board.on_act(record(2))                        # an earlier cycle's act: not its reaction
+    assert goal.reaction_s is None
+    now[0] = 12.5
+    board.on_act(record(4))                        # the first act since (cycle 3 sent nothing)
+    assert goal.reaction_s == 2.5
+    now[0] = 20.0
+    board.on_act(record(5))
+    assert goal.reaction_s == 2.5
+    board.close()

@@ -6,6 +6,7 @@ from __future__ import annotations
 import json
 import os
 import re
+import selectors
 import shutil
 import signal
 import socket
@@ -13,14 +14,17 @@ import subprocess
 import sys
 import threading
 from pathlib import Path
+from types import SimpleNamespace
 
 import pytest
 from walltime import wall
 
 from cplus.api import Domain
 from cplus.robot.online.loop import OnlineStatus
+from cplus.robot.serving import socket_channel
+from cplus.robot.serving.goals import GoalBoard, GoalStatus
 from cplus.robot.serving.reactive import Server, ServerSettings
-from cplus.robot.serving.socket_channel import parse_listen
+from cplus.robot.serving.socket_channel import MAX_LINE, SocketChannel, SocketLimits, _Client, parse_listen
 from cplus.robot.serving.vocabulary import load_requests
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -305,3 +309,206 @@ def test_a_half_closed_client_keeps_hearing_its_goals_then_the_server_hangs_up(s
         if c.line()["status"] == "succeeded":
             break
     c.close()
+
+
+# ---------------------------------------------------------------- the channel's limits, unit by unit
+# A channel not started, its I/O thread's steps (_read, _work) called here on one end of a
+# socketpair; the other end is the client. The board is a bare GoalBoard (no loop).
+
+@pytest.fixture(scope="module")
+def mailbot():
+    d = Domain.load(str(MAILBOT / "mailbot.cp"))
+    return load_requests(str(MAILBOT / "requests.toml"), d)
+
+
+@pytest.fixture
+def unit(mailbot):
+    board = GoalBoard(mailbot)
+    channel = SocketChannel(board, limits=SocketLimits(lines_per_round=64))
+    channel._sel = selectors.DefaultSelector()
+    ours, theirs = socket.socketpair()
+    ours.setblocking(False)
+    theirs.settimeout(wall(30))
+    client = _Client(channel, ours, "peer")
+    channel._clients.add(client)
+    yield SimpleNamespace(board=board, channel=channel, client=client, peer=theirs,
+                          answers=lambda: [json.loads(x) for x in bytes(client.out).splitlines()])
+    client.close()
+    theirs.close()
+    channel._sel.close()
+    board.close()
+
+
+def test_a_line_of_max_line_bytes_is_taken_and_one_byte_more_is_dropped(unit):
+    c = unit.client
+    c.inbuf += b"a" * MAX_LINE + b"\n" + b"b" * (MAX_LINE + 1) + b"\n" + b"c\n"
+    assert c.next_line() == b"a" * MAX_LINE
+    assert c.next_line() == b"c" and c.next_line() is None
+    assert unit.answers() == [{"type": "error", "message": f"line longer than {MAX_LINE} bytes, dropped"}]
+
+
+def test_an_unfinished_line_may_hold_max_line_bytes_and_no_more(unit):
+    c = unit.client
+    c.inbuf += b"a" * MAX_LINE                     # not over the limit: kept for its newline
+    assert c.next_line() is None and not c.discarding and c.unhandled() == MAX_LINE
+    c.inbuf += b"\n"
+    assert c.next_line() == b"a" * MAX_LINE and unit.answers() == []
+    c.inbuf += b"b" * (MAX_LINE + 1)               # over it: dropped up to its newline
+    assert c.next_line() is None and c.discarding and c.unhandled() == 0
+    c.inbuf += b"bbb\nc\n"
+    assert c.next_line() == b"c" and not c.discarding
+    assert unit.answers() == [{"type": "error", "message": f"line longer than {MAX_LINE} bytes, dropped"}]
+    c.out.clear()
+    c.inbuf += b"\n" + b"d" * (MAX_LINE - 1)      # what is left after a line is what counts
+    assert c.next_line() == b"" and c.next_line() is None and not c.discarding
+    assert c.unhandled() == MAX_LINE - 1 and unit.answers() == []
+
+
+def test_a_last_line_without_its_newline_is_answered(unit):
+    unit.peer.sendall(b'{"status": 1}\n{"status": 2}')
+    unit.peer.shutdown(socket.SHUT_WR)
+    while not unit.client.eof:
+        unit.channel._read(unit.client)
+    unit.channel._work()
+    assert unit.client not in unit.channel._clients          # answered, then hung up: no goals of its own
+    got = [json.loads(x) for x in unit.peer.makefile("rb").read().splitlines()]
+    assert got == [{"type": "error", "message": "no goal 1"}, {"type": "error", "message": "no goal 2"}]
+
+
+def test_an_unfinished_line_is_given_up_after_line_timeout_not_at_it(unit, monkeypatch):
+    now = [1000.0]
+    monkeypatch.setattr(socket_channel.time, "monotonic", lambda: now[0])
+    timeout = unit.channel.limits.line_timeout
+    unit.client.inbuf += b'{"status": 1'
+    unit.channel._work()
+    now[0] += timeout                              # exactly the limit: still waiting
+    unit.channel._work()
+    assert not unit.client.hangup and unit.answers() == []
+    now[0] += 0.001
+    unit.channel._work()
+    assert unit.answers() == [{"type": "error", "message": f"a line left without its newline for {timeout:g} s: "
+                                                           "disconnected"}]
+    assert unit.client.hangup and unit.client.eof
+
+
+def test_a_client_pauses_once_pause_bytes_are_unsent_or_unread(unit):
+    c, limit = unit.client, unit.channel.limits.pause_bytes
+    c.out += b"x" * (limit - 1)
+    assert not c.busy()
+    unit.channel._work()
+    assert c.mask == selectors.EVENT_READ | selectors.EVENT_WRITE
+    c.out += b"x"                                  # the limit itself: its lines wait
+    assert c.busy()
+    unit.channel._work()
+    assert c.mask == selectors.EVENT_WRITE
+    c.out.clear()
+    unit.channel.limits = SocketLimits(lines_per_round=1)   # one line a round: the rest stays unread
+    for left, mask in ((limit - 1, selectors.EVENT_READ), (limit, 0)):
+        c.inbuf, c.pos = bytearray(b"\n" + b" " * (left - 1) + b"\n"), 0
+        unit.channel._work()
+        assert c.unhandled() == left and c.mask == mask
+
+
+@pytest.mark.parametrize("value", [True, False, 1.0, "1", None, [1]])
+def test_a_goal_id_is_an_integer_and_not_a_boolean(unit, value):
+    goal = unit.board.submit("deliver(office1,office2)")
+    assert goal.id == 1
+    for key in ("cancel", "status"):
+        unit.client.handle(json.dumps({key: value}).encode(), unit.board)
+    assert unit.answers() == [{"type": "error", "message": f"\"{key}\" takes a goal id (an integer)"}
+                              for key in ("cancel", "status")]
+    assert goal.status is GoalStatus.PENDING
+
+
+class LongSelect:
+    """The I/O thread's selector with its idle timeout made endless: only a wake (or a socket)
+    ends a select that may wait, so a missing wake hangs the test instead of costing 0.5 s."""
+
+    def __init__(self, channel: SocketChannel) -> None:
+        self.real = channel._sel.select
+        self.entered = threading.Event()
+        self.timeouts: list = []
+        channel._sel.select = self.select
+
+    def select(self, timeout=None):
+        self.timeouts.append(timeout)
+        self.entered.set()
+        return self.real(None if timeout else 0)
+
+
+def test_close_wakes_the_io_thread(mailbot):
+    board = GoalBoard(mailbot)
+    channel = SocketChannel(board)
+    channel.start()
+    spy = LongSelect(channel)
+    Client(channel.address).close()               # a round, so that the endless select is entered
+    assert spy.entered.wait(wall(30))
+    channel.close(timeout=wall(30))
+    assert not channel._thread.is_alive(), "close() left the I/O thread in its select"
+    assert 0.5 in spy.timeouts and all(t in (0, 0.5) for t in spy.timeouts)   # idle: it waits, never spins
+    board.close()
+
+
+def test_what_is_queued_for_a_client_is_sent_before_the_channel_hangs_up(unit):
+    unit.client.answer({"type": "error", "message": "last words"})
+    unit.channel._shutdown()
+    assert unit.peer.makefile("rb").read() == b'{"type":"error","message":"last words"}\n'
+    assert unit.client.closed
+
+
+def test_lines_beyond_a_round_are_handled_without_waiting_for_the_next_select(mailbot):
+    board = GoalBoard(mailbot)
+    channel = SocketChannel(board, limits=SocketLimits(lines_per_round=2))
+    channel.start()
+    LongSelect(channel)
+    c = Client(channel.address)
+    c.sock.settimeout(wall(30))
+    c.send(b"".join(b'{"status": %d}\n' % i for i in range(1, 8)))    # 7 lines in one send
+    assert [c.line() for _ in range(7)] == [{"type": "error", "message": f"no goal {i}"} for i in range(1, 8)]
+    c.close()
+    channel.close(timeout=wall(30))
+    board.close()
+
+
+def test_listen_ports_are_0_to_65535():
+    assert parse_listen("127.0.0.1:65535") == ("127.0.0.1", 65535)
+    assert parse_listen("127.0.0.1:0") == ("127.0.0.1", 0)
+    assert parse_listen("[::1]:00001") == ("::1", 1)
+    for bad in ("127.0.0.1:65536", "127.0.0.1:065535", "127.0.0.1:-1", "127.0.0.1:", "127.0.0.1"):
+        with pytest.raises(ValueError, match="expected HOST:PORT"):
+            parse_listen(bad)
+
+
+def test_a_client_is_disconnected_past_out_bytes_unsent_not_at_it(unit):
+    c = unit.client
+    line = len(json.dumps({"type": "error", "message": "x"}, separators=(",", ":"))) + 1
+    unit.channel.limits = SocketLimits(out_bytes=2 * line)
+    c.answer({"type": "error", "message": "x"})
+    c.answer({"type": "error", "message": "x"})   # exactly out_bytes kept: still a client
+    assert len(c.out) == 2 * line and not c.overflow
+    c.answer({"type": "error", "message": "x"})   # one line more: it does not read, it goes
+    assert c.overflow and len(c.out) == 2 * line
+    unit.channel._work()
+    assert unit.client not in unit.channel._clients
+    got = unit.peer.makefile("rb").read()
+    assert got.endswith(b'{"type":"error","message":"answers not read (more than %d bytes waiting): '
+                        b'disconnected; your goals go on"}\n' % (2 * line))
+
+
+def test_a_connection_beyond_the_limit_is_told_why_and_closed(mailbot):
+    board = GoalBoard(mailbot)
+    channel = SocketChannel(board, limits=SocketLimits(clients=2))
+    channel.start()
+    a, b = Client(channel.address), Client(channel.address)
+    for c in (a, b):                              # both taken: each is answered
+        c.send({"status": 1})
+        assert c.line() == {"type": "error", "message": "no goal 1"}
+    extra = Client(channel.address)
+    extra.sock.settimeout(wall(30))
+    assert extra.line() == {"type": "error", "message": "too many connections (2 at most): try again when "
+                                                        "another client has hung up"}
+    assert extra.rfile.readline() == b"" and channel.refused == 1
+    extra.close()
+    a.close()
+    channel.close(timeout=wall(30))
+    board.close()

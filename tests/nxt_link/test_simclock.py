@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import os
 import threading
 import time
 
@@ -11,11 +12,15 @@ import pytest
 
 import nxt_link
 from nxt_link.clock import (
+    MONOTONIC,
     READABLE,
     STOPPED,
     TIME,
+    Deadline,
     SimClock,
     SimulationStalled,
+    VirtualClock,
+    clock_of_device,
     join_threads,
     new_lock,
     start_thread,
@@ -106,7 +111,7 @@ def test_a_lock_waits_on_the_clock():
 
 
 def test_a_participant_blocked_outside_the_clock_fails_the_run_instead_of_freezing_it():
-    clock = SimClock(stall_timeout_s=1.0)
+    clock = SimClock(stall_timeout_s=1.5)         # over a second: the real time blocked, not a ratio
     errors: list[BaseException] = []
 
     def waiter() -> None:
@@ -213,3 +218,152 @@ def test_a_brick_switched_off_mid_run_is_lost():
     log = nxt_link.ExecutionLog.loads(text)
     assert log.stopped is not None and log.stopped.brick == "r1"
     assert "could not be reopened within 10 s" in log.stopped.reason
+
+
+def test_a_released_lock_is_handed_to_its_first_waiter_before_the_releaser_can_take_it_again():
+    """On release the lock goes, still held, to the participant that has waited longest: the
+    releaser, which keeps the baton, cannot take it back in between (first come, first served)."""
+    clock = SimClock()
+    lock = new_lock(clock)
+    order: list[tuple[str, float]] = []
+
+    def holder() -> None:
+        with lock:
+            clock.sleep(1.0)
+            order.append(("holder", clock.now()))
+        with lock:                                 # at once, still running: it queues behind b and c
+            order.append(("holder again", clock.now()))
+
+    def waiter(name: str, delay: float) -> None:
+        clock.sleep(delay)
+        with lock:
+            order.append((name, clock.now()))
+            clock.sleep(0.5)
+    with clock.participant("main"):
+        threads = [start_thread(clock, "holder", holder), start_thread(clock, "b", waiter, ("b", 0.1)),
+                   start_thread(clock, "c", waiter, ("c", 0.2))]
+        join_threads(clock, threads)
+    assert order == [("holder", 1.0), ("b", 1.0), ("c", 1.5), ("holder again", 2.0)]
+    assert not lock.held and lock.waiters == []
+
+
+def test_joining_waits_for_every_participant_even_when_one_has_already_ended():
+    clock = SimClock()
+    with clock.participant("main"):
+        threads = [start_thread(clock, "a", clock.sleep, (1.0,)), start_thread(clock, "b", clock.sleep, (2.0,))]
+        clock.sleep(1.5)                           # a has ended, b has not
+        join_threads(clock, threads)
+        assert clock.now() == 2.0
+    assert not any(t.is_alive() for t in threads)
+
+
+def test_bytes_consumed_beyond_those_counted_leave_none_pending():
+    clock = SimClock()
+    ch = clock.open_channel("x")
+    clock.wrote(ch.to_pc, 2)
+    clock.consumed(ch.to_pc, 5)                    # a read that took more than was counted
+    assert ch.to_pc.pending == 0
+    clock.wrote(ch.to_pc, 1)
+    assert ch.to_pc.pending == 1
+    with clock.participant("main"):
+        assert clock.wait_readable(ch.to_pc, until=10.0) == READABLE and clock.now() == 0.0
+        clock.consumed(ch.to_pc, 1)
+        assert clock.wait_readable(ch.to_pc, until=10.0) == TIME and clock.now() == 10.0
+
+
+def test_a_device_is_found_through_a_symlink_to_its_pty(tmp_path):
+    pty = tmp_path / "pts0"
+    pty.touch()
+    link = tmp_path / "rfcomm-brick"
+    link.symlink_to(pty)
+    clock = SimClock()
+    ch = clock.open_channel(os.path.realpath(pty))
+    assert clock_of_device(str(link)) is clock and clock_of_device(str(pty)) is clock
+    assert clock_of_device(str(tmp_path / "other")) is None
+    clock.close_channel(ch)
+    assert clock_of_device(str(link)) is None
+
+
+def test_a_closed_channel_has_nothing_in_flight_and_wakes_its_readers():
+    clock = SimClock()
+    ch = clock.open_channel("x")
+    clock.wrote(ch.to_brick, 4)
+    clock.wrote(ch.to_pc, 2)
+    assert not ch.closed
+    got: list[tuple[str, float]] = []
+    with clock.participant("main"):
+        reader = start_thread(clock, "reader", lambda: got.append((clock.wait_readable(ch.to_pc, None), clock.now())))
+        clock.consumed(ch.to_pc, 2)
+        clock.sleep(1.0)                           # the reader waits, with no deadline
+        clock.close_channel(ch)
+        join_threads(clock, [reader])
+    assert got == [(READABLE, 1.0)]
+    assert (ch.to_brick.pending, ch.to_pc.pending) == (0, 0) and ch.closed
+    assert clock.channel("x") is None
+    clock.wrote(ch.to_pc, 3)                       # bytes written to a closed pty are not counted
+    assert ch.to_pc.pending == 0
+
+
+def test_the_virtual_clock_moves_only_forward_and_only_when_told():
+    clock = VirtualClock(5.0)
+    clock.sleep(0.0)
+    clock.sleep(-1.0)
+    assert clock.now() == 5.0
+    clock.sleep(0.25)
+    assert clock.now() == 5.25
+    clock.advance_to(4.0)
+    assert clock.now() == 5.25
+    clock.advance_to(7.0)
+    assert clock.now() == 7.0
+    d = Deadline(clock, 1.0)
+    assert d.remaining() == 1.0 and not d.expired()
+    clock.sleep(1.0)
+    assert d.remaining() == 0.0 and d.expired()
+    clock.sleep(1.0)
+    assert d.remaining() == 0.0
+    never = Deadline(clock, None)
+    assert never.remaining() is None and not never.expired()
+    past = Deadline(clock, -3.0)                   # a negative timeout is "now"
+    assert past.at == clock.now() and past.expired()
+    MONOTONIC.sleep(-1.0)                          # returns at once
+    MONOTONIC.sleep(0.0)
+
+
+def test_sleeping_zero_keeps_the_baton_and_fails_only_once_the_clock_has():
+    clock = SimClock()
+    with clock.participant("main"):
+        t = start_thread(clock, "other", clock.sleep, (1.0,))
+        clock.sleep(0)                             # returns at once, the other thread still waits
+        clock.sleep(-1.0)
+        assert clock.now() == 0.0 and t.is_alive()
+        join_threads(clock, [t])
+    clock._failed = "simulated time stood still (test)"
+    with pytest.raises(SimulationStalled, match="stood still"):
+        clock.sleep(0)
+
+
+def test_the_real_clock_sleeps_at_least_what_it_is_asked():
+    t0 = MONOTONIC.now()
+    MONOTONIC.sleep(0.02)
+    assert MONOTONIC.now() - t0 >= 0.02
+
+
+def test_nested_participant_blocks_of_one_thread_are_one_participant():
+    clock = SimClock(stall_timeout_s=2.0)          # a second participant for the thread would stall
+    with clock.participant("main"):
+        with clock.participant("again"):
+            clock.sleep(1.0)
+        assert clock.is_participant()
+        clock.sleep(1.0)
+    assert not clock.is_participant() and clock.now() == 2.0
+
+
+def test_a_detached_participant_that_takes_a_lock_holds_it():
+    clock = SimClock()
+    lock = new_lock(clock)
+    with clock.participant("main"):
+        clock.detach(clock._participants[threading.get_ident()])
+        lock.acquire()                             # no longer scheduled: takes it at once
+        assert lock.held
+        lock.release()
+        assert not lock.held

@@ -140,17 +140,10 @@ class _Client(GoalWatcher):
         self._early: dict[int, list[dict]] = {}   # news before the acknowledgement (under _lock)
 
     # ------------------------------------------------------------- from any thread
-    def queue(self, obj: dict) -> None:
-        """Send ``obj`` as a JSON line: at once when the socket takes it, else kept for the I/O
-        thread; never blocks. Too much kept (:attr:`SocketLimits.out_bytes`) marks the client
-        for disconnection."""
-        with self._lock:
-            wake = self._send(obj)
-        if wake:
-            self.channel._wake()
-
     def _send(self, obj: dict, now: bool = True) -> bool:
-        """:meth:`queue` with the lock held; True when the I/O thread must look. ``now``
+        """Send ``obj`` as a JSON line (the lock held): at once when the socket takes it, else
+        kept for the I/O thread; never blocks. Too much kept (:attr:`SocketLimits.out_bytes`)
+        marks the client for disconnection. True when the I/O thread must look. ``now``
         False: only keep it (the I/O thread sends a round's answers at once, with one system
         call, during which Python's GIL may go to the loop's re-plan)."""
         if self.closed or self.overflow:
