@@ -43,7 +43,7 @@ def test_trajectory_is_independent(rel, names):
 @pytest.mark.parametrize("rel, names", list(modules("nxt_link")))
 def test_nxt_link_is_independent(rel, names):
     assert not top(names) & {"cplus", "trajectory", "numpy", "matplotlib", "shapely"}, rel
-    if rel != "nxt_link/serial_transport.py":
+    if rel != "nxt_link/wire/serial_transport.py":
         assert "serial" not in top(names), rel
 
 
