@@ -21,8 +21,9 @@ from __future__ import annotations
 
 import random
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Protocol
 
+from nxt_link.emulator.input_module import InputPort
 from nxt_link.emulator.output_module import OutputPort
 from nxt_link.emulator.vm.iomap import (
     UPDATE_MODE,
@@ -37,7 +38,6 @@ from nxt_link.emulator.vm.iomap import (
 )
 
 if TYPE_CHECKING:
-    from nxt_link.emulator.firmware import Firmware
     from nxt_link.emulator.vm.flash import Flash
 
 __all__ = ["FirmwareIO", "Display", "DEFAULT_PID"]
@@ -107,10 +107,38 @@ class _OutputMap:
     max_acceleration: int = 0
 
 
+class _SleepTimer(Protocol):
+    @property
+    def sleep_minutes(self) -> int: ...
+
+
+class FirmwareState(Protocol):
+    """What :class:`FirmwareIO` uses of the firmware
+    (:class:`~nxt_link.emulator.firmware.Firmware`, which builds on this module)."""
+
+    @property
+    def outputs(self) -> list[OutputPort]: ...
+
+    @property
+    def inputs(self) -> list[InputPort]: ...
+
+    @property
+    def params(self) -> _SleepTimer: ...
+
+    @property
+    def flash(self) -> Flash: ...
+
+    def write_mailbox(self, queue: int, message: bytes) -> int: ...
+
+    def read_mailbox(self, queue: int, remove: bool) -> tuple[int, bytes]: ...
+
+    def record_tone(self, frequency_hz: int, duration_ms: int, file: str | None = None) -> None: ...
+
+
 class FirmwareIO:
     """The VM's view of one emulated brick (see the module docstring)."""
 
-    def __init__(self, fw: Firmware, seed: int | None = None) -> None:
+    def __init__(self, fw: FirmwareState, seed: int | None = None) -> None:
         self._fw = fw
         self._out = [_OutputMap() for _ in fw.outputs]
         #: some port's update flags are set: the output module has work this millisecond

@@ -17,7 +17,7 @@ loop adds the program counter and the clump.
 from __future__ import annotations
 
 from collections.abc import Callable
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, Protocol
 
 from nxt_link.emulator.vm.errors import VMError
 from nxt_link.emulator.vm.iomap import BrickIO
@@ -27,7 +27,6 @@ from nxt_link.emulator.vm.values import DType, int_of, pool_bytes
 
 if TYPE_CHECKING:
     from nxt_link.emulator.vm.fuse import Fuser
-    from nxt_link.emulator.vm.spin import SpinDetector
 
 __all__ = ["VMCore", "Fault", "Op", "NOT_A_DS_ID", "DONE", "SUSPEND", "ROTATE", "STOP",
            "NEVER", "index_fault", "port_fault", "raiser", "out_of_memory"]
@@ -42,6 +41,15 @@ Op = Callable[[], int]
 
 class Fault(Exception):
     """A fatal error inside an instruction; the run loop adds pc and clump."""
+
+
+class SpinCheck(Protocol):
+    """What the scheduler asks of its busy-wait detector
+    (:class:`~nxt_link.emulator.vm.spin.SpinDetector`, which builds on this module)."""
+
+    def reset(self) -> None: ...
+
+    def check(self, vm: VMCore, executed: int, budget: int) -> int: ...
 
 
 class VMCore:
@@ -75,7 +83,7 @@ class VMCore:
     _fire_counts: tuple[int, ...]
     _next_wake: int
     _polled: bool
-    _spin: SpinDetector
+    _spin: SpinCheck
     _skip_busy_waits: bool
     _spent: bool
     _fixed_bytes: int
