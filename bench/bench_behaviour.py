@@ -26,14 +26,14 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from nxt_link import Behaviour, BehaviourClient, Brick, delivery_world  # noqa: E402
-from nxt_link.emulator import (  # noqa: E402
+from nxt_link.emulator.emulator import (  # noqa: E402
     BrickEmulator,
     EmulatorConfig,
     LinkParams,
     compiled_legolog,
 )
-from nxt_link.pty_server import PtyBrickServer  # noqa: E402
-from nxt_link.serial_transport import SerialTransport  # noqa: E402
+from nxt_link.emulator.pty_server import PtyBrickServer  # noqa: E402
+from nxt_link.wire.serial_transport import SerialTransport  # noqa: E402
 
 
 def robot(latency: bool, compiled: bool) -> tuple[PtyBrickServer, BehaviourClient]:

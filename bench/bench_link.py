@@ -30,10 +30,10 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from nxt_link.brick import Brick, RetryPolicy  # noqa: E402
-from nxt_link.execution import ExecutionOptions, SetpointStream, execute_streams  # noqa: E402
-from nxt_link.serial_transport import SerialTransport  # noqa: E402
-from nxt_link.session import BrickSession  # noqa: E402
+from nxt_link.host.brick import Brick, RetryPolicy  # noqa: E402
+from nxt_link.host.execution import ExecutionOptions, SetpointStream, execute_streams  # noqa: E402
+from nxt_link.host.session import BrickSession  # noqa: E402
+from nxt_link.wire.serial_transport import SerialTransport  # noqa: E402
 
 CLK_TCK = os.sysconf("SC_CLK_TCK")
 

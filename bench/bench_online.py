@@ -46,7 +46,7 @@ def delivery_run(landmarks: int) -> dict:
     from cplus.robot.online.estimation import OnlineModel, Roles
     from cplus.robot.online.executors import SimulatedExecutor
     from cplus.robot.online.loop import OnlineLoop, OnlineStatus
-    from nxt_link.clock import VirtualClock
+    from nxt_link.wire.clock import VirtualClock
     t0 = time.perf_counter()
     domain = _delivery_domain(landmarks)
     model = OnlineModel(domain, "deliver", Roles.of(domain, observed=["press"], inferred=["missed"]))
@@ -79,9 +79,9 @@ def payload_runs(runs: int) -> list[dict]:
     from cplus.robot import RobotTask
     from cplus.robot.online.loop import OnlineStatus
     from nxt_link import BrickEmulator, EmulatorConfig, LinkParams
-    from nxt_link.clock import VirtualClock
-    from nxt_link.memory_transport import MemoryTransport
-    from nxt_link.stall import Stall
+    from nxt_link.emulator.memory_transport import MemoryTransport
+    from nxt_link.emulator.stall import Stall
+    from nxt_link.wire.clock import VirtualClock
     payload = ROOT / "domains" / "payload"
     t0 = time.perf_counter()
     task = RobotTask.load(str(payload / "payload.cp"), str(payload / "scene.toml"))

@@ -122,7 +122,7 @@ def run(name: str, total: int, seed: int, budget: int | None, solver: str | None
     from cplus.robot.serving.reactive import Server, ServerSettings
     from cplus.robot.serving.standing import DEFAULT_BUDGET
     from cplus.robot.serving.vocabulary import load_requests
-    from nxt_link.clock import VirtualClock
+    from nxt_link.wire.clock import VirtualClock
     file, offices, in_flight, horizon = SCENARIOS[name]
     t0 = time.perf_counter()
     domain = Domain.load(str(MAILBOT / file))

@@ -28,7 +28,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 import nxt_link  # noqa: E402
-from nxt_link.inprocess import EmulatedBricks  # noqa: E402
+from nxt_link.emulator.inprocess import EmulatedBricks  # noqa: E402
 
 
 def rows(n: int) -> tuple[tuple[int, ...], ...]:

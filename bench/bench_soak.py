@@ -43,8 +43,8 @@ sys.path.insert(0, str(ROOT))
 
 import nxt_link  # noqa: E402
 import trajectory  # noqa: E402
-from nxt_link.clock import VirtualClock  # noqa: E402
-from nxt_link.errors import ExecutionFailed, LinkError  # noqa: E402
+from nxt_link.wire.clock import VirtualClock  # noqa: E402
+from nxt_link.wire.errors import ExecutionFailed, LinkError  # noqa: E402
 
 DOMAIN = ROOT / "domains" / "payload" / "payload.cp"
 SCENE = ROOT / "domains" / "payload" / "scene.toml"

@@ -39,18 +39,18 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from nxt_link.brick import Brick, RetryPolicy  # noqa: E402
-from nxt_link.clock import VirtualClock  # noqa: E402
-from nxt_link.emulator import (  # noqa: E402
+from nxt_link.emulator.emulator import (  # noqa: E402
     BrickEmulator,
     EmulatorConfig,
     LinkParams,
     compiled_follower,
 )
-from nxt_link.execution import ExecutionOptions, SetpointStream, execute_streams  # noqa: E402
-from nxt_link.firmware import Firmware, FirmwareParams  # noqa: E402
-from nxt_link.memory_transport import MemoryTransport  # noqa: E402
-from nxt_link.vm import compile_nxc  # noqa: E402
+from nxt_link.emulator.firmware import Firmware, FirmwareParams  # noqa: E402
+from nxt_link.emulator.memory_transport import MemoryTransport  # noqa: E402
+from nxt_link.emulator.vm import compile_nxc  # noqa: E402
+from nxt_link.host.brick import Brick, RetryPolicy  # noqa: E402
+from nxt_link.host.execution import ExecutionOptions, SetpointStream, execute_streams  # noqa: E402
+from nxt_link.wire.clock import VirtualClock  # noqa: E402
 
 COMPUTE = """
 unsigned int tab[];

@@ -1,6 +1,6 @@
 """Mutation testing of one module against its own test files, in bounded time (cosmic-ray).
 
-    nice -n 10 python bench/mutants.py nxt_link/framing.py              # the tests pyproject.toml names
+    nice -n 10 python bench/mutants.py nxt_link/wire/framing.py              # the tests pyproject.toml names
     nice -n 10 python bench/mutants.py cplus/sat/cnf.py --sample 60 --seed 1
     python bench/mutants.py cplus/sat/cnf.py --report                   # the last run's survivors again
 

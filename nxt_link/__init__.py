@@ -1,21 +1,24 @@
 """NXT telegrams, transports, the brick emulator and trajectory streaming.
 
 Everything between the PC and the LEGO MINDSTORMS NXT bricks (stdlib +
-pyserial only; no numpy, no geometry, no plans):
+pyserial only; no numpy, no geometry, no plans), one package per concern:
+:mod:`nxt_link.wire` (telegrams, framing, transports, clocks), :mod:`nxt_link.host` (driving
+bricks), :mod:`nxt_link.emulator` (the emulated brick and its bytecode VM) and
+:mod:`nxt_link.programs` (the NXC brick programs and their mailbox protocols):
 
-* :mod:`nxt_link.telegram`, :mod:`nxt_link.framing` — pure codecs of the
+* :mod:`nxt_link.wire.telegram`, :mod:`nxt_link.wire.framing` — pure codecs of the
   direct commands and the Bluetooth length prefix;
 * :class:`Brick` over a transport: :class:`SerialTransport` (``/dev/rfcommN``
   or an emulator pty) or :class:`MemoryTransport` (in-process, virtual clock);
-* :mod:`nxt_link.stream_protocol` and :func:`execute_streams` — the setpoint
+* :mod:`nxt_link.programs.stream_protocol` and :func:`execute_streams` — the setpoint
   streaming protocol over mailboxes (sequence numbers, acknowledgements,
   checksums, a common start time, resumable log read-back);
-* ``nxt_link/nxc/cplus_follow.nxc`` — the brick program (the paper's
+* ``nxt_link/programs/nxc/cplus_follow.nxc`` — the brick program (the paper's
   Algorithm 2), and :class:`BrickEmulator` — firmware, a model of that program
   and motor physics, served on a pty by ``cplus brick``;
-* :mod:`nxt_link.behaviour_protocol` and :class:`BehaviourClient` — Legolog's
+* :mod:`nxt_link.programs.behaviour_protocol` and :class:`BehaviourClient` — Legolog's
   act / sense / exogenous-event protocol with the brick program
-  ``nxt_link/nxc/cplus_legolog.nxc`` (a delivery robot), and :class:`WorldSpec` —
+  ``nxt_link/programs/nxc/cplus_legolog.nxc`` (a delivery robot), and :class:`WorldSpec` —
   the line track the emulated robot drives on and senses.
 
 Typical use::
@@ -25,7 +28,18 @@ Typical use::
     log = execute_streams([SetpointStream("r1", ("A", "B"), 50, rows)], bricks)
     open("exec.json", "w").write(log.dumps())
 """
-from nxt_link.behaviours import (
+from nxt_link.emulator import (
+    BrickEmulator,
+    EmulatorConfig,
+    FaultParams,
+    LinkParams,
+    MemoryTransport,
+    PtyBrickServer,
+    Stall,
+    WorldSpec,
+    delivery_world,
+)
+from nxt_link.host import (
     ActResult,
     Behaviour,
     BehaviourClient,
@@ -33,21 +47,29 @@ from nxt_link.behaviours import (
     BehaviourFailed,
     BehaviourRefused,
     BehaviourTiming,
+    Brick,
     BrickEvent,
+    BrickLog,
     BrickLostError,
     BrickPanicError,
+    ControllerSettings,
+    ExecutionLog,
+    ExecutionOptions,
+    Progress,
+    RetryPolicy,
+    SessionTiming,
+    SetpointStream,
+    execute_streams,
 )
-from nxt_link.brick import Brick, RetryPolicy
-from nxt_link.clock import MonotonicClock, SimClock, SimulationStalled, VirtualClock
-from nxt_link.emulator import BrickEmulator, EmulatorConfig, FaultParams, LinkParams
-from nxt_link.errors import LinkError, LinkTimeoutError, ProtocolError
-from nxt_link.execlog import BrickLog, ExecutionLog
-from nxt_link.execution import ExecutionOptions, Progress, SetpointStream, execute_streams
-from nxt_link.memory_transport import MemoryTransport
-from nxt_link.pty_server import PtyBrickServer
-from nxt_link.session import ControllerSettings, SessionTiming
-from nxt_link.stall import Stall
-from nxt_link.world import WorldSpec, delivery_world
+from nxt_link.wire import (
+    LinkError,
+    LinkTimeoutError,
+    MonotonicClock,
+    ProtocolError,
+    SimClock,
+    SimulationStalled,
+    VirtualClock,
+)
 
 __all__ = [
     "SetpointStream",
@@ -94,11 +116,11 @@ __all__ = [
 def __getattr__(name: str) -> object:
     # pyserial is imported only when the serial transport is actually used
     if name == "SerialTransport":
-        from nxt_link.serial_transport import SerialTransport
+        from nxt_link.wire.serial_transport import SerialTransport
 
         return SerialTransport
     if name == "EmulatedBricks":
-        from nxt_link.inprocess import EmulatedBricks
+        from nxt_link.emulator.inprocess import EmulatedBricks
 
         return EmulatedBricks
     raise AttributeError(f"module 'nxt_link' has no attribute {name!r}")

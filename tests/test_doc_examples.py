@@ -88,9 +88,9 @@ NOT_RUN: dict[str, str] = {
     "cplus batch bench/data --timeout 60": "the benchmark instances: minutes (docs/benchmarks.md)",
     "python -m doctest -o ELLIPSIS -o NORMALIZE_WHITESPACE docs/api.md":
         "tests/cplus/test_api_doc.py runs these examples with the same flags",
-    "nice -n 10 python bench/mutants.py nxt_link/framing.py": "mutation testing: minutes per module",
+    "nice -n 10 python bench/mutants.py nxt_link/wire/framing.py": "mutation testing: minutes per module",
     "nice -n 10 python bench/mutants.py cplus/sat/cnf.py --sample 60": "mutation testing: minutes per module",
-    "python bench/mutants.py nxt_link/framing.py --report": "the survivors of an earlier mutation run",
+    "python bench/mutants.py nxt_link/wire/framing.py --report": "the survivors of an earlier mutation run",
     "python bench/busy.py 12 -- python -m pytest -q -n 2": "the whole suite beside 12 busy processes: an hour",
     "python bench/busy.py 12 -- python -m pytest -q -n 2 tests/test_interrupts.py tests/test_signals.py "
     "tests/test_serve_stress_*.py tests/nxt_link/test_brick_faults.py tests/cplus/test_parallel.py "

@@ -12,7 +12,7 @@ import nxt_link
 import trajectory as tj
 from cplus.cli import main
 from cplus.robot.execution import skew_verdict, streams_from_trajectory, tracking_report
-from nxt_link.execlog import BrickLog, ExecutionLog
+from nxt_link.host.execlog import BrickLog, ExecutionLog
 
 ROOT = Path(__file__).resolve().parent.parent
 SCENE = ROOT / "domains" / "payload" / "scene.toml"
@@ -181,7 +181,7 @@ def test_execute_animates_executed_over_planned_and_plots_the_run_over_time(traj
 
 def test_an_incomplete_log_becomes_a_timeline_with_its_stop():
     from cplus.cli.execute import run_timeline
-    from nxt_link.execlog import Stopped
+    from nxt_link.host.execlog import Stopped
     log = ExecutionLog((BrickLog("r1", ("A",), 50, ((0,), (5,), (9,)), ((0,), None), (), (1.0, 1.1), "run"),),
                        stopped=Stopped(2.5, "brick r1: link lost", "r1"), time_scale=2.0)
     timeline = run_timeline(log)

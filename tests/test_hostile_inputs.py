@@ -488,7 +488,7 @@ _RING = ("int laps;\ntask second();\ntask third();\n"
 def test_a_brick_running_a_ring_of_exitto_tasks_answers_and_stops_on_sigterm(tmp_path):
     import nxt.locator
 
-    from nxt_link.vm import compile_nxc
+    from nxt_link.emulator.vm import compile_nxc
     source = tmp_path / "ring.nxc"
     source.write_text(_RING)
     rxe = tmp_path / "ring.rxe"

@@ -1,5 +1,6 @@
 """The import rules between packages (docs/interfaces.md): dependencies run one way,
-``cli -> robot -> {cplus core, trajectory, nxt_link}``, and nothing imports the CLI."""
+``cli -> robot -> {cplus core, trajectory, nxt_link}``, and nothing imports the CLI; inside
+``nxt_link``, ``host -> {wire, programs}`` and ``emulator -> {wire, programs}``."""
 from __future__ import annotations
 
 import ast
@@ -32,6 +33,7 @@ def top(names: set[str]) -> set[str]:
 
 def test_the_rules_see_every_package():
     assert {rel.split("/")[1] for rel, _ in modules("cplus")} >= {"cli", "robot", "ground", "sat"}
+    assert {rel.split("/")[1] for rel, _ in modules("nxt_link")} >= {"wire", "host", "emulator", "programs"}
     assert len(list(modules("trajectory"))) > 5 and len(list(modules("nxt_link"))) > 5
 
 
@@ -43,7 +45,7 @@ def test_trajectory_is_independent(rel, names):
 @pytest.mark.parametrize("rel, names", list(modules("nxt_link")))
 def test_nxt_link_is_independent(rel, names):
     assert not top(names) & {"cplus", "trajectory", "numpy", "matplotlib", "shapely"}, rel
-    if rel != "nxt_link/serial_transport.py":
+    if rel != "nxt_link/wire/serial_transport.py":
         assert "serial" not in top(names), rel
 
 
@@ -108,6 +110,56 @@ def test_robot_concerns_use_each_other_through_their_faces(rel, names):
         allowed = {"offline"} if own is None else CONCERNS[own]
         assert other in allowed, f"{rel} uses {other} ({name})"
         assert name == f"cplus.robot.{other}", f"{rel} reaches into {name}: import it from cplus.robot.{other}"
+
+
+#: The concerns of ``nxt_link/`` (after nxt-python's one package per concern) and which others
+#: each may import: the wire stands alone; the brick programs' mailbox protocols use only the
+#: wire; the host side drives bricks over the wire with those protocols; the emulator answers on
+#: the wire and runs the programs. Neither the wire, the programs nor the emulator imports the
+#: host side, and the host side never imports the emulator.
+NXT_CONCERNS = {"wire": set(), "programs": {"wire"}, "host": {"wire", "programs"},
+                "emulator": {"wire", "programs"}}
+
+
+def test_nxt_link_is_split_by_concern():
+    loose = {p.name for p in (ROOT / "nxt_link").glob("*.py")}
+    assert loose == {"__init__.py"}, loose
+    packages = {p.name for p in (ROOT / "nxt_link").iterdir() if (p / "__init__.py").is_file()}
+    assert packages == set(NXT_CONCERNS), packages
+
+
+def nxt_link_concern_violations(rel: str, names: set[str]) -> list[str]:
+    """The imports of module ``rel`` (a path under ``nxt_link/``) that :data:`NXT_CONCERNS`
+    forbids; every import counts, also those under ``TYPE_CHECKING`` and inside functions."""
+    parts = rel.split("/")
+    if len(parts) < 3:          # nxt_link/__init__.py, the face of all four
+        return []
+    own = parts[1]
+    bad = []
+    for name in names:
+        if name == "nxt_link":  # the top face imports every concern
+            bad.append(f"{rel} imports nxt_link itself (import from the concern's package)")
+        elif name.startswith("nxt_link."):
+            other = name.split(".")[1]
+            if other != own and other not in NXT_CONCERNS[own]:
+                bad.append(f"{rel} ({own}) imports {name} ({other})")
+    return bad
+
+
+@pytest.mark.parametrize("rel, names", list(modules("nxt_link")))
+def test_nxt_link_concerns_import_one_way(rel, names):
+    assert not nxt_link_concern_violations(rel, names)
+
+
+def test_the_nxt_link_rules_catch_a_violating_import():
+    assert nxt_link_concern_violations("nxt_link/wire/telegram.py", {"nxt_link.host.brick"})
+    assert nxt_link_concern_violations("nxt_link/emulator/firmware.py", {"nxt_link.host.session"})
+    assert nxt_link_concern_violations("nxt_link/programs/stream_protocol.py", {"nxt_link.emulator"})
+    assert nxt_link_concern_violations("nxt_link/host/brick.py", {"nxt_link.emulator.world"})
+    assert nxt_link_concern_violations("nxt_link/wire/clock.py", {"nxt_link"})
+    assert not nxt_link_concern_violations("nxt_link/host/session.py",
+                                           {"nxt_link.wire.telegram", "nxt_link.programs.stream_protocol"})
+    assert not nxt_link_concern_violations("nxt_link/emulator/vm/nbc.py", {"nxt_link.programs"})
 
 
 def test_no_import_cycles_between_modules():

@@ -16,9 +16,9 @@ from cplus.robot.offline.refine import RefineStatus
 from cplus.robot.online.estimation import OnlineModel, Roles
 from cplus.robot.online.loop import OnlineStatus, RunResult
 from nxt_link import BrickEmulator, EmulatorConfig, LinkParams
-from nxt_link.clock import VirtualClock
-from nxt_link.memory_transport import MemoryTransport
-from nxt_link.stall import Stall
+from nxt_link.emulator.memory_transport import MemoryTransport
+from nxt_link.emulator.stall import Stall
+from nxt_link.wire.clock import VirtualClock
 
 ROOT = Path(__file__).resolve().parent.parent
 PAYLOAD = ROOT / "domains" / "payload"
@@ -207,7 +207,7 @@ def test_the_readmes_stall_example_reaches_the_goal(tmp_path, capsys):
 
 
 def test_a_plan_refused_before_anything_moved_logs_nothing_as_executed(task, monkeypatch):
-    from nxt_link.errors import SetpointError
+    from nxt_link.wire.errors import SetpointError
 
     def refuse(*a, **kw):
         raise SetpointError("brick r1 motor B stands at 461 deg, the trajectory starts at 342 deg")

@@ -18,7 +18,7 @@ from cplus.robot.online.estimation import OnlineModel, Roles
 from cplus.robot.online.events import EventsError, LineEvents, ScriptedEvents, check_events, parse_events
 from cplus.robot.online.executors import SimulatedExecutor
 from cplus.robot.online.loop import Observer, OnlineLoop, OnlineStatus, RunResult
-from nxt_link.clock import VirtualClock
+from nxt_link.wire.clock import VirtualClock
 
 ROOT = Path(__file__).resolve().parent.parent
 DELIVERY = ROOT / "domains" / "delivery" / "delivery.cp"

@@ -13,12 +13,12 @@ from cplus.robot.online.binding import load_binding
 from cplus.robot.online.estimation import OnlineModel
 from cplus.robot.online.loop import Observer, OnlineLoop, OnlineStatus, RunResult
 from cplus.robot.online.nxt_executor import NxtExecutor
-from nxt_link.behaviours import BehaviourTiming
-from nxt_link.brick import RetryPolicy
-from nxt_link.clock import SimClock, VirtualClock
-from nxt_link.emulator import BrickEmulator, EmulatorConfig, LinkParams
-from nxt_link.memory_transport import MemoryTransport
-from nxt_link.world import Blocked, Landmark, Press, WorldSpec, delivery_world
+from nxt_link.emulator.emulator import BrickEmulator, EmulatorConfig, LinkParams
+from nxt_link.emulator.memory_transport import MemoryTransport
+from nxt_link.emulator.world import Blocked, Landmark, Press, WorldSpec, delivery_world
+from nxt_link.host.behaviours import BehaviourTiming
+from nxt_link.host.brick import RetryPolicy
+from nxt_link.wire.clock import SimClock, VirtualClock
 
 ROOT = Path(__file__).resolve().parent.parent
 DELIVERY = ROOT / "domains" / "delivery"

@@ -84,8 +84,8 @@ def test_cplus_run_takes_ticks_from_10_to_10000_ms(tmp_path, step_time, points, 
 
 
 def test_the_brick_program_takes_ticks_up_to_10000_ms():
-    from nxt_link.errors import SetpointError
-    from nxt_link.execution import SetpointStream
+    from nxt_link.host.execution import SetpointStream
+    from nxt_link.wire.errors import SetpointError
     assert SetpointStream("r1", ("A",), 10000, ((0,),)).tick_ms == 10000
     assert SetpointStream("r1", ("A",), 10, ((0,),)).tick_ms == 10
     for tick in (10001, 9):
@@ -98,7 +98,7 @@ def test_the_brick_program_takes_ticks_up_to_10000_ms():
 
 def test_nbc_output_is_cached_under_the_users_cache_folder(tmp_path, monkeypatch):
     says(r"`cplus brick` compiles `cplus_follow.nxc` with nbc once \(cached in `~/.cache/cplus/rxe`\)")
-    from nxt_link.vm import nbc
+    from nxt_link.emulator.vm import nbc
     compiled: list[Path] = []
 
     def compile_nxc(source, **_kw):

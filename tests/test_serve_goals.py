@@ -21,7 +21,7 @@ from cplus.robot.serving.goals import GoalBoard, GoalRecorder, GoalStatus, GoalW
 from cplus.robot.serving.reactive import Server, ServerSettings
 from cplus.robot.serving.script import ScriptError, parse_script
 from cplus.robot.serving.vocabulary import Rejected, RequestsError, load_requests, parse_requests
-from nxt_link.clock import VirtualClock
+from nxt_link.wire.clock import VirtualClock
 
 MAILBOT = Path(__file__).resolve().parent.parent / "domains" / "mailbot"
 

@@ -77,7 +77,7 @@ def test_preempt_stop_halts_the_follow_and_plans_on_from_between_two_offices():
     stopped: list[float] = []                      # when both wheels' motors were at power 0 again
 
     def cancel_later() -> None:
-        from nxt_link.world import _drive
+        from nxt_link.emulator.world import _drive
         world = executor.servers["robot"].emulator.world   # type: ignore[attr-defined]
         step = world.step
 

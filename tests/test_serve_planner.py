@@ -21,7 +21,7 @@ from cplus.robot.serving.goals import GoalBoard
 from cplus.robot.serving.reactive import serve_roles
 from cplus.robot.serving.standing import GoalLiteral, StandingModel
 from cplus.robot.serving.vocabulary import load_requests
-from nxt_link.clock import VirtualClock
+from nxt_link.wire.clock import VirtualClock
 
 MAILBOT = Path(__file__).resolve().parent.parent / "domains" / "mailbot"
 OFFICES = [f"office{i}" for i in range(1, 5)]

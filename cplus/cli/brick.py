@@ -47,7 +47,7 @@ from cplus.cli.common import (
     number,
     time_scale,
 )
-from nxt_link.emulator import (
+from nxt_link.emulator.emulator import (
     BrickEmulator,
     EmulatorConfig,
     FaultParams,
@@ -55,13 +55,13 @@ from nxt_link.emulator import (
     compiled_follower,
     compiled_legolog,
 )
-from nxt_link.firmware import FirmwareParams
-from nxt_link.motor_model import MotorParams
-from nxt_link.pty_server import PtyBrickServer
-from nxt_link.stall import Stall
-from nxt_link.vm import NbcError, NbcMissingError, RxeError, load_rxe
-from nxt_link.vm.flash import FILENAME_LENGTH
-from nxt_link.world import World
+from nxt_link.emulator.firmware import FirmwareParams
+from nxt_link.emulator.motor_model import MotorParams
+from nxt_link.emulator.pty_server import PtyBrickServer
+from nxt_link.emulator.stall import Stall
+from nxt_link.emulator.vm import NbcError, NbcMissingError, RxeError, load_rxe
+from nxt_link.emulator.vm.flash import FILENAME_LENGTH
+from nxt_link.emulator.world import World
 
 __all__ = ["build_parser", "config_from_args", "main"]
 
@@ -369,7 +369,7 @@ def _presses_from_stdin(world: World) -> None:
 
 def press_hold(line: str) -> tuple[float | None, str]:
     """How long a line of standard input holds the touch sensor, or None and why not."""
-    from nxt_link.world import MAX_PRESS_S
+    from nxt_link.emulator.world import MAX_PRESS_S
     words = line.split()
     if not words or words == ["press"]:
         return 0.3, ""

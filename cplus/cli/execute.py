@@ -52,7 +52,7 @@ from cplus.robot.execution import (
     streams_from_trajectory,
     tracking_report,
 )
-from nxt_link.errors import ExecutionFailed, ExecutionInterrupted, LinkError, SetpointError
+from nxt_link.wire.errors import ExecutionFailed, ExecutionInterrupted, LinkError, SetpointError
 
 __all__ = ["build_parser", "main"]
 

@@ -291,7 +291,7 @@ def _behaviours(args: argparse.Namespace, robot: str, ports: dict[str, str]) -> 
     from cplus.robot.online.estimation import OnlineModel
     from cplus.robot.online.events import LineEvents, ScriptedEvents, check_events, parse_events
     from cplus.robot.online.loop import EventSource, OnlineLoop
-    from nxt_link.clock import MONOTONIC
+    from nxt_link.wire.clock import MONOTONIC
     err = sys.stderr
     domain = Domain.load(args.domain)
     label = _domain_and_goal(args, domain)
@@ -399,7 +399,7 @@ def _arms(args: argparse.Namespace, scene: str, ports: dict[str, str]) -> int:
 def _supervised(run, who: str, bricks, observers, log, quiet: bool, err, on_stop=None) -> int:
     """Run the loop under the shutdown watchdog (SIGINT/SIGTERM: an orderly stop, then motors
     off if it is late) and turn how it ended into the exit code; the log is closed however."""
-    from nxt_link.clock import SimulationStalled
+    from nxt_link.wire.clock import SimulationStalled
     with Shutdown("cplus online") as shutdown:
         if on_stop is not None:
             shutdown.on_stop(on_stop)
@@ -434,7 +434,7 @@ def _stop_reason(shutdown) -> str:
 
 
 def _stalls(items: Sequence[str], robots: Sequence[str]) -> dict:
-    from nxt_link.stall import Stall
+    from nxt_link.emulator.stall import Stall
     out: dict[str, list] = {}
     for item in items:
         name, sep, spec = item.partition(":")

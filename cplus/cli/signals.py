@@ -223,7 +223,7 @@ def motors_off(bricks: Iterable[object]) -> None:
     no reply, written straight to each brick's transport: the interrupted thread may hold the
     brick's request lock, or be waiting for a reply that never comes. Errors are ignored (a
     link that is down has nothing to stop)."""
-    from nxt_link import telegram as tg
+    from nxt_link.wire import telegram as tg
     commands = [tg.encode_command(tg.StopProgram(reply=False))] + [
         tg.encode_command(tg.SetOutputState(port, 0, 0, 0, 0, 0, 0, False)) for port in range(3)]
     for brick in bricks:

@@ -6,7 +6,7 @@ from pathlib import Path
 import pytest
 
 from cplus.robot.online.world_file import WorldFileError, load_world, parse_world
-from nxt_link.world import Blocked, Landmark, Markers, Press, RobotBody, Start
+from nxt_link.emulator.world import Blocked, Landmark, Markers, Press, RobotBody, Start
 
 ROOT = Path(__file__).resolve().parents[2]
 

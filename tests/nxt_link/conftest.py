@@ -5,11 +5,11 @@ import math
 
 import pytest
 
-from nxt_link.brick import Brick, RetryPolicy
-from nxt_link.clock import VirtualClock
-from nxt_link.emulator import BrickEmulator, EmulatorConfig, FaultParams, LinkParams
-from nxt_link.memory_transport import MemoryTransport
-from nxt_link.pty_server import PtyBrickServer
+from nxt_link.emulator.emulator import BrickEmulator, EmulatorConfig, FaultParams, LinkParams
+from nxt_link.emulator.memory_transport import MemoryTransport
+from nxt_link.emulator.pty_server import PtyBrickServer
+from nxt_link.host.brick import Brick, RetryPolicy
+from nxt_link.wire.clock import VirtualClock
 
 FAST = RetryPolicy(reply_timeout_s=0.2, retries=3, quiet_s=0.02, reconnect_timeout_s=2.0)
 

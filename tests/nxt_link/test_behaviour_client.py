@@ -15,14 +15,14 @@ from nxt_link import (
     BrickPanicError,
     delivery_world,
 )
-from nxt_link import behaviour_protocol as bp
-from nxt_link.behaviour_protocol import AckCode, State, Status
-from nxt_link.brick import RetryPolicy
-from nxt_link.clock import VirtualClock
-from nxt_link.emulator import BrickEmulator, EmulatorConfig, FaultParams, LinkParams
-from nxt_link.errors import LinkError
-from nxt_link.memory_transport import MemoryTransport
-from nxt_link.world import Blocked, Press, WorldSpec
+from nxt_link.emulator.emulator import BrickEmulator, EmulatorConfig, FaultParams, LinkParams
+from nxt_link.emulator.memory_transport import MemoryTransport
+from nxt_link.emulator.world import Blocked, Press, WorldSpec
+from nxt_link.host.brick import RetryPolicy
+from nxt_link.programs import behaviour_protocol as bp
+from nxt_link.programs.behaviour_protocol import AckCode, State, Status
+from nxt_link.wire.clock import VirtualClock
+from nxt_link.wire.errors import LinkError
 
 FAST = RetryPolicy(reply_timeout_s=0.2, retries=3, quiet_s=0.02, reconnect_timeout_s=2.0)
 

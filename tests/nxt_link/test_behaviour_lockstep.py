@@ -21,16 +21,16 @@ from nxt_link import (
     BrickEvent,
     BrickPanicError,
     delivery_world,
-    legolog_program,
 )
-from nxt_link import behaviour_protocol as bp
-from nxt_link.brick import RetryPolicy
-from nxt_link.clock import VirtualClock
-from nxt_link.emulator import BrickEmulator, EmulatorConfig, FaultParams, LinkParams
-from nxt_link.firmware import Firmware, FirmwareParams
-from nxt_link.memory_transport import MemoryTransport
-from nxt_link.vm import Compiled, cached_compile
-from nxt_link.world import Blocked, World, WorldSpec
+from nxt_link.emulator import legolog_program
+from nxt_link.emulator.emulator import BrickEmulator, EmulatorConfig, FaultParams, LinkParams
+from nxt_link.emulator.firmware import Firmware, FirmwareParams
+from nxt_link.emulator.memory_transport import MemoryTransport
+from nxt_link.emulator.vm import Compiled, cached_compile
+from nxt_link.emulator.world import Blocked, World, WorldSpec
+from nxt_link.host.brick import RetryPolicy
+from nxt_link.programs import behaviour_protocol as bp
+from nxt_link.wire.clock import VirtualClock
 
 NXC = Path(bp.__file__).resolve().parent / "nxc" / "cplus_legolog.nxc"
 POLICY = RetryPolicy(reply_timeout_s=0.2, retries=3, quiet_s=0.02, reconnect_timeout_s=2.0)

@@ -8,9 +8,9 @@ from pathlib import Path
 
 import pytest
 
-from nxt_link import behaviour_protocol as bp
-from nxt_link import legolog_program
-from nxt_link.world import Ports
+from nxt_link.emulator import legolog_program
+from nxt_link.emulator.world import Ports
+from nxt_link.programs import behaviour_protocol as bp
 
 NXC = Path(bp.__file__).resolve().parent / "nxc" / "cplus_legolog.nxc"
 

@@ -5,16 +5,16 @@ stops answering (PANIC) or sends what a correct client never sends.
 """
 from __future__ import annotations
 
-from nxt_link import behaviour_protocol as bp
 from nxt_link import delivery_world
-from nxt_link.behaviour_protocol import AckCode, Behaviour, State, Status
-from nxt_link.brick import Brick
-from nxt_link.clock import VirtualClock
-from nxt_link.emulator import BrickEmulator, EmulatorConfig, LinkParams
-from nxt_link.errors import EmptyMailboxError
-from nxt_link.legolog_program import LegologProgram
-from nxt_link.memory_transport import MemoryTransport
-from nxt_link.world import Landmark, Start, Track, WorldSpec
+from nxt_link.emulator.emulator import BrickEmulator, EmulatorConfig, LinkParams
+from nxt_link.emulator.legolog_program import LegologProgram
+from nxt_link.emulator.memory_transport import MemoryTransport
+from nxt_link.emulator.world import Landmark, Start, Track, WorldSpec
+from nxt_link.host.brick import Brick
+from nxt_link.programs import behaviour_protocol as bp
+from nxt_link.programs.behaviour_protocol import AckCode, Behaviour, State, Status
+from nxt_link.wire.clock import VirtualClock
+from nxt_link.wire.errors import EmptyMailboxError
 
 S = 4242
 

@@ -5,9 +5,9 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from nxt_link import behaviour_protocol as bp
-from nxt_link import stream_protocol as sp
-from nxt_link.errors import TelegramError
+from nxt_link.programs import behaviour_protocol as bp
+from nxt_link.programs import stream_protocol as sp
+from nxt_link.wire.errors import TelegramError
 
 u8 = st.integers(0, 0xFF)
 u16 = st.integers(0, 0xFFFF)

@@ -13,11 +13,11 @@ import pytest
 
 from cplus.cli import main
 from nxt_link import Behaviour, BehaviourClient, Brick, BrickEvent, delivery_world
-from nxt_link.brick import RetryPolicy
-from nxt_link.clock import SimClock
-from nxt_link.emulator import BrickEmulator, EmulatorConfig, FaultParams, LinkParams
-from nxt_link.pty_server import PtyBrickServer
-from nxt_link.serial_transport import SerialTransport
+from nxt_link.emulator.emulator import BrickEmulator, EmulatorConfig, FaultParams, LinkParams
+from nxt_link.emulator.pty_server import PtyBrickServer
+from nxt_link.host.brick import RetryPolicy
+from nxt_link.wire.clock import SimClock
+from nxt_link.wire.serial_transport import SerialTransport
 
 pytestmark = pytest.mark.slow   # processes and ptys, in real time
 

@@ -6,9 +6,9 @@ from collections import deque
 
 import pytest
 
-from nxt_link import errors
-from nxt_link.brick import Brick, RetryPolicy
-from nxt_link.clock import Deadline, VirtualClock
+from nxt_link.host.brick import Brick, RetryPolicy
+from nxt_link.wire import errors
+from nxt_link.wire.clock import Deadline, VirtualClock
 
 POLICY = RetryPolicy(reply_timeout_s=0.2, retries=2, quiet_s=0.01, reconnect_timeout_s=1.0,
                      min_reply_timeout_s=0.2)  # a fixed 0.2 s wait per attempt

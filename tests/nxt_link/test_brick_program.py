@@ -3,10 +3,10 @@ from __future__ import annotations
 
 import pytest
 
-from nxt_link import stream_protocol as sp
-from nxt_link.errors import EmptyMailboxError
-from nxt_link.follower_program import FollowerProgram
-from nxt_link.stream_protocol import Code, State
+from nxt_link.emulator.follower_program import FollowerProgram
+from nxt_link.programs import stream_protocol as sp
+from nxt_link.programs.stream_protocol import Code, State
+from nxt_link.wire.errors import EmptyMailboxError
 
 S = 4242  # session id used throughout
 

@@ -16,10 +16,10 @@ from collections.abc import Callable
 
 import pytest
 
-from nxt_link.execution import ExecutionOptions, SetpointStream, execute_streams
-from nxt_link.framing import frame
-from nxt_link.session import SessionTiming
-from nxt_link.telegram import error_reply
+from nxt_link.host.execution import ExecutionOptions, SetpointStream, execute_streams
+from nxt_link.host.session import SessionTiming
+from nxt_link.wire.framing import frame
+from nxt_link.wire.telegram import error_reply
 
 TIMING = SessionTiming(ack_timeout_s=0.3, max_silent_s=5.0, homing_timeout_s=3.0)
 OPTIONS = ExecutionOptions(timing=TIMING)

@@ -5,8 +5,8 @@ import json
 
 import pytest
 
-from nxt_link.errors import ExecLogError
-from nxt_link.execlog import BrickLog, ExecutionLog, LogEvent, Stopped
+from nxt_link.host.execlog import BrickLog, ExecutionLog, LogEvent, Stopped
+from nxt_link.wire.errors import ExecLogError
 
 
 def sample() -> ExecutionLog:

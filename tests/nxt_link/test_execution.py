@@ -5,11 +5,11 @@ import math
 
 import pytest
 
-from nxt_link import errors
-from nxt_link.emulator import FaultParams
-from nxt_link.execution import ExecutionOptions, SetpointStream, execute_streams
-from nxt_link.session import BrickSession, SessionTiming
-from nxt_link.stream_protocol import State
+from nxt_link.emulator.emulator import FaultParams
+from nxt_link.host.execution import ExecutionOptions, SetpointStream, execute_streams
+from nxt_link.host.session import BrickSession, SessionTiming
+from nxt_link.programs.stream_protocol import State
+from nxt_link.wire import errors
 
 TIMING = SessionTiming(ack_timeout_s=0.3, max_silent_s=5.0, homing_timeout_s=3.0)
 OPTIONS = ExecutionOptions(timing=TIMING)

@@ -4,13 +4,13 @@ from __future__ import annotations
 
 import pytest
 
-from nxt_link import errors
-from nxt_link import stream_protocol as sp
-from nxt_link.brick import Brick, RetryPolicy
-from nxt_link.execlog import ExecutionLog
-from nxt_link.execution import ExecutionOptions, SetpointStream, execute_streams
-from nxt_link.session import SessionTiming
-from nxt_link.stream_protocol import State
+from nxt_link.host.brick import Brick, RetryPolicy
+from nxt_link.host.execlog import ExecutionLog
+from nxt_link.host.execution import ExecutionOptions, SetpointStream, execute_streams
+from nxt_link.host.session import SessionTiming
+from nxt_link.programs import stream_protocol as sp
+from nxt_link.programs.stream_protocol import State
+from nxt_link.wire import errors
 
 TIMING = SessionTiming(ack_timeout_s=0.3, max_silent_s=4.0, homing_timeout_s=3.0)
 OPTIONS = ExecutionOptions(timing=TIMING)

@@ -3,9 +3,9 @@ from __future__ import annotations
 
 import pytest
 
-from nxt_link import telegram as tg
-from nxt_link.firmware import Firmware, FirmwareParams
-from nxt_link.stream_protocol import PROGRAM_NAME
+from nxt_link.emulator.firmware import Firmware, FirmwareParams
+from nxt_link.programs.stream_protocol import PROGRAM_NAME
+from nxt_link.wire import telegram as tg
 
 
 def fw(running: bool = True, **params) -> Firmware:

@@ -5,7 +5,7 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from nxt_link.framing import MAX_TELEGRAM, FrameDecoder, frame
+from nxt_link.wire.framing import MAX_TELEGRAM, FrameDecoder, frame
 
 telegrams = st.lists(st.binary(min_size=1, max_size=MAX_TELEGRAM), min_size=1, max_size=8)
 

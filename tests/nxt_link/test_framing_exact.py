@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import pytest
 
-from nxt_link.framing import MAX_TELEGRAM, DecoderStats, FrameDecoder, frame
+from nxt_link.wire.framing import MAX_TELEGRAM, DecoderStats, FrameDecoder, frame
 
 
 def test_the_prefix_and_its_limits():

@@ -10,9 +10,9 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from nxt_link import stream_protocol as sp
-from nxt_link.errors import TelegramError
-from nxt_link.framing import MAX_TELEGRAM, FrameDecoder, frame
+from nxt_link.programs import stream_protocol as sp
+from nxt_link.wire.errors import TelegramError
+from nxt_link.wire.framing import MAX_TELEGRAM, FrameDecoder, frame
 
 # ---------------------------------------------------------------------------------------------
 # framing
@@ -160,7 +160,7 @@ def test_any_sealed_message_decodes_to_what_encodes_back_or_is_a_telegram_error(
 
 
 def opened(rig, **kw):
-    from nxt_link.session import BrickSession, SessionTiming
+    from nxt_link.host.session import BrickSession, SessionTiming
     brick = rig.add("r1", **kw)
     s = BrickSession(brick, ("A",), 50, ((0,), (5,), (10,)), ((-500, 500),),
                      timing=SessionTiming(ack_timeout_s=0.3, max_silent_s=3.0))
@@ -169,7 +169,7 @@ def opened(rig, **kw):
 
 
 def test_a_program_stopped_under_the_session_is_named_as_such(rig):
-    from nxt_link.errors import StreamError
+    from nxt_link.wire.errors import StreamError
     s, brick = opened(rig)
     brick.stop_program()
     start = rig.clock.now()
@@ -181,7 +181,7 @@ def test_a_program_stopped_under_the_session_is_named_as_such(rig):
 def test_a_program_stopped_while_its_answers_are_lost_is_named_after_the_silence(rig):
     """Every MESSAGEREAD reply is lost, so only the silence check finds out; it asks what runs
     before it calls the brick gone."""
-    from nxt_link.errors import StreamError
+    from nxt_link.wire.errors import StreamError
     lose_reads = []
 
     def damage(_index: int, data: bytes) -> bytes:
@@ -197,7 +197,7 @@ def test_a_program_stopped_while_its_answers_are_lost_is_named_after_the_silence
 
 
 def test_a_silent_brick_whose_program_runs_is_a_link_timeout(rig):
-    from nxt_link.errors import LinkTimeoutError
+    from nxt_link.wire.errors import LinkTimeoutError
     lose_reads = []
 
     def damage(_index: int, data: bytes) -> bytes:

@@ -24,8 +24,8 @@ def says(pattern: str) -> re.Match[str]:
 def spied_session(rig, rows, **kw):
     """A session on an emulated brick that records, at every sequenced post, how many
     messages are out and not yet acknowledged, and at every LOGREAD, how many are out."""
-    from nxt_link import stream_protocol as sp
-    from nxt_link.session import BrickSession
+    from nxt_link.host.session import BrickSession
+    from nxt_link.programs import stream_protocol as sp
     s = BrickSession(rig.add("r1"), ("A",), 50, rows, ((-500, 500),), **kw)
     in_flight: list[int] = []
     log_reads_out: list[int] = []
@@ -58,7 +58,7 @@ def spied_session(rig, rows, **kw):
 
 def test_the_stream_keeps_at_most_4_messages_unacknowledged(rig, wave):
     window = says(r"go-back-N, window (\d) < the mailbox depth of 5")
-    from nxt_link.session import WINDOW
+    from nxt_link.host.session import WINDOW
     assert WINDOW == int(window[1]) == 4
     rows = wave(240, (100,))
     s, in_flight, _ = spied_session(rig, rows)
@@ -70,7 +70,7 @@ def test_the_stream_keeps_at_most_4_messages_unacknowledged(rig, wave):
 
 
 def test_the_log_is_read_with_at_most_4_requests_out(rig, wave):
-    from nxt_link.stream_protocol import State
+    from nxt_link.programs.stream_protocol import State
     rows = wave(150, (100,))
     s, _, out = spied_session(rig, rows)
     s.open()
@@ -88,8 +88,8 @@ def test_the_log_is_read_with_at_most_4_requests_out(rig, wave):
 
 def test_a_brick_is_given_up_after_10_s_without_a_valid_answer(rig):
     says(r"gives up only when a brick has sent nothing valid for 10 s \(counted from its last valid answer\)")
-    from nxt_link.errors import LinkTimeoutError
-    from nxt_link.session import BrickSession, SessionTiming
+    from nxt_link.host.session import BrickSession, SessionTiming
+    from nxt_link.wire.errors import LinkTimeoutError
     assert SessionTiming().max_silent_s == 10.0
     lost: list[bool] = []
     brick = rig.add("r1", damage=lambda _i, data: b"" if lost and data[3:4] == b"\x13" else data)
@@ -105,8 +105,8 @@ def test_a_brick_is_given_up_after_10_s_without_a_valid_answer(rig):
 @pytest.mark.parametrize("tick, accepted", [(10000, True), (10001, False), (10, True), (9, False)])
 def test_the_brick_program_takes_ticks_from_10_to_10000_ms(rig, tick, accepted):
     says(r"a whole number of milliseconds from 10 to 10000")
-    from nxt_link.errors import StreamError
-    from nxt_link.session import BrickSession, SessionTiming
+    from nxt_link.host.session import BrickSession, SessionTiming
+    from nxt_link.wire.errors import StreamError
     s = BrickSession(rig.add("r1"), ("A",), tick, ((0,), (1,)), ((-500, 500),),
                      timing=SessionTiming(max_silent_s=3.0))
     s.open()

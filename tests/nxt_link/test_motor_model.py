@@ -5,7 +5,7 @@ import math
 
 import pytest
 
-from nxt_link.motor_model import MotorParams, MotorPhysics
+from nxt_link.emulator.motor_model import MotorParams, MotorPhysics
 
 
 def spin(duty: float, ms: int, params: MotorParams | None = None) -> tuple[MotorPhysics, int]:

@@ -8,8 +8,8 @@ from pathlib import Path
 
 import pytest
 
-from nxt_link import follower_program
-from nxt_link import stream_protocol as sp
+from nxt_link.emulator import follower_program
+from nxt_link.programs import stream_protocol as sp
 
 NXC = Path(sp.__file__).resolve().parent / "nxc" / "cplus_follow.nxc"
 

@@ -6,8 +6,8 @@ import importlib
 
 import pytest
 
-MODULES = ["nxt_link.errors", "nxt_link.telegram", "nxt_link.framing", "nxt_link.clock",
-           "nxt_link.stream_protocol", "nxt_link.brick", "nxt_link.execlog"]
+MODULES = ["nxt_link.wire.errors", "nxt_link.wire.telegram", "nxt_link.wire.framing", "nxt_link.wire.clock",
+           "nxt_link.programs.stream_protocol", "nxt_link.host.brick", "nxt_link.host.execlog"]
 
 
 @pytest.mark.parametrize("name", MODULES)

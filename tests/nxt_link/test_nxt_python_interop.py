@@ -12,7 +12,7 @@ import nxt.locator
 import nxt.motor
 import pytest
 
-from nxt_link.stream_protocol import PROGRAM_NAME
+from nxt_link.programs.stream_protocol import PROGRAM_NAME
 
 pytestmark = pytest.mark.slow   # nxt-python over a pty, in real time
 

@@ -12,13 +12,13 @@ from pathlib import Path
 import pytest
 
 from cplus.cli import main
-from nxt_link import errors
-from nxt_link.brick import Brick, RetryPolicy
-from nxt_link.clock import MONOTONIC, SimClock
-from nxt_link.emulator import FaultParams
-from nxt_link.execution import ExecutionOptions, SetpointStream, execute_streams
-from nxt_link.serial_transport import SerialTransport
-from nxt_link.session import SessionTiming
+from nxt_link.emulator.emulator import FaultParams
+from nxt_link.host.brick import Brick, RetryPolicy
+from nxt_link.host.execution import ExecutionOptions, SetpointStream, execute_streams
+from nxt_link.host.session import SessionTiming
+from nxt_link.wire import errors
+from nxt_link.wire.clock import MONOTONIC, SimClock
+from nxt_link.wire.serial_transport import SerialTransport
 
 ROOT = Path(__file__).resolve().parents[2]
 # A reply later than 0.25 s (a dropped frame, or a busy machine) only costs a retry: with ten

@@ -4,11 +4,11 @@ from __future__ import annotations
 
 import pytest
 
-from nxt_link import session as sess
-from nxt_link import stream_protocol as sp
-from nxt_link.errors import StreamError
-from nxt_link.session import BrickSession, ControllerSettings, SessionTiming
-from nxt_link.stream_protocol import State
+from nxt_link.host import session as sess
+from nxt_link.host.session import BrickSession, ControllerSettings, SessionTiming
+from nxt_link.programs import stream_protocol as sp
+from nxt_link.programs.stream_protocol import State
+from nxt_link.wire.errors import StreamError
 
 TIMING = SessionTiming(ack_timeout_s=0.3, max_silent_s=3.0)
 ROWS = tuple((k, -k) for k in range(0, 60, 2))  # 30 rows of two ports

@@ -11,7 +11,7 @@ import time
 import pytest
 
 import nxt_link
-from nxt_link.clock import (
+from nxt_link.wire.clock import (
     MONOTONIC,
     READABLE,
     STOPPED,
@@ -25,7 +25,7 @@ from nxt_link.clock import (
     new_lock,
     start_thread,
 )
-from nxt_link.errors import ExecutionFailed
+from nxt_link.wire.errors import ExecutionFailed
 
 pytestmark = pytest.mark.timeout(120)
 

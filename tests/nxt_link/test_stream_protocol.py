@@ -5,8 +5,8 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from nxt_link import stream_protocol as sp
-from nxt_link.errors import TelegramError
+from nxt_link.programs import stream_protocol as sp
+from nxt_link.wire.errors import TelegramError
 
 u16 = st.integers(0, 0xFFFF)
 i16 = st.integers(-32768, 32767)

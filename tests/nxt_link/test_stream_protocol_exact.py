@@ -6,8 +6,8 @@ import struct
 
 import pytest
 
-from nxt_link import stream_protocol as sp
-from nxt_link.errors import TelegramError
+from nxt_link.programs import stream_protocol as sp
+from nxt_link.wire.errors import TelegramError
 
 
 def sealed(hex_body: str) -> bytes:

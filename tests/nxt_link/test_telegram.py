@@ -8,8 +8,8 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from nxt_link import errors
-from nxt_link import telegram as tg
+from nxt_link.wire import errors
+from nxt_link.wire import telegram as tg
 
 # (our command, hex of the telegram nxt-python 3.5.1 sends for the same call, that call)
 GOLDEN = [

@@ -8,8 +8,8 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from nxt_link import errors
-from nxt_link import telegram as tg
+from nxt_link.wire import errors
+from nxt_link.wire import telegram as tg
 
 OK, EMPTY, FILE_FAILED, ILLEGAL, NO_PROGRAM, INVALID_QUEUE = 0x00, 0x40, 0xBD, 0xC0, 0xEC, 0xEE
 

@@ -16,14 +16,14 @@ import nxt.locator
 import pytest
 from vmtools import FINCLUMP, NXC_DIR, tiny_rxe
 
-from nxt_link.brick import Brick
-from nxt_link.clock import SimClock
-from nxt_link.emulator import compiled_follower
-from nxt_link.execution import ExecutionOptions, SetpointStream, execute_streams
-from nxt_link.serial_transport import SerialTransport
-from nxt_link.session import SessionTiming
-from nxt_link.vm import compile_nxc
-from nxt_link.vm.opcodes import TC
+from nxt_link.emulator.emulator import compiled_follower
+from nxt_link.emulator.vm import compile_nxc
+from nxt_link.emulator.vm.opcodes import TC
+from nxt_link.host.brick import Brick
+from nxt_link.host.execution import ExecutionOptions, SetpointStream, execute_streams
+from nxt_link.host.session import SessionTiming
+from nxt_link.wire.clock import SimClock
+from nxt_link.wire.serial_transport import SerialTransport
 
 pytestmark = pytest.mark.slow   # processes and ptys, in real time
 

@@ -16,10 +16,10 @@ import math
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from nxt_link.brick_io import FONT_WIDTH, LCD_LINES, LCD_WIDTH, Display
-from nxt_link.input_module import InputPort, step_ports
-from nxt_link.motor_model import MotorParams, MotorPhysics
-from nxt_link.output_module import OutputPort
+from nxt_link.emulator.brick_io import FONT_WIDTH, LCD_LINES, LCD_WIDTH, Display
+from nxt_link.emulator.input_module import InputPort, step_ports
+from nxt_link.emulator.motor_model import MotorParams, MotorPhysics
+from nxt_link.emulator.output_module import OutputPort
 
 _DEG = 180.0 / math.pi
 

@@ -1,7 +1,7 @@
 """The interpreter's speed-ups against the plain interpreter, millisecond by millisecond.
 
-Fused blocks (:mod:`nxt_link.vm.fuse`), a lone clump running on past its turn boundaries
-and busy-wait skipping (:mod:`nxt_link.vm.spin`) must not change anything a program does. Each test runs a program on two bricks at once,
+Fused blocks (:mod:`nxt_link.emulator.vm.fuse`), a lone clump running on past its turn boundaries
+and busy-wait skipping (:mod:`nxt_link.emulator.vm.spin`) must not change anything a program does. Each test runs a program on two bricks at once,
 one with the speed-up and one without, and after every millisecond compares everything:
 the whole dataspace (floats by their bits), every clump's program counter, the queues,
 the instruction count, the mailboxes, the output ports, the tones, the screen and the
@@ -19,15 +19,15 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from vmtools import NXC_DIR, output_state, results, templates_program
 
-from nxt_link.emulator import BrickEmulator, FaultParams, compiled_follower
-from nxt_link.execution import ExecutionOptions, SetpointStream, execute_streams
-from nxt_link.firmware import Firmware, FirmwareParams
-from nxt_link.session import SessionTiming
-from nxt_link.vm import compile_nxc
-from nxt_link.vm.opcodes import TC
-from nxt_link.vm.spin import SpinDetector
-from nxt_link.vm.templates import wrap_expr, wrap_src
-from nxt_link.vm.values import Mutex, wrap
+from nxt_link.emulator.emulator import BrickEmulator, FaultParams, compiled_follower
+from nxt_link.emulator.firmware import Firmware, FirmwareParams
+from nxt_link.emulator.vm import compile_nxc
+from nxt_link.emulator.vm.opcodes import TC
+from nxt_link.emulator.vm.spin import SpinDetector
+from nxt_link.emulator.vm.templates import wrap_expr, wrap_src
+from nxt_link.emulator.vm.values import Mutex, wrap
+from nxt_link.host.execution import ExecutionOptions, SetpointStream, execute_streams
+from nxt_link.host.session import SessionTiming
 
 PROGRAMS = ("vm_arith", "vm_float", "vm_arrays", "vm_strings", "vm_calls", "vm_tasks", "vm_io",
             "vm_spin", "vm_turns", "vm_types", "vm_templates")

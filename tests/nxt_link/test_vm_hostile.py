@@ -18,13 +18,13 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from vmtools import FINCLUMP, NXC_DIR, results, run_program, tiny_rxe
 
-from nxt_link.errors import LinkError
-from nxt_link.firmware import Firmware, FirmwareParams
-from nxt_link.vm import RxeError, VMError, compile_nxc, load_rxe
-from nxt_link.vm.opcodes import TC
-from nxt_link.vm.rxe import CLUMP_RECORD_POOL_BYTES, POOL_SIZE
-from nxt_link.vm.scheduler import INSTRUCTIONS_PER_TURN, MAX_OVERRUN
-from nxt_link.vm.syscalls import SYSCALLS, Syscall
+from nxt_link.emulator.firmware import Firmware, FirmwareParams
+from nxt_link.emulator.vm import RxeError, VMError, compile_nxc, load_rxe
+from nxt_link.emulator.vm.opcodes import TC
+from nxt_link.emulator.vm.rxe import CLUMP_RECORD_POOL_BYTES, POOL_SIZE
+from nxt_link.emulator.vm.scheduler import INSTRUCTIONS_PER_TURN, MAX_OVERRUN
+from nxt_link.emulator.vm.syscalls import SYSCALLS, Syscall
+from nxt_link.wire.errors import LinkError
 
 pytestmark = pytest.mark.timeout(60)
 

@@ -7,9 +7,9 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from nxt_link.emulator import compiled_follower
-from nxt_link.firmware import Firmware
-from nxt_link.vm import RxeError, load_rxe
+from nxt_link.emulator.emulator import compiled_follower
+from nxt_link.emulator.firmware import Firmware
+from nxt_link.emulator.vm import RxeError, load_rxe
 
 FOLLOWER = compiled_follower()[0]["cplus_follow.rxe"]
 

@@ -11,11 +11,11 @@ from __future__ import annotations
 import pytest
 from vmtools import Disagreement, make_twin
 
-from nxt_link import follower_program
-from nxt_link.emulator import FaultParams, compiled_follower
-from nxt_link.execution import ExecutionOptions, SetpointStream, execute_streams
-from nxt_link.session import SessionTiming
-from nxt_link.vm import Compiled
+from nxt_link.emulator import follower_program
+from nxt_link.emulator.emulator import FaultParams, compiled_follower
+from nxt_link.emulator.vm import Compiled
+from nxt_link.host.execution import ExecutionOptions, SetpointStream, execute_streams
+from nxt_link.host.session import SessionTiming
 
 TIMING = SessionTiming(ack_timeout_s=0.3, max_silent_s=5.0, homing_timeout_s=3.0)
 

@@ -2,7 +2,7 @@
 Executable File Specification, and the enhanced firmware where it differs), run on the
 interpreter: small NXC programs whose NBC assembly says exactly which instruction runs, and
 executables written word by word (:func:`vmtools.tiny_rxe`) for what no compiler writes.
-The Python model (:mod:`nxt_link.firmware`'s follower) has no instructions of its own, so
+The Python model (:mod:`nxt_link.emulator.firmware`'s follower) has no instructions of its own, so
 these run on the interpreter alone."""
 from __future__ import annotations
 
@@ -11,9 +11,9 @@ from pathlib import Path
 import pytest
 from vmtools import FINCLUMP, results, run_program, tiny_rxe
 
-from nxt_link.firmware import Firmware
-from nxt_link.vm import compile_nxc
-from nxt_link.vm.opcodes import TC
+from nxt_link.emulator.firmware import Firmware
+from nxt_link.emulator.vm import compile_nxc
+from nxt_link.emulator.vm.opcodes import TC
 
 pytestmark = pytest.mark.timeout(300)
 
@@ -99,7 +99,7 @@ def edges(tmp_path_factory):
     (4, ["15", "3"], "strtonum stops at a second dot"),
     # a signed division wraps to its destination's width: -128 / -1 in a char is -128, and
     # -32768 / -1 in an int -32768; SQRT of an integer is 0, cCmdUnop2's default case (as
-    # nxt_link.vm.poly.int_unop has it; only SQRT of a float computes a root)
+    # nxt_link.emulator.vm.poly.int_unop has it; only SQRT of a float computes a root)
     (5, ["-128", "-32768", "0"], "div wrapped to a char and an int, sqrt of a long"),
     # BRCMP between floats: 1.5 < 2.5 branches (flags stays 0, then 0 * 10), 2.5 < 1.5 does not (+ 1)
     (6, ["1"], "brcmp of floats"),

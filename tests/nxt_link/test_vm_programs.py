@@ -14,8 +14,8 @@ from pathlib import Path
 import pytest
 from vmtools import NXC_DIR, results, run_program, templates_program
 
-from nxt_link.firmware import Firmware, FirmwareParams
-from nxt_link.vm import compile_nxc, decode_clump, disassemble, load_rxe
+from nxt_link.emulator.firmware import Firmware, FirmwareParams
+from nxt_link.emulator.vm import compile_nxc, decode_clump, disassemble, load_rxe
 
 PROGRAMS = ("vm_arith", "vm_float", "vm_arrays", "vm_strings", "vm_calls", "vm_tasks", "vm_io",
             "vm_types")

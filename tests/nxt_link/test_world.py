@@ -7,10 +7,8 @@ import statistics
 import pytest
 
 from nxt_link import delivery_world
-from nxt_link.brick import Brick
-from nxt_link.clock import VirtualClock
-from nxt_link.emulator import BrickEmulator, EmulatorConfig, LinkParams
-from nxt_link.input_module import (
+from nxt_link.emulator.emulator import BrickEmulator, EmulatorConfig, LinkParams
+from nxt_link.emulator.input_module import (
     TOUCH_RAW_PRESSED,
     TOUCH_RAW_RELEASED,
     InputPort,
@@ -18,9 +16,11 @@ from nxt_link.input_module import (
     SensorType,
     light_percent_to_raw,
 )
-from nxt_link.memory_transport import MemoryTransport
-from nxt_link.telegram import OutputMode, RegulationMode, RunState
-from nxt_link.world import Blocked, Landmark, Markers, Press, Start, Track, World, WorldSpec
+from nxt_link.emulator.memory_transport import MemoryTransport
+from nxt_link.emulator.world import Blocked, Landmark, Markers, Press, Start, Track, World, WorldSpec
+from nxt_link.host.brick import Brick
+from nxt_link.wire.clock import VirtualClock
+from nxt_link.wire.telegram import OutputMode, RegulationMode, RunState
 
 
 def spec(**kw) -> WorldSpec:

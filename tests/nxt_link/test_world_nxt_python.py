@@ -15,9 +15,9 @@ import nxt.sensor.generic
 import pytest
 
 from nxt_link import delivery_world
-from nxt_link.emulator import BrickEmulator, EmulatorConfig, LinkParams
-from nxt_link.input_module import SensorMode, SensorType
-from nxt_link.pty_server import PtyBrickServer
+from nxt_link.emulator.emulator import BrickEmulator, EmulatorConfig, LinkParams
+from nxt_link.emulator.input_module import SensorMode, SensorType
+from nxt_link.emulator.pty_server import PtyBrickServer
 
 pytestmark = pytest.mark.slow   # nxt-python over a pty, in real time
 

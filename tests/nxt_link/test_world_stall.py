@@ -3,9 +3,9 @@ from __future__ import annotations
 
 import pytest
 
-from nxt_link.execution import ExecutionOptions, SetpointStream, execute_streams
-from nxt_link.session import SessionTiming
-from nxt_link.stall import Stall
+from nxt_link.emulator.stall import Stall
+from nxt_link.host.execution import ExecutionOptions, SetpointStream, execute_streams
+from nxt_link.host.session import SessionTiming
 
 OPTIONS = ExecutionOptions(timing=SessionTiming(ack_timeout_s=0.3, max_silent_s=5.0,
                                                 homing_timeout_s=3.0))

@@ -18,11 +18,11 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from nxt_link.emulator import BrickEmulator
-from nxt_link.firmware import Firmware, FirmwareParams
-from nxt_link.vm import Compiled, compile_nxc, load_rxe
-from nxt_link.vm.errors import VMError
-from nxt_link.vm.rxe import FORMAT_STRING
+from nxt_link.emulator.emulator import BrickEmulator
+from nxt_link.emulator.firmware import Firmware, FirmwareParams
+from nxt_link.emulator.vm import Compiled, compile_nxc, load_rxe
+from nxt_link.emulator.vm.errors import VMError
+from nxt_link.emulator.vm.rxe import FORMAT_STRING
 
 NXC_DIR = Path(__file__).resolve().parent / "nxc"
 
@@ -102,7 +102,7 @@ def make_twin(emu: BrickEmulator, compiled: Compiled) -> Twin:
 
 
 def compile_test_program(name: str, tmp: Path) -> Compiled:
-    """Compile ``tests/nxt_link/nxc/<name>.nxc`` (nbc is a declared test dependency)."""
+    """Compile ``tests/nxt_link/programs/nxc/<name>.nxc`` (nbc is a declared test dependency)."""
     assert shutil.which("nbc"), "nbc is not installed (apt-get install -y nbc)"
     return compile_nxc(NXC_DIR / f"{name}.nxc")
 

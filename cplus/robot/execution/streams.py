@@ -35,8 +35,8 @@ import numpy as np
 
 import nxt_link
 import trajectory
-from nxt_link.clock import MONOTONIC, clock_of_device
-from nxt_link.errors import SetpointError
+from nxt_link.wire.clock import MONOTONIC, clock_of_device
+from nxt_link.wire.errors import SetpointError
 
 __all__ = ["EmulatorSettings", "check_ports", "execute_trajectory", "motor_limits", "streams_from_trajectory"]
 
@@ -234,7 +234,7 @@ def execute_trajectory(traj: trajectory.Trajectory, ports: Mapping[str, str] | N
         bricks = {}
         session_ids = None
         if not ports:
-            from nxt_link.inprocess import EmulatedBricks
+            from nxt_link.emulator.inprocess import EmulatedBricks
             emulated = stack.enter_context(EmulatedBricks(emu.time_scale, seed=emu.seed, compiled=emu.compiled))
             opts = replace(opts, time_scale=emu.time_scale or 1.0)
             for name in robots:

@@ -14,7 +14,7 @@ import numpy as np
 
 import nxt_link
 import trajectory
-from nxt_link.execlog import StartSkew, Stopped
+from nxt_link.host.execlog import StartSkew, Stopped
 
 __all__ = ["RobotTracking", "TrackingReport", "skew_verdict", "tracking_report"]
 

@@ -8,7 +8,7 @@
   monitoring (:mod:`.payload_monitor`);
 * events from outside — a script or standard input (:mod:`.events`);
 * the emulated world of a run — ``world.toml`` (:mod:`.world_file`). It reads
-  ``cplus.world/1``, which :mod:`nxt_link.world` runs, but stays here: its errors are the
+  ``cplus.world/1``, which :mod:`nxt_link.emulator.world` runs, but stays here: its errors are the
   language's located errors (:mod:`cplus.errors`) and its key paths come from
   :mod:`trajectory.toml_locations`, neither of which ``nxt_link`` may import.
 

@@ -44,7 +44,7 @@ from typing import Any
 from cplus.errors import CPlusError, Location, Source
 from cplus.robot.online.estimation import Act, Roles, user_actions
 from cplus.signature import GroundConst, render_value
-from nxt_link.behaviour_protocol import MAX_ARGS, Event, Sense
+from nxt_link.programs.behaviour_protocol import MAX_ARGS, Event, Sense
 from trajectory.toml_locations import (
     KeyPath,
     KeyPathReader,

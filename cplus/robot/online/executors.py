@@ -17,7 +17,7 @@ from collections.abc import Iterable, Mapping
 from cplus.robot.online.estimation import OnlineModel, Roles, State, json_value
 from cplus.robot.online.loop import Executor, Outcome, RobotLost, Step
 from cplus.signature import GroundConst
-from nxt_link.clock import MONOTONIC, Clock, MonotonicClock
+from nxt_link.wire.clock import MONOTONIC, Clock, MonotonicClock
 
 __all__ = ["SimulatedExecutor"]
 

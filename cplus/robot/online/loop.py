@@ -58,7 +58,7 @@ from enum import StrEnum
 
 from cplus.robot.online.estimation import Act, Estimate, EstimateStatus, OnlineModel, Plan, State, json_value
 from cplus.signature import GroundConst, render_value
-from nxt_link.clock import MONOTONIC, Clock
+from nxt_link.wire.clock import MONOTONIC, Clock
 
 __all__ = ["ONLINE_FORMAT", "CycleRecord", "EventSource", "Executor", "JsonLinesLog", "Observer", "OnlineLoop",
            "OnlineStatus", "Outcome", "Replan", "RobotLost", "RunResult", "Step"]

@@ -1,7 +1,7 @@
 """The online loop's executor for NXT bricks that run the Legolog behaviour program.
 
 Each of the robot's actions is a behaviour of a brick (the binding file says which, with
-which arguments). :class:`NxtExecutor` sends it with :class:`nxt_link.behaviours.BehaviourClient`
+which arguments). :class:`NxtExecutor` sends it with :class:`nxt_link.host.behaviours.BehaviourClient`
 (ACT -> ACK -> DONE, answering MORE_TIME), maps the sensing values of the DONE to the sensed
 fluents of that brick, then polls every brick for events (EXOG) and reads the sensor ports
 that the binding names (GETINPUTVALUES, the scaled value as the brick program configured the
@@ -10,7 +10,7 @@ port). Actions of one step on one brick run one after another; bricks run in par
 Without ports, each brick is emulated in-process on a pseudo-terminal: a
 :class:`nxt_link.BrickEmulator` running the behaviour program in the world its binding names
 (``world = "world.toml"``), served by :class:`nxt_link.PtyBrickServer`, so the run goes
-through the same serial path as a real brick (:class:`nxt_link.inprocess.EmulatedBricks`).
+through the same serial path as a real brick (:class:`nxt_link.emulator.inprocess.EmulatedBricks`).
 They run on simulated time unless a ``time_scale`` asks for the wall clock: the executor's
 ``clock`` is then the bricks' :class:`nxt_link.SimClock`, the thread that opens the executor
 takes part in it until it closes it, and the loop should measure its cycles on that clock.
@@ -37,17 +37,17 @@ import nxt_link
 from cplus.robot.online.binding import BindingError, RobotBinding
 from cplus.robot.online.estimation import Act, OnlineModel
 from cplus.robot.online.loop import Executor, Outcome, RobotLost, Step
-from nxt_link.behaviours import (
+from nxt_link.emulator.inprocess import EmulatedBricks
+from nxt_link.host.behaviours import (
     BehaviourClient,
     BehaviourError,
     BehaviourFailed,
     BehaviourInterrupted,
     BehaviourTiming,
 )
-from nxt_link.clock import MONOTONIC, Clock, SimClock, clock_of_device, join_threads, start_thread
-from nxt_link.errors import LinkError
-from nxt_link.inprocess import EmulatedBricks
-from nxt_link.serial_transport import SerialTransport
+from nxt_link.wire.clock import MONOTONIC, Clock, SimClock, clock_of_device, join_threads, start_thread
+from nxt_link.wire.errors import LinkError
+from nxt_link.wire.serial_transport import SerialTransport
 
 __all__ = ["NxtExecutor", "load_world"]
 
@@ -91,7 +91,7 @@ class NxtExecutor(Executor):
         seed: emulated bricks: the seed of their link model, worlds and session ids.
         compiled: emulated bricks run the compiled Legolog program (nbc) on the bytecode
             interpreter instead of its Python model.
-        worlds: brick name -> ``nxt_link.world.WorldSpec``, instead of the binding's world
+        worlds: brick name -> ``nxt_link.emulator.world.WorldSpec``, instead of the binding's world
             files (tests, benchmarks).
         transports: brick name -> an open transport (e.g. a ``MemoryTransport`` on a virtual
             clock), instead of ports or emulation.

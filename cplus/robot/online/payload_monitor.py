@@ -51,10 +51,10 @@ from cplus.robot.offline import RefineStatus, RobotTask, TaskError, refine
 from cplus.robot.online.estimation import OnlineModel, Plan, Roles, State
 from cplus.robot.online.loop import CycleRecord, Observer, OnlineStatus, Replan, RunResult
 from cplus.signature import GroundConst
-from nxt_link.clock import MONOTONIC, Clock, SimClock, clock_of_device
-from nxt_link.errors import LinkError, NoActiveProgramError, SetpointError, StreamError
-from nxt_link.inprocess import EmulatedBricks
-from nxt_link.stall import Stall
+from nxt_link.emulator.inprocess import EmulatedBricks
+from nxt_link.emulator.stall import Stall
+from nxt_link.wire.clock import MONOTONIC, Clock, SimClock, clock_of_device
+from nxt_link.wire.errors import LinkError, NoActiveProgramError, SetpointError, StreamError
 
 __all__ = ["TRACKING_THRESHOLD_DEG", "TRACKING_WINDOW_TICKS", "TRACKING_AHEAD_TICKS", "ArmsExecutor", "TrackingFault", "TrackingMonitor",
            "nearest_grid_state", "run_arms"]
@@ -134,7 +134,7 @@ def stop_and_measure(bricks: Mapping[str, nxt_link.Brick], ports: Mapping[str, S
     angles once two readings :data:`SETTLE_INTERVAL_S` apart agree (the arms stand still), or
     after :data:`SETTLE_LIMIT_S`: what the state is re-estimated from must be where the arms
     stopped, not where they were passing when the fault was seen."""
-    from nxt_link.telegram import OutputMode, RegulationMode, RunState
+    from nxt_link.wire.telegram import OutputMode, RegulationMode, RunState
     for name, brick_ports in ports.items():
         for port in brick_ports:
             bricks[name].set_output_state("ABC".index(port), 0, OutputMode.MOTORON | OutputMode.BRAKE,
@@ -241,7 +241,7 @@ class ArmsExecutor:
             self.description = "emulated NXT bricks " + ", ".join(self.robots) + (f" ({stalls})" if stalls else "")
 
     def open(self) -> None:
-        from nxt_link.serial_transport import SerialTransport
+        from nxt_link.wire.serial_transport import SerialTransport
         if self.emulated is not None:
             self._stack.enter_context(self.emulated)   # the calling thread takes part in its clock
         elif isinstance(self.clock, SimClock) and self.ports:

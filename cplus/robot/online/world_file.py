@@ -1,7 +1,7 @@
 """World files (``cplus.world/1``): the track an emulated delivery robot drives on.
 
 A world file is TOML beside a domain (``domains/delivery/world.toml``); it describes
-what the emulator's sensors read (:class:`nxt_link.world.WorldSpec`): a black line along
+what the emulator's sensors read (:class:`nxt_link.emulator.world.WorldSpec`): a black line along
 a polyline, landmarks (landmark *n* = *n* bright bars across the line), where the robot
 starts, which ports the sensors and motors are on, touch-sensor presses at given times or
 at landmarks, and stretches where the robot gets stuck. Lengths in millimetres, times in
@@ -70,9 +70,9 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
-import nxt_link.world as w
+import nxt_link.emulator.world as w
 from cplus.errors import CPlusError, Location, Source
-from nxt_link import legolog_program
+from nxt_link.emulator import legolog_program
 from trajectory.toml_locations import (
     MAX_INTEGER,
     MAX_NUMBER,

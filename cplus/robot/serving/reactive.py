@@ -75,7 +75,7 @@ from cplus.robot.serving.socket_channel import SocketChannel, SocketLimits
 from cplus.robot.serving.standing import DEFAULT_BUDGET, StandingModel
 from cplus.robot.serving.vocabulary import RequestsError, RequestVocabulary
 from cplus.sat.solver import DEFAULT_SOLVER
-from nxt_link.clock import MONOTONIC, Clock, MonotonicClock
+from nxt_link.wire.clock import MONOTONIC, Clock, MonotonicClock
 
 __all__ = ["Server", "ServerSettings", "serve_roles"]
 
