@@ -111,16 +111,23 @@ def test_auto_on_one_core_stays_in_this_process(monkeypatch):
 
 @pytest.mark.parametrize("strategy", ["A", "B"])
 def test_a_killed_worker_is_replaced_and_the_answer_stays(strategy):
-    """SIGKILL to a worker as soon as the first horizon is reported (an event, not a delay)."""
+    """SIGKILL to the first worker as soon as the first horizon is reported (an event, not a
+    delay). The first one started: it holds the shortest unfinished horizon then (under B
+    always), so the search cannot end without seeing it die; a worker whose horizons were
+    all above the plan could be killed unnoticed, and nothing would need replacing."""
     import multiprocessing
     killed: list[int] = []
 
+    def started(proc) -> int:      # ForkProcess-N: N counts the processes this one started
+        return int(proc.name.rsplit("-", 1)[1])
+
     def on_record(r: dict) -> None:
         if not killed:
-            victim = multiprocessing.active_children()[0]
+            victim = min((c for c in multiprocessing.active_children() if c.pid not in before), key=started)
             os.kill(victim.pid, signal.SIGKILL)      # type: ignore[arg-type]
             killed.append(victim.pid)                # type: ignore[arg-type]
     expected = Domain.load(str(FERRY)).solve("0", max_horizon=200)
+    before = {c.pid for c in multiprocessing.active_children()}    # not this search's workers
     got = solve_parallel(Domain.load(str(FERRY)), "0", max_horizon=200, jobs=2, strategy=strategy,
                          on_record=on_record)
     assert killed and got.parallel["workers_replaced"] >= 1
