@@ -227,3 +227,23 @@ def test_finclumpimmed_of_a_clump_that_does_not_exist_stops_the_program(target):
     fw = run_words((0x402B, target))
     assert fw.program_errors == [f"program t.rxe aborted: FINCLUMPIMMED: clump {target} does not exist "
                                  "at pc 0 (0x0000), clump 0"]
+
+
+@pytest.mark.parametrize("call, members, error", [
+    # read only (it changes nothing outside the program)
+    ("SoundGetState", "byte state[]; byte flags;", "argument 11 is a ubyte[], a scalar is needed"),
+    ("SoundSetState", "byte result; byte state[]; byte flags;",
+     "argument 12 is a ubyte[], a scalar is needed"),
+])
+def test_a_system_call_with_arguments_it_cannot_take_stops_the_program_naming_it(tmp_path, call, members, error):
+    """A system call whose cluster has an array where it writes or reads a number stops the
+    program with an error naming the call, read-only call or not (the emulator's choice: the
+    specification does not say what a firmware makes of such a cluster)."""
+    rxe = compiled(tmp_path, "syscall", f"""
+struct Args {{ {members} }};
+Args args;
+task main() {{ SendMessage(0, "before"); asm {{ syscall {call}, args }} SendMessage(0, "after"); }}
+""")
+    fw = run_program(rxe)
+    assert results(fw, 0) == ["before"]
+    assert fw.program_errors == [f"program t.rxe aborted: SYSCALL {call}: {error} at pc 15 (0x000F), clump 0"]
