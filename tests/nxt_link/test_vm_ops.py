@@ -255,8 +255,9 @@ string r;
 byte ba[];
 float f, fneg = -4.0, fbig = 100000000.0, fx = 2.25;
 long past, n, err, lv = 0x01020304, lt = 7;
-byte bt = 9;
-unsigned long one = 1, four = 4, five = 5, ten = 10, zero = 0, seven = 7;
+byte bt = 9, b3[] = {1, 2, 3}, zeros[];
+string sa1 = "a";
+unsigned long two = 2, n300 = 300, one = 1, four = 4, five = 5, ten = 10, zero = 0, seven = 7;
 
 void put(int box, long v)
 {
@@ -311,6 +312,14 @@ task main()
   put(8, err); put(8, lt);
   asm { unflatten bt, err, se, bt }
   put(9, err); put(9, bt);
+  asm { unflatten b3, err, sa1, b3 }
+  put(9, err); put(9, b3[0]);
+  asm { strsubset r, sabcd, one, two }
+  SendMessage(10, r);
+  asm { arrinit zeros, 48, n300
+        arrtostr r, zeros
+        strtonum f, past, r, zero, seven }
+  put(10, f); put(10, past);
 }
 """
 
@@ -346,7 +355,10 @@ def strings(tmp_path_factory):
     (7, ["1", "7"], "unflatten of 5 bytes into a long"),
     (8, ["0", str(int.from_bytes(b"wxyz", "little"))], "unflatten of wxyz into a long"),
     # the empty string has no byte to give a byte (its NUL is not one)
-    (9, ["1", "9"], "unflatten of the empty string into a byte"),
+    # ... and a 1-byte string does not fill a 3-byte array
+    (9, ["1", "9", "1", "1"], "unflatten of the empty string into a byte, of a into 3 bytes"),
+    # STRSUBSET's count; STRINGTONUM reads a number of any length (300 zeros)
+    (10, ["bc", "0", "300"], "strsubset of 2 from 1, strtonum of 300 digits"),
 ])
 def test_string_edges(strings, box, expected, what):
     assert results(strings, box) == expected, what
@@ -411,6 +423,14 @@ task main() { asm { getin v, 0, 5 } SendMessage(0, "5"); asm { getin v, 0, 6 } S
     assert results(fw, 0) == ["5"]
     assert fw.program_errors == ["program t.rxe aborted: GETIN: input field 6 does not exist at pc 19 "
                                  "(0x0013), clump 0"]
+
+
+@pytest.mark.parametrize("field", [6, 7, 255])
+def test_getin_of_any_field_past_the_last_stops_the_program(tmp_path, field):
+    rxe = compiled(tmp_path, "getin", f"long v; task main() {{ asm {{ getin v, 0, {field} }} }}")
+    fw = run_program(rxe)
+    assert fw.program_errors == [f"program t.rxe aborted: GETIN: input field {field} does not exist at pc 6 "
+                                 "(0x0006), clump 0"]
 
 
 @pytest.mark.parametrize("call, members, error", [
