@@ -227,7 +227,8 @@ FINCLUMP = (0x602A, 0xFFFF, 0xFFFF)
 
 def tiny_rxe(code: tuple[int, ...] | list[int], *, toc: list[tuple[int, int, int]],
              static: bytes, dope_vectors: Sequence[tuple[int, int, int]] = (),
-             contents: bytes = b"", dataspace_size: int | None = None) -> bytes:
+             contents: bytes = b"", dataspace_size: int | None = None,
+             clumps: Sequence[tuple[int, tuple[int, ...], int]] = ((0, (), 0),)) -> bytes:
     """An executable of one clump, written byte by byte, to say what no compiler would.
 
     Args:
@@ -241,6 +242,8 @@ def tiny_rxe(code: tuple[int, ...] | list[int], *, toc: list[tuple[int, int, int
         contents: bytes after the dope vectors, at dataspace offset
             ``len(static) + 10 * (len(dope_vectors) + 1)``.
         dataspace_size: what the header claims (default: the real size).
+        clumps: ``(fire count, dependents, first code word)`` per clump (default: one clump
+            that runs at once, without dependents, from word 0).
     """
     static_size = len(static)
     dvs = [(static_size, 10, len(dope_vectors) + 1)] + list(dope_vectors)
@@ -249,14 +252,15 @@ def tiny_rxe(code: tuple[int, ...] | list[int], *, toc: list[tuple[int, int, int
     ds_size = static_size + len(dyn) if dataspace_size is None else dataspace_size
     header = FORMAT_STRING + bytes((0, 6)) + struct.pack(
         "<11H", len(toc), ds_size, static_size, static_size + len(dyn), static_size, len(dyn),
-        0, len(dvs) - 1, static_size, 1, len(code))
+        0, len(dvs) - 1, static_size, len(clumps), len(code))
 
     def even(b: bytes) -> bytes:
         return b + b"\0" * (len(b) % 2)
 
     body = even(b"".join(struct.pack("<BBH", *e) for e in toc))
     body += even(static + dyn)
-    body += struct.pack("<BBH", 0, 0, 0)  # one clump: runs at once, no dependents, word 0
+    body += b"".join(struct.pack("<BBH", fire, len(deps), start) for fire, deps, start in clumps)
+    body = even(body + bytes(d for _, deps, _ in clumps for d in deps))
     return header + body + struct.pack(f"<{len(code)}H", *code)
 
 

@@ -49,7 +49,7 @@ class Syscall:
 
 def _put(vm: VM, i: int, v: Any) -> None:
     t = vm.types[i]
-    if t.tc == TC.ARRAY:
+    if t.tc == TC.ARRAY and not isinstance(v, int):  # a buffer or a name into an array
         vm.set(i, v)
     elif t.is_scalar:
         vm.mem[i] = store(t.tc, v)
