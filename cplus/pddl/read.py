@@ -10,13 +10,10 @@ from __future__ import annotations
 import os
 import re
 
-from cplus.errors import CPlusError, InputError, Location, Source
+from cplus.errors import InputError, Location, Source
+from cplus.pddl.errors import PddlError
 
 __all__ = ["PddlError", "SUPPORTED_REQUIREMENTS", "read_problem", "require_up"]
-
-
-class PddlError(CPlusError):
-    """A PDDL file that cannot be read, or asks for what cplus does not translate."""
 
 
 SUPPORTED_REQUIREMENTS = frozenset({

@@ -8,6 +8,7 @@ from contextlib import contextmanager
 from typing import Any
 
 from cplus.errors import CPlusError
+from cplus.pddl.errors import PddlError
 from cplus.pddl.translate import COST_FLUENT, QUERY_LABEL, Translation, action_cost, changed_atoms, translate
 
 __all__ = ["PddlPlan", "PlanInvalidError", "plan_problem", "ipc_text", "plan_json", "PROOF_ATOMS", "FORMAT"]
@@ -131,7 +132,6 @@ def plan_problem(problem: Any, sequential: bool = False, minimize: bool = False,
     solver = solver or DEFAULT_SOLVER
     action_costs = any(m.is_minimize_action_costs() for m in problem.quality_metrics)
     if minimize and not action_costs:
-        from cplus.pddl.read import PddlError
         raise PddlError(f"problem {problem.name} has no action costs to minimize (its domain does not declare "
                         ":action-costs, or it has no total-cost metric)")
     atoms = changed_atoms(problem)
@@ -181,7 +181,6 @@ def _translation_errors(problem: Any, name: str) -> Iterator[None]:
     except CPlusError as exc:
         if exc.loc is None or exc.loc.path != name:
             raise
-        from cplus.pddl.read import PddlError
         law = exc.loc.source.line_text(exc.loc.line)
         hint = "; --sequential has no such laws" if law.startswith("nonexecutable") and " & " in law else ""
         raise PddlError(f"problem {problem.name} is beyond cplus's limits once translated to C+: {exc.message} "

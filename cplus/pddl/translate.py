@@ -25,6 +25,7 @@ from typing import Any
 
 from cplus.errors import Location
 from cplus.parser import RESERVED
+from cplus.pddl.errors import PddlError
 
 __all__ = ["Translation", "translate", "check_kind", "SUPPORTED_FEATURES", "QUERY_LABEL", "COST_FLUENT"]
 
@@ -69,7 +70,6 @@ def check_kind(problem: Any, loc: Location | None = None) -> None:
     """Refuse a problem with a feature the translation does not handle, naming it."""
     from unified_planning.model.problem_kind import FEATURES
 
-    from cplus.pddl.read import PddlError
     present = problem.kind._features
     for category, features in FEATURES.items():
         allowed = SUPPORTED_FEATURES.get(category, set())
@@ -359,7 +359,6 @@ class _Translator:
     def initial(self) -> str:
         total = sum(self.ground_atoms(f) for f in self.p.fluents if f.name in self.pred)
         if total > MAX_ATOMS:
-            from cplus.pddl.read import PddlError
             raise PddlError(f"problem {self.p.name} has {total} ground atoms: more than cplus grounds "
                             f"({MAX_ATOMS})")
         true = set()
@@ -398,7 +397,6 @@ class _Translator:
                 continue
             count = math.prod(len(self.objects_of(q.type)) for q in a.parameters)
             if count > MAX_ATOMS:
-                from cplus.pddl.read import PddlError
                 raise PddlError(f"action {a.name} has {count} instances, each with a cost of its own: more than "
                                 f"cplus grounds ({MAX_ATOMS})")
             for args in _product([self.objects_of(q.type) for q in a.parameters]):
@@ -506,7 +504,6 @@ def action_cost(problem: Any, expr: Any, args: dict[str, Any], values: dict | No
     initial state leaves a function it reads undefined."""
     if expr is None:
         return 1
-    from cplus.pddl.read import PddlError
     em = problem.environment.expression_manager
     subst = {}
     for x in _walk(expr):
