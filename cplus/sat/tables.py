@@ -18,10 +18,11 @@ plain table needs a clause per cell (30,000).
 """
 from __future__ import annotations
 
+import functools
 import sys
 from collections.abc import Callable
 
-__all__ = ["encode_table", "TABLE_LIMIT"]
+__all__ = ["encode_table", "encode_full_rows", "TABLE_LIMIT", "TABLE_SMALL"]
 
 TABLE_LIMIT = 1_000_000     # cells (assignments of the body constants) we are willing to build
 NONE = -1                   # no value: the assignment is impossible
@@ -71,7 +72,39 @@ def encode_table(domains: list[tuple], value_lits: list[dict], head_lits: list[i
     return True
 
 
-_SMALL = 4096      # cells; above, numpy arrays once numpy is loaded
+def encode_full_rows(domains: list[tuple], value_lits: list[dict], head_lits: list[int], cells, hs,
+                     add_clause: Callable[[list[int]], None], new_var: Callable[[], int],
+                     at_most_one: Callable[[list[int]], None], cache: dict | None = None) -> bool:
+    """:func:`encode_table` for strong cubes that all fix every body constant, given as arrays:
+    ``cells[i]`` the flat (row-major) cell of cube i over ``domains``, ``hs[i]`` its value's
+    head index.  The array grounder's rules arrive in this shape by the tens of thousands (a
+    physics law), and a Python step per cube was most of their template time; the table, and
+    so the clauses, are the ones :func:`encode_table` writes for the same cubes."""
+    import numpy as np
+    shape = tuple(len(d) for d in domains)
+    total = 1
+    for n in shape:
+        total *= n
+    if total > TABLE_LIMIT or not shape:
+        return False
+    key = None
+    built = False
+    if cache is not None:
+        key = ("full", tuple(domains), len(head_lits), cells.tobytes(), hs.tobytes())
+        built = cache.get(key, False)
+    if built is False:
+        table = np.full(shape, NONE, dtype=np.int32)
+        _fill(table, cells, hs)
+        built = _diagram(table)
+        if cache is not None:
+            cache[key] = built
+    flat, order, levels = built  # type: ignore[misc]
+    _write(flat, levels, [value_lits[k] for k in order], [domains[k] for k in order], head_lits,
+           add_clause, new_var, at_most_one)
+    return True
+
+
+_SMALL = TABLE_SMALL = 4096      # cells; above, numpy arrays once numpy is loaded
 _COLD = 30000      # ... and above this even when it must be imported for it
 
 
@@ -144,11 +177,7 @@ def _build_large(shape: tuple, index: list[dict], strong: list, weak: list):
         at = offset.__getitem__
         cells = np.fromiter((sum(map(at, c)) for _, c in full), dtype=np.int64, count=len(full))
         hs = np.fromiter((h for h, _ in full), dtype=np.int32, count=len(full))
-        by_cell = np.lexsort((hs, cells))
-        sc, sh = cells[by_cell], hs[by_cell]
-        clash = sc[1:][(sc[1:] == sc[:-1]) & (sh[1:] != sh[:-1])]
-        table.flat[cells] = hs
-        table.flat[clash] = CONFLICT
+        _fill(table, cells, hs)
     for h, cube in strong:
         if len(cube) == n:
             continue
@@ -163,8 +192,23 @@ def _build_large(shape: tuple, index: list[dict], strong: list, weak: list):
                 return None
             region[...] = h
         table = np.where(table == NONE, soft, table)
-    table[table == CONFLICT] = NONE
+    return _diagram(table)
 
+
+def _fill(table, cells, hs) -> None:
+    """Write value ``hs[i]`` into flat cell ``cells[i]`` of ``table``, CONFLICT where two differ."""
+    import numpy as np
+    by_cell = np.lexsort((hs, cells))
+    sc, sh = cells[by_cell], hs[by_cell]
+    clash = sc[1:][(sc[1:] == sc[:-1]) & (sh[1:] != sh[:-1])]
+    table.flat[cells] = hs
+    table.flat[clash] = CONFLICT
+
+
+def _diagram(table):
+    """(cells in the chosen axis order, the order, node ids per level) of a filled table."""
+    import numpy as np
+    table[table == CONFLICT] = NONE
     hashed = (table + 3).astype(np.uint64)      # distinct positive codes, for row hashing
 
     def count(perm: list[int], prefix: int) -> int:
@@ -217,7 +261,7 @@ def _distinct(table, prefix: int, hashed=None):
     rows = table.reshape(n_rows, -1)
     codes = (table + 3).astype(np.uint64) if hashed is None else hashed
     codes = codes.reshape(n_rows, -1)
-    weights = np.random.default_rng(rows.shape[1]).integers(1, 2**63, size=rows.shape[1], dtype=np.uint64)
+    weights = _weights(rows.shape[1])
     with np.errstate(over="ignore"):
         keys = codes @ weights
     _, first, inverse = np.unique(keys, return_index=True, return_inverse=True)
@@ -226,6 +270,14 @@ def _distinct(table, prefix: int, hashed=None):
         _, inverse = np.unique(rows, axis=0, return_inverse=True)
         inverse = inverse.reshape(-1)
     return inverse
+
+
+@functools.lru_cache(maxsize=64)
+def _weights(width: int):
+    """The hash's random linear form for rows of ``width`` cells (seeded by the width, so the
+    same every run); kept, since making a generator costs more than hashing a small table."""
+    import numpy as np
+    return np.random.default_rng(width).integers(1, 2**63, size=width, dtype=np.uint64)
 
 
 def _write(flat: list[int], levels: list[list[int]], value_lits: list[dict], domains: list[tuple],

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import gc as _gc
 import operator
+import sys
 from collections.abc import Callable, Sequence
 from itertools import chain
 
@@ -24,7 +25,7 @@ from cplus.sat.cnf import CONFLICT, ClauseBuilder, compact
 from cplus.sat.factor import rewrite
 from cplus.sat.intervals import factor_intervals
 from cplus.sat.products import factor_products
-from cplus.sat.tables import TABLE_LIMIT, encode_table
+from cplus.sat.tables import TABLE_LIMIT, TABLE_SMALL, encode_full_rows, encode_table
 from cplus.signature import GroundConst
 
 __all__ = ["Layout", "Template", "build_templates", "check_sums", "sum_size"]
@@ -360,6 +361,10 @@ def _table_completion(b: _Builder, gc: GroundConst, slot: int, heads: dict) -> b
                 rows.append((hi, (body,)))
     if not rows:
         return False
+    if len(rows) >= FULL_ROWS_FROM and "numpy" in sys.modules:
+        done = _full_rows_completion(b, gc, slot, lits, head_tids, rows)
+        if done is not None:
+            return done
     used = set(chain.from_iterable(items for _, items in rows))
     if not _cubes(layout, used, rows, gc, slot):
         return False
@@ -378,6 +383,67 @@ def _table_completion(b: _Builder, gc: GroundConst, slot: int, heads: dict) -> b
     if not encode_table(domains, [_value_lits(layout, k) for k in order], head_tids,
                         strong, [],
                         _nonempty(cb), b._new, cb.at_most_one, layout.tables):  # type: ignore[arg-type]
+        return False
+    if not gc.boolean:
+        dead = layout.dead
+        cb.exactly_one([t for (aid, _), t in zip(lits, head_tids) if aid not in dead])
+    return True
+
+
+FULL_ROWS_FROM = 2048     # rows; fewer, and the list path is as fast as setting up arrays
+
+
+def _full_rows_completion(b: _Builder, gc: GroundConst, slot: int, lits: list, head_tids: list[int],
+                          rows: list[tuple[int, tuple]]) -> bool | None:
+    """:func:`_table_completion`'s table written from arrays when every body is a cube over all
+    the body constants (a physics law's rules: ``pos'=p+(v+v')/2 <= vel'=v' & vel=v & pos=p``),
+    with no Python step per rule; None when the rows have another shape, or the table is small
+    enough that the list path builds it without numpy: the caller goes on as before.  Same
+    answer, same clauses: the cubes are checked as :func:`_cubes` checks them and the cells are
+    the ones :func:`~cplus.sat.tables.encode_table` would fill."""
+    import numpy as np
+    width = len(rows[0][1])
+    if width == 0 or any(len(items) != width for _, items in rows):
+        return None
+    layout = b.layout
+    body = np.array([items for _, items in rows], dtype=np.int64)
+    used = np.unique(body)
+    atom_of = layout.cube_atoms
+    own = (gc, slot)
+    found = [atom_of[lit] for lit in used.tolist()]
+    if any(a is None or a[0] == own for a in found):
+        return False                     # as _cubes: a literal that is no atom d=w of another constant
+    order = sorted({a[0] for a in found}, key=lambda k: (k[0].id, k[1]))
+    if len(order) != width:
+        return None                      # some cubes leave a constant open, or repeat one
+    domains = [_live_values(layout, k[0]) for k in order]
+    cells = 1
+    for d in domains:
+        cells *= len(d)
+    if cells > TABLE_LIMIT:
+        return False
+    if cells <= TABLE_SMALL:
+        return None
+    pos = {k: i for i, k in enumerate(order)}
+    index = [{w: i for i, w in enumerate(d)} for d in domains]
+    axis = np.array([pos[a[0]] for a in found], dtype=np.int64)
+    value = np.array([index[pos[a[0]]].get(a[1], -1) for a in found], dtype=np.int64)
+    if (value < 0).any():
+        return None
+    at = np.searchsorted(used, body)
+    axes = axis[at]
+    for j in range(width):               # a constant twice in one cube: not a table (_cubes)
+        for i in range(j):
+            if (axes[:, i] == axes[:, j]).any():
+                return False
+    stride = np.ones(width, dtype=np.int64)
+    for k in range(width - 2, -1, -1):
+        stride[k] = stride[k + 1] * len(domains[k + 1])
+    flat = (value[at] * stride[axes]).sum(axis=1)
+    hs = np.array([hi for hi, _ in rows], dtype=np.int32)
+    cb = b.cb
+    if not encode_full_rows(domains, [_value_lits(layout, k) for k in order], head_tids, flat, hs,
+                            _nonempty(cb), b._new, cb.at_most_one, layout.tables):  # type: ignore[arg-type]
         return False
     if not gc.boolean:
         dead = layout.dead

@@ -147,3 +147,59 @@ def test_the_list_and_the_array_builders_make_the_same_table(t):
         ids: dict = {}
         return [ids.setdefault(int(x), len(ids)) for x in level]
     assert [canonical(lv) for lv in small[2]] == [canonical(lv) for lv in large[2]]
+
+
+PHYSICS = """
+:- sorts integer; speed; axis.
+:- objects -{n}..{n} :: integer; -{v}..{v} :: speed; x, y :: axis.
+:- variables Ax :: axis; V, V1 :: speed; P :: integer.
+:- constants pos(axis) :: simpleFluent(integer); vel(axis) :: inertialFluent(speed);
+  push(axis), pull(axis) :: exogenousAction.
+push(Ax) causes vel(Ax) = V + {step} if vel(Ax) = V where V + {step} =< {v}.
+pull(Ax) causes vel(Ax) = V - {step} if vel(Ax) = V where V - {step} >= -{v}.
+caused pos(Ax) = {head} if vel(Ax) = V1 after vel(Ax) = V & pos(Ax) = P
+   where {where}.
+:- query maxstep :: 2; 0: pos(x) = 0 & vel(x) = 0 & pos(y) = 1 & vel(y) = 0.
+"""
+
+
+@settings(max_examples=25, deadline=None)
+@given(st.integers(2, 7), st.integers(1, 4), st.integers(1, 3),
+       st.sampled_from(["P + ((V + V1) // 2)", "P + V1", "P + V - V1", "(P + V * V1) mod 5", "abs(P) - V1"]),
+       st.sampled_from(["(V + V1) mod 2 == 0", "V =< V1", "P \\= V", "true"]))
+def test_full_rows_from_arrays_write_the_clauses_the_list_path_writes(n, v, step, head, where):
+    """A physics law's rules reach the table builder as arrays (``_full_rows_completion``)
+    when there are many of them: the templates, clause for clause, are the list path's."""
+    import numpy  # noqa: F401  (the array path runs once numpy is loaded)
+
+    from cplus.sat import tables as module
+    bound = f"{head} >= -{n} & {head} =< {n}"
+    text = PHYSICS.format(n=n, v=v, step=step, head=head, where=bound if where == "true" else f"{where} & {bound}")
+    old = templates.FULL_ROWS_FROM, templates.TABLE_SMALL, module._SMALL
+
+    def build(full_rows: bool):
+        templates.FULL_ROWS_FROM = 1 if full_rows else 10**9
+        domain = Domain.from_text(text)
+        theory = domain.theory_for(domain.query("0"))
+        return [(t.clauses, t.top) for t in templates.build_templates(theory)[1:]]
+    try:
+        templates.TABLE_SMALL = module._SMALL = 0     # both paths build with numpy, whatever the size
+        assert build(True) == build(False)
+    finally:
+        templates.FULL_ROWS_FROM, templates.TABLE_SMALL, module._SMALL = old
+
+
+def test_the_full_rows_path_is_taken_for_a_physics_law(monkeypatch):
+    """The test above compares something: with a low threshold the array path writes the tables."""
+    import numpy  # noqa: F401
+    taken = []
+    real = templates._full_rows_completion
+    monkeypatch.setattr(templates, "_full_rows_completion", lambda *a: taken.append(real(*a)) or taken[-1])
+    monkeypatch.setattr(templates, "FULL_ROWS_FROM", 1)
+    monkeypatch.setattr(templates, "TABLE_SMALL", 0)
+    text = PHYSICS.format(n=4, v=2, step=1, head="P + V1", where="P + V1 >= -4 & P + V1 =< 4")
+    domain = Domain.from_text(text)
+    result = domain.solve(solutions=0)
+    assert True in taken
+    monkeypatch.setattr(templates, "FULL_ROWS_FROM", 10**9)
+    assert {h.key() for h in Domain.from_text(text).solve(solutions=0).histories} == {h.key() for h in result.histories}
