@@ -19,11 +19,11 @@ __all__ = ["PddlError", "SUPPORTED_REQUIREMENTS", "read_problem", "require_up"]
 SUPPORTED_REQUIREMENTS = frozenset({
     ":strips", ":typing", ":negative-preconditions", ":disjunctive-preconditions", ":equality",
     ":existential-preconditions", ":universal-preconditions", ":quantified-preconditions",
-    ":conditional-effects", ":adl", ":action-costs",
+    ":conditional-effects", ":adl", ":action-costs", ":derived-predicates",
 })
 """The requirements a domain may declare; any other is refused at its place, by name."""
 
-_REFUSED_SECTIONS = {"(:derived": ":derived-predicates", "(:durative-action": ":durative-actions",
+_REFUSED_SECTIONS = {"(:durative-action": ":durative-actions",
                      "(:process": ":time", "(:event": ":time", "(:constraints": ":constraints",
                      "(:functions": None}
 
@@ -146,6 +146,91 @@ def _located(exc: Exception, sources: list[Source]) -> PddlError:
     return PddlError(message, Location(source, 0, 1))
 
 
+_STAND_IN = "cplus-derived-rule-"
+
+
+class _DerivedText:
+    """The ``(:derived (NAME ?x - t ...) CONDITION)`` sections of a domain, for
+    unified-planning's reader, which has no derived predicates: each section is blanked
+    (offsets kept) and its head's parameters and its condition, copied verbatim, become a
+    stand-in action ``(:action cplus-derived-rule-N :parameters (...) :precondition CONDITION
+    :effect (and))`` before the domain's last parenthesis, so that the reader parses the
+    condition (nothing here reads PDDL beyond finding the parentheses). ``:derived-predicates``
+    is blanked from the requirements, which the reader does not know. Errors the reader finds
+    in the copied text are mapped back to the section (:meth:`relocate`)."""
+
+    def __init__(self, source: Source) -> None:
+        self.source = source
+        code = _code(source.text)
+        low = code.lower()
+        text = list(source.text)
+
+        def blank(start: int, end: int) -> None:
+            for i in range(start, end):
+                if text[i] != "\n":
+                    text[i] = " "
+        self.sections: list[tuple[int, int, str, Location]] = []   # start, end, head name, its place
+        copies: list[tuple[str, int, bool]] = []   # the stand-ins' text: piece, its place in the file, copied?
+        for k, m in enumerate(re.finditer(r"\(\s*:derived(?![\w-])", low)):
+            start, end = m.start(), _matching(code, m.start())
+            form = Location(source, start, m.end())
+            if end >= len(code):
+                raise PddlError("this (:derived ...) is not closed", form)
+            h = re.compile(r"\s*\(\s*([^\s()]+)").match(code, m.end())
+            if not h:
+                raise PddlError("expected (:derived (NAME ?x - type ...) CONDITION)", form)
+            head_open = code.index("(", m.end())
+            head_close = _matching(code, head_open)
+            body = code[head_close + 1:end]
+            if not body.strip():
+                raise PddlError("this derived predicate has no condition: expected "
+                                "(:derived (NAME ?x - type ...) CONDITION)", form)
+            name = Location(source, h.start(1), h.end(1))
+            self.sections.append((start, end + 1, h.group(1), name))
+            name_text = f"{_STAND_IN}{k + 1}"
+            copies += [(f" (:action {name_text} :parameters (", start, False),
+                       (code[h.end(1):head_close], h.end(1), True), (") :precondition ", start, False),
+                       (body, head_close + 1, True), (" :effect (and))\n", start, False)]
+            blank(start, end + 1)
+        self.count = len(self.sections)
+        for r in re.finditer(r"\(\s*:requirements\b", low):
+            close = _matching(code, r.start())
+            tokens = re.findall(r":[a-z0-9_-]+", low[r.end():close])
+            for t in re.finditer(r":derived-predicates(?![\w-])", low[r.end():close]):
+                blank(r.end() + t.start(), r.end() + t.end())
+            if tokens and all(t == ":derived-predicates" for t in tokens):
+                blank(r.start(), close + 1)          # the reader refuses an empty list
+        self.copies = copies
+        self.insert_at = self.inserted = 0
+        if copies:
+            m = re.match(r"\s*\(", code)
+            self.insert_at = _matching(code, m.end() - 1) if m else len(code)
+            inserted = "\n" + "".join(piece for piece, _, _ in copies)
+            self.inserted = len(inserted)
+            text[self.insert_at:self.insert_at] = list(inserted)
+        self.text = "".join(text)
+        self.augmented = Source(source.path, self.text)
+
+    def original(self, at: int) -> int:
+        """The offset in the file of an offset in the augmented text."""
+        if not self.inserted or at < self.insert_at:
+            return at
+        if at >= self.insert_at + self.inserted:
+            return at - self.inserted
+        pos = self.insert_at + 1
+        for piece, origin, copied in self.copies:
+            if pos <= at < pos + len(piece):
+                return origin + (at - pos) if copied else origin
+            pos += len(piece)
+        return self.insert_at
+
+    def relocate(self, err: PddlError) -> PddlError:
+        if err.loc is None or err.loc.source is not self.augmented:
+            return err
+        at = self.original(err.loc.start)
+        return PddlError(err.message.replace(_STAND_IN, "derived-predicate rule "), Location(self.source, at, at + 1))
+
+
 def read_problem(domain_path: str, problem_path: str):
     """The :class:`unified_planning.model.Problem` of a domain and problem file, checked.
 
@@ -165,6 +250,7 @@ def read_problem(domain_path: str, problem_path: str):
     if named and wanted and named[0] != wanted[0]:
         raise PddlError(f"this problem is for domain '{wanted[0]}', and {os.path.basename(domain_path)} "
                         f"defines domain '{named[0]}'", wanted[1])
+    derived = _DerivedText(domain)
     # PDDL lets a type and a predicate share a name (IPC 2000's schedule: temperature);
     # unified-planning refuses it unless its environment says otherwise. The global environment:
     # its reader builds forall variables there whatever environment it is given.
@@ -177,17 +263,88 @@ def read_problem(domain_path: str, problem_path: str):
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")      # its warning of the shared name, pyparsing's deprecations
             try:
-                reader_class().parse_problem_string(domain.text)
+                reader_class().parse_problem_string(derived.text)
             except Exception as exc:  # noqa: BLE001 - every complaint of the reader is the file's
-                raise _located(exc, [domain]) from None
+                raise derived.relocate(_located(exc, [derived.augmented])) from None
             try:
-                parsed = reader_class().parse_problem_string(domain.text, problem.text)
+                parsed = reader_class().parse_problem_string(derived.text, problem.text)
             except Exception as exc:  # noqa: BLE001
-                raise _located(exc, [problem, domain]) from None
+                raise derived.relocate(_located(exc, [problem, derived.augmented])) from None
+            from cplus.pddl.translate import check_kind
+            check_kind(parsed, Location(domain, 0, 1))     # the stand-ins' conditions too
+            if derived.count:
+                _take_derived(parsed, derived, problem)
     finally:
         env.error_used_name = strict
-    from cplus.pddl.translate import check_kind
-    check_kind(parsed, Location(domain, 0, 1))
     return parsed
 
 
+def _take_derived(parsed, derived: _DerivedText, problem: Source) -> None:
+    """Take the stand-in actions out of the problem and keep their rules beside it
+    (:func:`cplus.pddl.derived.attach`), checked: each head a declared predicate, of its arity,
+    its parameters' types within the predicate's; no derived predicate in an effect or in the
+    initial state; the rules stratified."""
+    from cplus.pddl.derived import Rule, attach, strata
+    stand_ins = {f"{_STAND_IN}{k + 1}": section for k, section in enumerate(derived.sections)}
+    rules = []
+    for k, (_start, _end, name, loc) in enumerate(derived.sections):
+        action = parsed.action(f"{_STAND_IN}{k + 1}")
+        fluents = [f for f in parsed.fluents if f.name.lower() == name.lower()]
+        if not fluents:
+            raise PddlError(f"derived predicate '{name}' is not declared in :predicates", loc)
+        fluent = fluents[0]
+        if not fluent.type.is_bool_type():
+            raise PddlError(f"'{name}' is a function, not a predicate: it cannot be derived", loc)
+        if len(fluent.signature) != len(action.parameters):
+            raise PddlError(f"derived predicate '{name}' has {len(fluent.signature)} argument(s) in :predicates "
+                            f"and {len(action.parameters)} here", loc)
+        for q, decl in zip(action.parameters, fluent.signature):
+            if not _subtype(q.type, decl.type):
+                raise PddlError(f"parameter ?{q.name} of derived predicate '{name}' is of type {q.type}, which is "
+                                f"not within {decl.type}, the type :predicates gives it", loc)
+        em = parsed.environment.expression_manager
+        rules.append(Rule(fluent, list(action.parameters), em.And(action.preconditions), loc))
+    kept = [a for a in parsed.actions if a.name not in stand_ins]
+    parsed.clear_actions()
+    parsed.add_actions(kept)
+    heads = {r.fluent.name for r in rules}
+    code = _code(derived.source.text).lower()
+    for a in kept:
+        for e in a.effects:
+            if e.fluent.is_fluent_exp() and e.fluent.fluent().name in heads:
+                raise PddlError(f"action {a.name} changes derived predicate '{e.fluent.fluent().name}': a derived "
+                                "predicate holds where its rules say, no action may set it",
+                                _place(derived.source, code, rf"\(\s*:action\s+{re.escape(a.name.lower())}(?![\w-])",
+                                       ":effect", e.fluent.fluent().name.lower()))
+    for fe, v in parsed.explicit_initial_values.items():
+        if fe.is_fluent_exp() and fe.fluent().name in heads and v.is_true():
+            raise PddlError(f"derived predicate '{fe.fluent().name}' is given in :init: it holds where its rules "
+                            "say, and cannot be set", _place(problem, _code(problem.text).lower(), r"\(\s*:init\b",
+                                                            None, fe.fluent().name.lower()))
+    strata(rules)
+    attach(parsed, rules)
+
+
+def _subtype(t, ancestor) -> bool:
+    while t is not None:
+        if t == ancestor:
+            return True
+        t = t.father
+    return False
+
+
+def _place(source: Source, code: str, opener: str, after: str | None, name: str) -> Location:
+    """Where ``(name`` first occurs in the form that ``opener`` begins (after the keyword
+    ``after`` when given), else that form's opening, else the file's start."""
+    m = re.search(opener, code)
+    if not m:
+        return Location(source, 0, 1)
+    end = _matching(code, m.start())
+    start = m.start()
+    if after:
+        k = code.find(after, start, end)
+        start = k if k >= 0 else start
+    hit = re.compile(r"\(\s*(" + re.escape(name) + r")(?![\w-])").search(code, start, end)
+    if hit:
+        return Location(source, hit.start(1), hit.end(1))
+    return Location(source, m.start(), m.end())

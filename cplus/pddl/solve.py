@@ -8,6 +8,7 @@ from contextlib import contextmanager
 from typing import Any
 
 from cplus.errors import CPlusError
+from cplus.pddl.derived import check_plan, rules_of
 from cplus.pddl.errors import PddlError
 from cplus.pddl.translate import COST_FLUENT, QUERY_LABEL, Translation, action_cost, changed_atoms, translate
 
@@ -69,7 +70,19 @@ def _steps(tr: Translation, history: Any) -> list[list[Any]]:
 
 def validate(problem: Any, steps: list[list[Any]]) -> None:
     """Raise :class:`PlanInvalidError` unless unified-planning's sequential validator accepts
-    the linearized plan."""
+    the linearized plan; for a problem with derived predicates, which unified-planning cannot
+    represent, unless :func:`cplus.pddl.derived.check_plan` does (an explicit-state simulation
+    with the least fixpoint of the rules, independent of the translation)."""
+    if rules_of(problem):
+        try:
+            reason = check_plan(problem, steps)
+        except Exception as exc:  # noqa: BLE001 - whatever stops the check, the plan is not printed
+            raise PlanInvalidError(f"internal error: the plan found for {problem.name} could not be validated "
+                                   f"({type(exc).__name__}: {exc}); not printed") from None
+        if reason:
+            raise PlanInvalidError(f"internal error: the plan found for {problem.name} is not valid "
+                                   f"({reason}); not printed")
+        return
     from unified_planning.engines import SequentialPlanValidator, ValidationResultStatus
     from unified_planning.plans import SequentialPlan
     try:

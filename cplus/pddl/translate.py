@@ -25,6 +25,8 @@ from typing import Any
 
 from cplus.errors import Location
 from cplus.parser import RESERVED
+from cplus.pddl.derived import occurrences as _occurrences_of
+from cplus.pddl.derived import rules_of, strata
 from cplus.pddl.errors import PddlError
 
 __all__ = ["Translation", "translate", "check_kind", "SUPPORTED_FEATURES", "QUERY_LABEL", "COST_FLUENT"]
@@ -156,6 +158,13 @@ class _Translator:
         self.obj = {o.name: self.names("object", o.name) for o in problem.all_objects}
         self.pred = {f.name: self.names("fluent", f.name) for f in problem.fluents if f.type.is_bool_type()}
         self.act = {a.name: self.names("action", a.name) for a in problem.actions}
+        self.rules = rules_of(problem)
+        self.derived = {r.fluent.name for r in self.rules}
+        self.strata = strata(self.rules)
+        self.levels: list[tuple[str, int]] = []          # the sorts of a recursive stratum's layers: name, last
+        self.layers: list[tuple[str, str, Any]] = []     # layer fluent, its level sort, the derived fluent
+        self._layer: dict[str, tuple[str, str]] | None = None   # while writing a layer law: name -> (layer, level)
+        self._dep_memo: dict[str, tuple[set[str], bool]] = {}
 
     # --- sorts and variables -------------------------------------------------------------
     def ancestors(self, t: Any) -> list[str]:
@@ -170,7 +179,9 @@ class _Translator:
 
     def var(self, t: Any, used: dict[str, int]) -> str:
         """A fresh variable of type ``t`` for one law (``used``: the law's count per sort)."""
-        s = self.sort[t.name]
+        return self.sort_var(self.sort[t.name], used)
+
+    def sort_var(self, s: str, used: dict[str, int]) -> str:
         used[s] = used.get(s, 0) + 1
         self.var_count[s] = max(self.var_count.get(s, 0), used[s])
         return f"{_var_prefix(s)}{used[s]}"
@@ -186,8 +197,13 @@ class _Translator:
         raise ValueError(f"not a term: {n}")
 
     def atom(self, n: Any, env: dict[str, str]) -> str:
-        name = self.pred[n.fluent().name]
-        return f"{name}({','.join(self.term(a, env) for a in n.args)})" if n.args else name
+        args = [self.term(a, env) for a in n.args]
+        if self._layer and n.fluent().name in self._layer:
+            name, level = self._layer[n.fluent().name]
+            args.insert(0, level)
+        else:
+            name = self.pred[n.fluent().name]
+        return f"{name}({','.join(args)})" if args else name
 
     def formula(self, n: Any, env: dict[str, str], used: dict[str, int]) -> str:
         if n.is_bool_constant():
@@ -265,7 +281,10 @@ class _Translator:
 
         def walk(n: Any, bound: set[str]) -> None:
             if n.is_fluent_exp():
-                if n.fluent().name in self.pred:
+                if n.fluent().name in self.derived:
+                    for x, more in self.derived_atoms(n):
+                        walk(x, bound | more)
+                elif n.fluent().name in self.pred:
                     out.append((n, bound))
                 return
             if n.is_exists() or n.is_forall():
@@ -276,6 +295,42 @@ class _Translator:
             walk(p, set())
         for e in a.effects:
             walk(e.condition, {v.name for v in e.forall})
+        return out
+
+    def derived_atoms(self, n: Any) -> list[tuple[Any, set[str]]]:
+        """What a derived atom's value depends on, for the interference laws: the bodies of its
+        rules with the head's parameters bound to the atom's arguments (each with the names its
+        body binds); where the recursion is unfolded, every atom of the predicates it rests on
+        (their arguments wildcards)."""
+        name = n.fluent().name
+        if name not in self._dep_memo:
+            deps, recursive, stack = set(), False, [name]
+            while stack:
+                m = stack.pop()
+                if m in deps:
+                    continue
+                deps.add(m)
+                recursive |= any(m in st.names and st.recursive for st in self.strata)
+                for r in self.rules:
+                    if r.fluent.name == m:
+                        stack.extend(x.fluent().name for x, _ in _occurrences_of(r.body))
+            self._dep_memo[name] = (deps, recursive)
+        deps, recursive = self._dep_memo[name]
+        em = self.p.environment.expression_manager
+        if recursive:
+            from unified_planning.model import Variable
+            out = []
+            for f in self.p.fluents:
+                if f.name in deps and f.name not in self.derived:
+                    vs = [Variable(f"cplus-any-{i}", q.type, self.p.environment) for i, q in enumerate(f.signature)]
+                    out.append((em.FluentExp(f, [em.VariableExp(v) for v in vs]), {v.name for v in vs}))
+            return out
+        out = []
+        for r in self.rules:
+            if r.fluent.name != name:
+                continue
+            body = r.body.substitute({em.ParameterExp(q): a for q, a in zip(r.parameters, n.args)})
+            out.append((body, set()))
         return out
 
     def interference_laws(self) -> list[str]:
@@ -350,6 +405,63 @@ class _Translator:
                 ha, hb = hb, ha
         return f"nonexecutable {ha} & {hb}{where}."
 
+    def derived_laws(self) -> list[str]:
+        """Each derived predicate a statically determined fluent, false by default, caused where
+        a rule's body holds. A recursive stratum (whose completion would let atoms support
+        each other in a loop) is unfolded into layers: layer 0 false, layer L+1 caused where a
+        body holds with the stratum's atoms read at layer L, and the predicate equal to the
+        last layer, K: the number of the stratum's ground atoms, since each layer short of the
+        least fixpoint adds one at least. Every law then reads lower layers or strata only."""
+        laws: list[str] = []
+        by_name: dict[str, list[Any]] = {}
+        for r in self.rules:
+            by_name.setdefault(r.fluent.name, []).append(r)
+        for stratum in self.strata:
+            layer: dict[str, tuple[str, str]] = {}
+            last = 0
+            if stratum.recursive:
+                last = sum(self.ground_atoms(by_name[n][0].fluent) for n in stratum.names)
+                size = last * last
+                if size > MAX_ATOMS:
+                    raise PddlError(f"recursive derived predicate '{stratum.names[0]}' has {last} ground atoms "
+                                    f"(with those it is defined with): unfolded into as many layers, {size} atoms, "
+                                    f"more than cplus grounds ({MAX_ATOMS})", by_name[stratum.names[0]][0].loc)
+                level = self.names("sort", f"{stratum.names[0]}-level")
+                self.levels.append((level, last))
+                for n in stratum.names:
+                    layer[n] = (self.names("fluent", f"{n}-layer"), level)
+                    self.layers.append((layer[n][0], level, by_name[n][0].fluent))
+            for n in stratum.names:
+                f = by_name[n][0].fluent
+                used: dict[str, int] = {}
+                xs = [self.var(q.type, used) for q in f.signature]
+                head = self.pred[n] + (f"({','.join(xs)})" if xs else "")
+                laws.append(f"default -{head}.")
+                if not stratum.recursive:
+                    for r in by_name[n]:
+                        u: dict[str, int] = {}
+                        env = {q.name: self.var(q.type, u) for q in r.parameters}
+                        args = ",".join(env[q.name] for q in r.parameters)
+                        laws.append(f"caused {self.pred[n]}{f'({args})' if args else ''} if "
+                                    f"{self.formula(r.body, env, u)}.")
+                    continue
+                name, level = layer[n]
+                lv = self.sort_var(level, used)
+                laws.append(f"default -{name}({','.join([lv, *xs])}).")
+                laws.append(f"caused {head} if {name}({','.join([str(last), *xs])}).")
+                for r in by_name[n]:
+                    u = {}
+                    lv = self.sort_var(level, u)
+                    env = {q.name: self.var(q.type, u) for q in r.parameters}
+                    self._layer = {m: (layer[m][0], lv) for m in stratum.names}
+                    try:
+                        body = self.formula(r.body, env, u)
+                    finally:
+                        self._layer = None
+                    args = ",".join([f"{lv}+1", *(env[q.name] for q in r.parameters)])
+                    laws.append(f"caused {name}({args}) if {body} where {lv} < {last}.")
+        return laws
+
     def ground_atoms(self, f: Any) -> int:
         count = 1
         for q in f.signature:
@@ -358,6 +470,8 @@ class _Translator:
 
     def initial(self) -> str:
         total = sum(self.ground_atoms(f) for f in self.p.fluents if f.name in self.pred)
+        total += sum(self.ground_atoms(f) * (last + 1) for (_, level, f) in self.layers
+                     for (name, last) in self.levels if name == level)
         if total > MAX_ATOMS:
             raise PddlError(f"problem {self.p.name} has {total} ground atoms: more than cplus grounds "
                             f"({MAX_ATOMS})")
@@ -367,7 +481,7 @@ class _Translator:
                 true.add(self.atom(fe, {}))
         lits = []
         for f in self.p.fluents:
-            if f.name not in self.pred:
+            if f.name not in self.pred or f.name in self.derived:
                 continue
             for args in _product([self.objects_of(q.type) for q in f.signature]):
                 text = self.pred[f.name] + (f"({','.join(self.obj[o.name] for o in args)})" if args else "")
@@ -414,15 +528,18 @@ class _Translator:
         costs = self.costs()
         if self.cost_bound is not None:
             lines.append(f":- maxAdditive :: {max(1, self.cost_bound)}.")
-        if self.types:
+        body: list[str] = self.derived_laws()
+        if self.types or self.levels:
             roots = [t for t in self.types if t.father is None]
-            lines.append(":- sorts " + "; ".join(self.sort_tree(t) for t in roots) + ".")
+            lines.append(":- sorts " + "; ".join([*(self.sort_tree(t) for t in roots),
+                                                  *(level for level, _ in self.levels)]) + ".")
         by_type: dict[str, list[str]] = {}
         for o in p.all_objects:
             by_type.setdefault(self.sort[o.type.name], []).append(self.obj[o.name])
+        for level, last in self.levels:
+            by_type[level] = [f"0..{last}"]
         if by_type:
             lines.append(":- objects\n" + ";\n".join(f"  {', '.join(objs)} :: {s}" for s, objs in by_type.items()) + ".")
-        body: list[str] = []
         for a in p.actions:
             body.extend(self.action_laws(a))
         body.append("noconcurrency." if self.sequential else "")
@@ -440,7 +557,10 @@ class _Translator:
         for f in p.fluents:
             if f.name in self.pred:
                 args = f"({','.join(self.sort[q.type.name] for q in f.signature)})" if f.signature else ""
-                decls.append(f"  {self.pred[f.name]}{args} :: inertialFluent")
+                kind = "sdFluent" if f.name in self.derived else "inertialFluent"
+                decls.append(f"  {self.pred[f.name]}{args} :: {kind}")
+        for name, level, f in self.layers:
+            decls.append(f"  {name}({','.join([level, *(self.sort[q.type.name] for q in f.signature)])}) :: sdFluent")
         if self.cost_bound is not None and costs is not None:
             decls.append(f"  {COST_FLUENT} :: additiveFluent(0..{max(1, self.cost_bound)})")
         for a in p.actions:

@@ -74,8 +74,6 @@ BAD_DOMAIN = {
                  ":2:26: error: requirement :durative-actions is not supported"),
     "numeric": ("(define (domain d)\n  (:requirements :strips :numeric-fluents)\n  (:predicates (p)))\n",
                 ":2:26: error: requirement :numeric-fluents is not supported"),
-    "derived": ("(define (domain d)\n (:predicates (p))\n (:derived (p) (p)))\n",
-                ":3:2: error: :derived needs :derived-predicates"),
     "syntax": ("(define (domain d)\n (:requirements :strips)\n (:predicates (p))\n"
                " (:action a :parameters () :precondition (and (p) (q)) :effect (not (p))))\n",
                ":4:52: error: Found invalid expression: q"),

@@ -1,0 +1,5 @@
+(define (problem bridges-5) (:domain bridges)
+  (:objects north south east west harbour - island)
+  (:init (bridge north south) (bridge south north) (bridge east harbour)
+         (crew north) (crew south) (crew west))
+  (:goal (and (reach north harbour) (reach west north))))
