@@ -47,22 +47,30 @@ def _nary(op: str, unit: bool, items: Iterable[PF]) -> PF:
 
 
 def mk_and(items: Iterable[PF]) -> PF:
+    if type(items) is tuple and len(items) == 2:     # two literals: most calls, in a few steps
+        a, b = items
+        if type(a) is int and type(b) is int:
+            return a if a == b else False if a == -b else ("&", items)
     return _nary("&", True, items)
 
 
 def mk_or(items: Iterable[PF]) -> PF:
+    if type(items) is tuple and len(items) == 2:
+        a, b = items
+        if type(a) is int and type(b) is int:
+            return a if a == b else True if a == -b else ("|", items)
     return _nary("|", False, items)
 
 
 def neg(f: PF) -> PF:
+    if type(f) is int:
+        return -f
     if f is True:
         return False
     if f is False:
         return True
-    if type(f) is int:
-        return -f
     op, items = f  # type: ignore[misc]
-    return ("|" if op == "&" else "&", tuple(neg(g) for g in items))
+    return ("|" if op == "&" else "&", tuple([-g if type(g) is int else neg(g) for g in items]))
 
 
 def map_lits(f: PF, fn: Callable[[int], int]) -> PF:

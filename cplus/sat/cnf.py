@@ -107,8 +107,11 @@ class ClauseBuilder:
             conj = [g for g in f[1] if type(g) is tuple and g[0] == "&"]
             if len(conj) == 1:
                 rest = tuple(g for g in f[1] if g is not conj[0])
-                for g in conj[0][1]:
-                    self.add(mk_or(rest + (g,)), guard)
+                if tuple in map(type, rest):
+                    for g in conj[0][1]:
+                        self.add(mk_or(rest + (g,)), guard)
+                else:
+                    self._distribute(rest, conj[0][1], guard)
                 return
         lits = self._clause_lits(f)
         assert lits is not None
@@ -119,6 +122,40 @@ class ClauseBuilder:
             self.add_clause([z])
             return
         self.add_clause(lits)
+
+    def _distribute(self, rest: tuple[int, ...], items: tuple, guard: int) -> None:
+        """``rest | item`` asserted for each item of a conjunction, ``rest`` literals: what
+        :meth:`add` does with ``mk_or(rest + (item,))`` (the same clauses, literals in the same
+        order), with no formula built per item where the item is a literal or a clause (a
+        blocks world's constraints give tens of thousands of them)."""
+        base = list(rest)
+        have = set(base)
+        if len(have) != len(base) or any(-x in have for x in base):
+            for g in items:       # repeated or complementary literals: the general way
+                self.add(mk_or(rest + (g,)), guard)
+            return
+        add_clause = self.add_clause
+        for g in items:
+            if type(g) is int:
+                lits: tuple = (g,)
+            elif g[0] == "|" and tuple not in map(type, g[1]):
+                lits = g[1]
+            else:
+                self.add(mk_or(rest + (g,)), guard)
+                continue
+            clause = base.copy()
+            added: set = set()
+            for x in lits:
+                if x in have or x in added:
+                    continue
+                if -x in have or -x in added:
+                    break                 # a tautology: nothing to assert
+                added.add(x)
+                clause.append(x)
+            else:
+                if guard:
+                    clause.append(-guard)
+                add_clause(clause)
 
     # ------------------------------------------------------------------ completion
     def complete(self, head: int, bodies: Iterable[PF], free: bool = False) -> None:
