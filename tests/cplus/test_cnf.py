@@ -102,6 +102,24 @@ def test_an_or_with_one_conjunction_is_distributed_without_new_variables():
     assert top[0] == ATOMS
 
 
+clause_items = st.one_of(literals, st.lists(literals, min_size=2, max_size=3).map(lambda xs: ("|", tuple(xs))),
+                         st.lists(literals, min_size=2, max_size=2).map(lambda xs: ("&", tuple(xs))))
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.lists(literals, max_size=3), st.lists(clause_items, min_size=2, max_size=4), st.sampled_from([0, 1, -2]))
+def test_distributing_over_a_conjunction_writes_what_the_general_path_writes(rest, items, guard):
+    """``rest | (g1 & g2 & ...)`` with literal ``rest``: the clauses, in order, are those of
+    asserting each ``mk_or(rest + (g,))`` on its own (repeated and complementary literals,
+    items that are clauses or conjunctions, a guard)."""
+    fast, _ = builder()
+    fast._distribute(tuple(rest), tuple(items), guard)
+    general, _ = builder()
+    for g in items:
+        general.add(mk_or(tuple(rest) + (g,)), guard)
+    assert fast.clauses == general.clauses
+
+
 def test_false_is_one_variable_forced_false():
     cb, top = builder()
     cb.add(False)
