@@ -216,7 +216,7 @@ def _diagram(table):
 
     order = _greedy(table.ndim, count)
     t = table.transpose(order)
-    levels: list[list[int]] = [[0]] + [_distinct(t, i).tolist() for i in range(1, t.ndim)]
+    levels: list[list[int]] = [[0]] + [_first_seen(_distinct(t, i)).tolist() for i in range(1, t.ndim)]
     return t.reshape(-1).tolist(), order, levels
 
 
@@ -274,10 +274,23 @@ def _distinct(table, prefix: int, hashed=None):
 
 @functools.lru_cache(maxsize=64)
 def _weights(width: int):
-    """The hash's random linear form for rows of ``width`` cells (seeded by the width, so the
-    same every run); kept, since making a generator costs more than hashing a small table."""
+    """The hash's linear form for rows of ``width`` cells: splitmix64 of 1..width (the same
+    every run), odd; numbers that look random without ``numpy.random``, whose import cost
+    more than a spacecraft's whole table."""
     import numpy as np
-    return np.random.default_rng(width).integers(1, 2**63, size=width, dtype=np.uint64)
+    z = (np.arange(1, width + 1, dtype=np.uint64) + np.uint64(width)) * np.uint64(0x9E3779B97F4A7C15)
+    z = (z ^ (z >> np.uint64(30))) * np.uint64(0xBF58476D1CE4E5B9)
+    z = (z ^ (z >> np.uint64(27))) * np.uint64(0x94D049BB133111EB)
+    return (z ^ (z >> np.uint64(31))) | np.uint64(1)
+
+
+def _first_seen(ids):
+    """Ids renumbered in the order they first occur: the numbering the list builder gives."""
+    import numpy as np
+    _, first = np.unique(ids, return_index=True)
+    rank = np.empty(len(first), dtype=np.int64)
+    rank[np.argsort(first, kind="stable")] = np.arange(len(first))
+    return rank[ids]
 
 
 def _write(flat: list[int], levels: list[list[int]], value_lits: list[dict], domains: list[tuple],
