@@ -24,7 +24,8 @@ from cplus.robot.online.loop import OnlineStatus
 from cplus.robot.serving import socket_channel
 from cplus.robot.serving.goals import GoalBoard, GoalStatus
 from cplus.robot.serving.reactive import Server, ServerSettings
-from cplus.robot.serving.socket_channel import MAX_LINE, SocketChannel, SocketLimits, _Client, parse_listen
+from cplus.robot.serving.socket_channel import MAX_LINE, SocketChannel, SocketLimits, parse_listen
+from cplus.robot.serving.socket_client import _Client
 from cplus.robot.serving.vocabulary import load_requests
 
 ROOT = Path(__file__).resolve().parent.parent

@@ -25,24 +25,45 @@ what the program wrote in the same millisecond), then the environments attached
 with :meth:`Firmware.attach` (a sensor world, a stalled motor: they read the
 motors and set the sensors' A/D values); the owner then handles the
 communication.
+
+The system commands (:mod:`~nxt_link.emulator.firmware_files`) and the mailboxes
+(:mod:`~nxt_link.emulator.firmware_mailboxes`) are base classes of :class:`Firmware` in
+modules of their own; the constants and the types programs see are in
+:mod:`~nxt_link.emulator.firmware_types`.  Import the public names from here.
 """
 from __future__ import annotations
 
 import logging
-import struct
 from collections import deque
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass
 from typing import Protocol
 
 from nxt_link.emulator.brick_io import FirmwareIO
+from nxt_link.emulator.firmware_files import _FileCommands
+from nxt_link.emulator.firmware_mailboxes import _Mailboxes
+from nxt_link.emulator.firmware_types import (
+    _OP_PLAY_SOUND_FILE,
+    _OP_RESET_IN_VAL,
+    _OP_STOP_SOUND,
+    ERR_NO_PROG,
+    ERR_RC_ILLEGAL_VAL,
+    ERR_RC_UNKNOWN_CMD,
+    MESSAGES_PER_QUEUE,
+    NO_ERR,
+    NO_OF_INPUTS,
+    NO_OF_OUTPUTS,
+    FirmwareParams,
+    Program,
+    ProgramHost,
+    _Tone,
+)
 from nxt_link.emulator.input_module import InputPort, step_ports
 from nxt_link.emulator.motor_model import MotorParams
 from nxt_link.emulator.output_module import RESET_NONE, OutputPort
 from nxt_link.emulator.vm import flash as fl
 from nxt_link.emulator.vm.errors import RxeError, VMError
 from nxt_link.emulator.vm.iomap import InputField
-from nxt_link.emulator.vm.machine import DEFAULT_INSTRUCTIONS_PER_MS, VM
+from nxt_link.emulator.vm.machine import VM
 from nxt_link.emulator.vm.program import VMProgram
 from nxt_link.emulator.vm.rxe import load_rxe
 from nxt_link.wire import telegram as tg
@@ -53,97 +74,6 @@ __all__ = ["FirmwareParams", "Firmware", "Program", "ProgramHost", "InputPort", 
 
 log = logging.getLogger(__name__)
 
-# status bytes (protocol doc §1.5)
-NO_ERR = 0x00
-STAT_MSG_EMPTY_MAILBOX = 0x40
-ERR_RC_UNKNOWN_CMD = 0xBE
-ERR_RC_ILLEGAL_VAL = 0xC0
-ERR_NO_PROG = 0xEC
-ERR_INVALID_SIZE = 0xED
-ERR_INVALID_QUEUE = 0xEE
-
-MESSAGES_PER_QUEUE = 5
-NO_OF_OUTPUTS = 3
-NO_OF_INPUTS = 4
-
-# direct opcodes the firmware has but this project does not use
-_OP_PLAY_SOUND_FILE = 0x02
-_OP_RESET_IN_VAL = 0x08
-_OP_STOP_SOUND = 0x0C
-
-
-@dataclass(frozen=True, slots=True)
-class FirmwareParams:
-    """Brick-level settings of the emulator.
-
-    Attributes:
-        name: brick name (GETDEVICEINFO), at most 14 characters.
-        battery_mv: GETBATTERYLEVEL answer (9000: six fresh AA cells).
-        sleep_minutes: sleep timer setting; KEEPALIVE answers it in ms
-            (firmware default 10 min -> 600000).
-        files: programs installed on the brick (STARTPROGRAM of anything else
-            fails with C0, as the firmware does for a missing file).
-        start_delay_ms: time between an accepted STARTPROGRAM and the program
-            running (the UI starts it asynchronously; 0.1-1 s on a real brick).
-        bt_address: 6-byte Bluetooth address (LEGO OUI 00:16:53).
-        firmware_version: (major, minor) of the firmware, 1.31.
-        protocol_version: (major, minor) of the protocol, 1.124.
-        vm_instructions_per_ms: bytecode instructions a program runs per
-            millisecond slice (the brick's CPU speed; an estimate). ``None``:
-            every slice runs until all tasks wait (an infinitely fast brick, as
-            the Python models assume).
-        vm_fused: the interpreter runs straight-line code as fused blocks
-            (False: one instruction at a time; the same results, slower).
-        vm_skip_busy_waits: the interpreter counts the cycles of a provable
-            busy-wait without running them (False: runs them; the same results,
-            slower).
-    """
-
-    name: str = "NXT"
-    battery_mv: int = 9000
-    sleep_minutes: int = 10
-    files: tuple[str, ...] = ()
-    start_delay_ms: int = 200
-    bt_address: bytes = bytes.fromhex("001653010203")
-    firmware_version: tuple[int, int] = (1, 31)
-    protocol_version: tuple[int, int] = (1, 124)
-    vm_instructions_per_ms: int | None = DEFAULT_INSTRUCTIONS_PER_MS
-    vm_fused: bool = True
-    vm_skip_busy_waits: bool = True
-
-
-class ProgramHost(Protocol):
-    """What a running program may call: the NXC API subset the brick program uses."""
-
-    def current_tick(self) -> int: ...
-
-    def receive_remote_string(self, queue: int, clear: bool) -> tuple[int, bytes]: ...
-
-    def send_response_string(self, queue: int, data: bytes) -> int: ...
-
-    def motor_rotation_count(self, port: int) -> int: ...
-
-    def on_fwd_ex(self, port: int, power: int, reset: int) -> None: ...
-
-    def coast_ex(self, port: int, reset: int) -> None: ...
-
-    def off_ex(self, port: int, reset: int) -> None: ...
-
-    def set_sensor(self, port: int, sensor_type: int, sensor_mode: int) -> None: ...
-
-    def sensor(self, port: int) -> int: ...
-
-    def play_tone(self, frequency_hz: int, duration_ms: int) -> None: ...
-
-
-class Program(Protocol):
-    """A program model; a fresh instance is created at every activation."""
-
-    def step(self, host: ProgramHost) -> None:
-        """Called once per millisecond VM slice while the program runs."""
-        ...
-
-
 class Environment(Protocol):
     """Something outside the brick that moves with its motors or feeds its sensors."""
 
@@ -152,14 +82,8 @@ class Environment(Protocol):
         ...
 
 
-@dataclass(slots=True)
-class _Tone:
-    at_ms: int
-    frequency_hz: int
-    duration_ms: int
 
-
-class Firmware:
+class Firmware(_FileCommands, _Mailboxes):
     """Direct-command handler, mailboxes, program lifecycle and outputs of one brick.
 
     Args:
@@ -438,173 +362,8 @@ class Firmware:
                 self.inputs[telegram[2]].scaled = 0
         return bytes((tg.CommandType.REPLY, op, status)) if want_reply else None
 
-    def _system(self, telegram: bytes, want_reply: bool) -> bytes | None:
-        """System commands: versions, device info, and the flash file system.
-
-        A no-reply system command is still carried out (a file write with no
-        acknowledgement writes); a telegram too short for its opcode is dropped."""
-        op = telegram[1]
-        body = telegram[2:]
-        if op == Opcode.GET_FIRMWARE_VERSION:
-            (fmaj, fmin), (pmaj, pmin) = self.params.firmware_version, self.params.protocol_version
-            reply = tg.encode_reply(tg.FirmwareVersionReply(NO_ERR, pmin, pmaj, fmin, fmaj))
-        elif op == Opcode.GET_DEVICE_INFO:
-            reply = tg.encode_reply(tg.DeviceInfoReply(
-                NO_ERR, self.params.name, self.params.bt_address, (0, 0, 0, 0), 65536))
-        else:
-            handler = _FILE_COMMANDS.get(op)
-            if handler is None:
-                reply = bytes((tg.CommandType.REPLY, op, ERR_RC_UNKNOWN_CMD))
-            else:
-                payload = handler(self, body)
-                if payload is None:
-                    log.warning("dropping malformed system command %s", telegram.hex())
-                    return None
-                reply = bytes((tg.CommandType.REPLY, op)) + payload
-        return reply if want_reply else None
-
-    def _file_open_write(self, body: bytes, data_file: bool = False) -> bytes | None:
-        if len(body) < 24:
-            return None
-        size = struct.unpack_from("<I", body, 20)[0]
-        status, handle = self.flash.open_write(_filename(body), size, data_file=data_file)
-        return bytes((status, handle))
-
-    def _file_write(self, body: bytes) -> bytes | None:
-        if len(body) < 1:
-            return None
-        status, handle, n = self.flash.write(body[0], body[1:])
-        return bytes((status, handle)) + struct.pack("<H", n)
-
-    def _file_close(self, body: bytes) -> bytes | None:
-        if len(body) < 1:
-            return None
-        status, handle = self.flash.close(body[0])
-        return bytes((status, handle))
-
-    def _file_open_read(self, body: bytes) -> bytes | None:
-        if len(body) < 1:
-            return None
-        status, handle, size = self.flash.open_read(_filename(body))
-        return bytes((status, handle)) + struct.pack("<I", size if status == 0 else 0)
-
-    def _file_read(self, body: bytes) -> bytes | None:
-        if len(body) < 3:
-            return None
-        count = struct.unpack_from("<H", body, 1)[0]
-        if count > _MAX_READ:
-            log.warning("READ of %d bytes needs the firmware's extended mode, not modelled", count)
-            return None
-        status, handle, data = self.flash.read(body[0], count)
-        return bytes((status, handle)) + struct.pack("<H", count) + data.ljust(count, b"\0")
-
-    def _file_delete(self, body: bytes) -> bytes | None:
-        if len(body) < 1:
-            return None
-        name = _filename(body)
-        status = self.flash.delete(name)
-        return bytes((status,)) + name.encode("latin-1")[:fl.FILENAME_LENGTH].ljust(20, b"\0")
-
-    def _file_find(self, body: bytes, first: bool) -> bytes | None:
-        if len(body) < 1:
-            return None
-        if first:
-            status, handle, name, size = self.flash.find_first(_filename(body))
-        else:
-            status, handle, name, size = self.flash.find_next(body[0])
-        if status != 0:
-            return bytes((status, handle)) + bytes(24)
-        return (bytes((status, handle)) + name.encode("latin-1").ljust(20, b"\0")
-                + struct.pack("<I", size))
-
-    def _file_open_append(self, body: bytes) -> bytes | None:
-        if len(body) < 1:
-            return None
-        status, handle, room = self.flash.open_append(_filename(body))
-        return bytes((status, handle)) + struct.pack("<I", room)
-
-    # -- mailboxes ------------------------------------------------------------------
-
-    def _message_write(self, telegram: bytes, want_reply: bool) -> bytes | None:
-        op = Opcode.MESSAGE_WRITE
-        if len(telegram) < 4:
-            log.warning("dropping truncated MESSAGEWRITE %s", telegram.hex())
-            return None
-        inbox, size = telegram[2], telegram[3]
-        data = telegram[4:4 + size]
-        if size == 0 or size > tg.MAX_MESSAGE_SIZE or len(data) < size or data[size - 1] != 0:
-            status = ERR_RC_ILLEGAL_VAL
-        else:
-            status = self.write_mailbox(inbox, bytes(data))
-        if not want_reply:
-            return None
-        return tg.encode_reply(tg.StatusReply(op, status))
-
-    def write_mailbox(self, queue: int, message: bytes) -> int:
-        """Firmware ``cCmdMessageWrite``: the order of its checks, drop-oldest when full."""
-        if queue >= tg.MAILBOX_COUNT:
-            return ERR_INVALID_QUEUE
-        if self.program is None:
-            return ERR_NO_PROG
-        if len(message) > tg.MAX_MESSAGE_SIZE:
-            return ERR_INVALID_SIZE
-        box = self.mailboxes[queue]
-        if len(box) == MESSAGES_PER_QUEUE:
-            log.debug("mailbox %d full: oldest message dropped", queue)
-        box.append(message)  # deque(maxlen=5) drops the oldest, like the firmware
-        return NO_ERR
-
-    def read_mailbox(self, queue: int, remove: bool) -> tuple[int, bytes]:
-        """Firmware ``cCmdMessageGetSize`` + ``cCmdMessageRead``."""
-        if self.program is None:
-            return ERR_NO_PROG, b""
-        if queue >= tg.MAILBOX_COUNT:
-            return ERR_INVALID_QUEUE, b""
-        box = self.mailboxes[queue]
-        if not box:
-            return STAT_MSG_EMPTY_MAILBOX, b""
-        return NO_ERR, (box.popleft() if remove else box[0])
-
-    def _message_read(self, cmd: tg.MessageRead) -> bytes:
-        status, message = self.read_mailbox(cmd.remote_inbox, cmd.remove)
-        if status != NO_ERR:
-            return tg.error_reply(Opcode.MESSAGE_READ, status, cmd.local_inbox)
-        return tg.encode_reply(tg.MessageReadReply(NO_ERR, cmd.local_inbox, message))
-
-    def _incoming_reply(self, telegram: bytes) -> None:
-        """A MESSAGEREAD reply sent *to* the brick is stored in the mailbox it names."""
-        if len(telegram) < 5 or telegram[1] != Opcode.MESSAGE_READ:
-            return
-        status, queue, size = telegram[2], telegram[3], telegram[4]
-        data = telegram[5:5 + size]
-        if (status & 0x80) == 0 and 0 < size <= tg.MAX_MESSAGE_SIZE and len(data) == size \
-                and data[-1] == 0:
-            self.write_mailbox(queue, bytes(data))
 
 
-def _filename(body: bytes) -> str:
-    """A file name field: up to the NUL (names longer than 19 characters are refused
-    by the loader)."""
-    raw = body[:20] if b"\0" in body[:20] else body[:21]
-    return raw.split(b"\0", 1)[0].decode("latin-1")
-
-
-#: READ sizes a reply can carry in one Bluetooth packet
-_MAX_READ = 120
-
-_FILE_COMMANDS: dict[int, Callable[[Firmware, bytes], bytes | None]] = {
-    0x80: Firmware._file_open_read,
-    0x81: Firmware._file_open_write,
-    0x82: Firmware._file_read,
-    0x83: Firmware._file_write,
-    0x84: Firmware._file_close,
-    0x85: Firmware._file_delete,
-    0x86: lambda fw, body: fw._file_find(body, True),
-    0x87: lambda fw, body: fw._file_find(body, False),
-    0x89: Firmware._file_open_write,
-    0x8B: lambda fw, body: fw._file_open_write(body, data_file=True),
-    0x8C: Firmware._file_open_append,
-}
 
 
 class _IdleProgram:
@@ -681,4 +440,5 @@ def _regmode(v: int) -> int:
 
 def _runstate(v: int) -> int:
     return v if v in (0x00, 0x10, 0x20, 0x40) else 0
+
 

@@ -115,7 +115,8 @@ class PtyBrickServer:
         os.replace(tmp, self.path)
         log.info("%s: serving on %s -> %s", self.emulator.config.name, self.path, self.tty_name)
 
-    def _close_pty(self) -> None:
+    def _close_fds(self) -> None:
+        """Close both ends of the pty (either may be closed already)."""
         for fd in (self._master, self._slave):
             if fd >= 0:
                 try:
@@ -123,6 +124,9 @@ class PtyBrickServer:
                 except OSError:
                     pass
         self._master = self._slave = -1
+
+    def _close_pty(self) -> None:
+        self._close_fds()
         if self.clock is not None and self.channel is not None:
             self.clock.close_channel(self.channel)
             self.channel = None
@@ -133,13 +137,7 @@ class PtyBrickServer:
         drop finds the new pty at once (whatever the threads' real timing)."""
         old = self.channel
         self.channel = None
-        for fd in (self._master, self._slave):
-            if fd >= 0:
-                try:
-                    os.close(fd)
-                except OSError:
-                    pass
-        self._master = self._slave = -1
+        self._close_fds()
         self._open_pty()
         if self.clock is not None and old is not None:
             self.clock.close_channel(old)
@@ -233,12 +231,7 @@ class PtyBrickServer:
                 self.slipped_ms += behind - max_lag_ms
                 now = emu.now_ms + max_lag_ms
             emu.advance_to(min(now, emu.now_ms + MAX_ADVANCE_MS), until_reply=True)
-            if emu.link_epoch != epoch:
-                self._reopen_pty()
-                emu.restore_link()
-                epoch = emu.link_epoch
-            for data in emu.take_output(now):
-                self._write(data)
+            epoch = self._deliver(epoch, now)
             nxt = emu.next_event_ms()
             wait = _IDLE_WAIT_S
             lagging = emu.now_ms + 1 <= now
@@ -253,14 +246,7 @@ class PtyBrickServer:
                     break
                 raise
             if self._master in ready:
-                try:
-                    data = os.read(self._master, 4096)
-                except BlockingIOError:
-                    data = b""
-                except OSError as exc:
-                    if exc.errno != errno.EIO:
-                        raise
-                    data = b""
+                data = self._read_master()
                 if data:         # a brick behind real time gets them at its own next millisecond
                     emu.receive(data, emu.now_ms + 1 if lagging else self._sim_ms(wall0))
             self.cpu_s = time.thread_time() - cpu0
@@ -276,12 +262,7 @@ class PtyBrickServer:
         while not self._stop.is_set():
             now = max(floor_ms, (clock.now() - t0) * 1000.0)
             emu.advance_to(now)
-            if emu.link_epoch != epoch:
-                self._reopen_pty()
-                emu.restore_link()
-                epoch = emu.link_epoch
-            for data in emu.take_output(now):
-                self._write(data)
+            epoch = self._deliver(epoch, now)
             nxt = emu.next_event_ms()
             if nxt is not None and nxt <= now:
                 nxt = math.floor(now) + 1.0   # due at the next firmware millisecond
@@ -298,6 +279,18 @@ class PtyBrickServer:
                 if data:
                     emu.receive(data, max(floor_ms, (clock.now() - t0) * 1000.0))
 
+    def _deliver(self, epoch: int, now: float) -> int:
+        """After the brick ran to ``now``: a new pty if the link dropped since ``epoch`` (the
+        emulator's link epoch, returned as it is now), then the bytes due to the PC written."""
+        emu = self.emulator
+        if emu.link_epoch != epoch:
+            self._reopen_pty()
+            emu.restore_link()
+            epoch = emu.link_epoch
+        for data in emu.take_output(now):
+            self._write(data)
+        return epoch
+
     def _read_counted(self, clock: SimClock, channel: Channel) -> bytes:
         """The bytes the clock counted on their way to the brick (already written: only the
         kernel may still hold them back for a moment)."""
@@ -309,16 +302,21 @@ class PtyBrickServer:
             log.warning("%s: %d counted byte(s) never arrived", self.emulator.config.name, pipe.pending)
             clock.lost(pipe)
             return b""
+        data = self._read_master()
+        clock.consumed(pipe, len(data))
+        return data
+
+    def _read_master(self) -> bytes:
+        """What the pty's master side has for the brick: b"" when nothing is there yet, or
+        when no slave is open (EIO, between a client's close and the next open)."""
         try:
-            data = os.read(self._master, 4096)
+            return os.read(self._master, 4096)
         except BlockingIOError:
-            data = b""
+            return b""
         except OSError as exc:
             if exc.errno != errno.EIO:
                 raise
-            data = b""
-        clock.consumed(pipe, len(data))
-        return data
+            return b""
 
     def _write(self, data: bytes) -> None:
         pipe = None

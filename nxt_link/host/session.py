@@ -33,97 +33,43 @@ the link cannot be reopened. That becomes a one-line
 The session also records what tells *when* the brick started (:attr:`start_window`):
 the GO copy the brick applied bounds it, and every progress report narrows it
 (``logged`` rows at a moment between the QUERY and its answer).
+
+:class:`BrickSession` is built in layers, one module each: its settings
+(:mod:`~nxt_link.host.session_settings`), its state and plumbing
+(:mod:`~nxt_link.host.session_link`), steps 1-3 (:mod:`~nxt_link.host.session_setup`) and,
+here, steps 4-6 and the stop.  Import the public names from this module.
 """
 from __future__ import annotations
 
 import logging
-import random
-from collections.abc import Callable, Sequence
-from dataclasses import dataclass, replace
-from functools import partial
-from typing import TypeVar
+from collections.abc import Callable
 
-from nxt_link.host.brick import Brick, running_program
+from nxt_link.host.session_settings import (
+    GO_COPIES,
+    GO_RESEND_S,
+    MAX_GO_DELAY_MS,
+    PORT_NUMBERS,
+    WINDOW,
+    ControllerSettings,
+    SessionTiming,
+    _refusal,
+    _state_name,
+)
+from nxt_link.host.session_setup import _SessionSetup
 from nxt_link.programs import stream_protocol as sp
 from nxt_link.programs.stream_protocol import Code, State
-from nxt_link.wire import telegram as tg
 from nxt_link.wire.clock import Deadline
 from nxt_link.wire.errors import (
-    EmptyMailboxError,
-    IllegalValueError,
     LinkError,
-    LinkTimeoutError,
-    NoActiveProgramError,
-    RequestFailedError,
     StreamError,
-    TelegramError,
 )
 
 __all__ = ["ControllerSettings", "SessionTiming", "BrickSession", "PORT_NUMBERS"]
 
 log = logging.getLogger(__name__)
-_T = TypeVar("_T")
-
-PORT_NUMBERS = {"A": 0, "B": 1, "C": 2}
-WINDOW = 4  # one below the mailbox depth of 5
-_QUERY_ID0 = 0x8000  # ids of unsequenced requests start here, sequenced ones below
-MAX_GO_DELAY_MS = 30000  # echoed in an int16 ACK field
-GO_COPIES = 3  # at 30 % loss, all three are lost once in 37 ...
-GO_RESEND_S = 0.1  # ... so one more copy every 0.1 s until acknowledged
 
 
-@dataclass(frozen=True, slots=True)
-class ControllerSettings:
-    """The brick's P-controller: ``power % = kp_num * error_deg / kp_den``.
-
-    Defaults: gain 2 %/degree (little overshoot with the default motor model,
-    about 1 degree of steady-state error), full power allowed, the initial
-    configuration is reached when every motor is within 3 degrees.
-    """
-
-    kp_num: int = 2
-    kp_den: int = 1
-    max_power: int = 100
-    tolerance_deg: int = 3
-
-    def __post_init__(self) -> None:
-        if not (1 <= self.kp_num <= 255 and 1 <= self.kp_den <= 255):
-            raise ValueError("controller gain: kp_num and kp_den must be in 1..255")
-        if not 1 <= self.max_power <= 100:
-            raise ValueError("controller max_power must be in 1..100")
-        if not 0 <= self.tolerance_deg <= 255:
-            raise ValueError("controller tolerance must be in 0..255 degrees")
-
-
-@dataclass(frozen=True, slots=True)
-class SessionTiming:
-    """Timeouts of the streaming protocol (on the bricks' clock).
-
-    Attributes:
-        ack_timeout_s: no acknowledgement progress for this long -> resend.
-        empty_after_s: the response mailbox found empty by a read sent at least
-            this long after a request means that the request or its response was
-            lost -> resend at once, without waiting for ``ack_timeout_s`` (the
-            brick handles its inbox every 10 ms, in the order it arrived).
-        poll_gap_s: pause before reading an empty response mailbox again.
-        query_interval_s: QUERY period while homing and running; a GO not yet
-            acknowledged is sent again this often.
-        max_silent_s: no valid response for this long (counted from the last
-            one) -> the brick has gone.
-        homing_timeout_s: the initial configuration must be reached in time.
-        program_start_timeout_s: STARTPROGRAM until the program answers.
-    """
-
-    ack_timeout_s: float = 0.6
-    poll_gap_s: float = 0.01
-    query_interval_s: float = 0.25
-    max_silent_s: float = 10.0
-    homing_timeout_s: float = 15.0
-    program_start_timeout_s: float = 5.0
-    empty_after_s: float = 0.05
-
-
-class BrickSession:
+class BrickSession(_SessionSetup):
     """One execution's conversation with one brick.
 
     Args:
@@ -148,418 +94,7 @@ class BrickSession:
             once GO was acknowledged; progress reports narrow it.
     """
 
-    def __init__(self, brick: Brick, ports: Sequence[str], tick_ms: int,
-                 rows: Sequence[Sequence[int]], limits_deg: Sequence[tuple[int, int]],
-                 controller: ControllerSettings | None = None,
-                 timing: SessionTiming | None = None,
-                 on_event: Callable[[str, str], None] | None = None,
-                 session_id: int | None = None, *, time_scale: float = 1.0) -> None:
-        if not time_scale > 0:
-            raise ValueError("time_scale must be > 0")
-        self.brick = brick
-        self.name = brick.name
-        self.ports = tuple(ports)
-        self.port_numbers = tuple(PORT_NUMBERS[p] for p in self.ports)
-        self.tick_ms = tick_ms
-        self.rows = [tuple(r) for r in rows]
-        self.limits = tuple(limits_deg)
-        self.controller = controller or ControllerSettings()
-        self.timing = timing or SessionTiming()
-        self.time_scale = time_scale
-        self._on_event = on_event
-        self.session = session_id or random.SystemRandom().randrange(1, 0x10000)
-        self.clock = brick.clock
-        self.expected_checksum = sp.setpoint_checksum(v for r in self.rows for v in r)
-        self.phase = "connect"
-        self._next_seq = 1
-        self._next_id = _QUERY_ID0
-        self._log_rows: dict[int, tuple[int, ...]] = {}
-        self._last_valid: float | None = None
-        self.state: int | None = None
-        self.logged = 0
-        self.retransmissions = 0
-        self.damaged_responses = 0
-        self._sent_at: dict[int, float] = {}  # unsequenced request id -> first sent
-        self._last_post = 0.0
-        self._empty_at: float | None = None  # when a read that found the mailbox empty was sent
-        self._go_seq: int | None = None
-        self._go_start_at = 0.0
-        self._go_started = 0.0
-        self._go_last_sent = 0.0
-        self._go_copies: dict[int, float] = {}  # delay_ms -> when that GO copy was first sent
-        self.start_window: tuple[float, float] | None = None
-        self._go_window: tuple[float, float] | None = None
-
-    @property
-    def go_sent(self) -> bool:
-        """GO was written at least once (the brick may have started)."""
-        return self._go_seq is not None
-
-    # -- plumbing -------------------------------------------------------------------
-
-    def _event(self, event: str, detail: str = "") -> None:
-        log.info("%s: %s %s", self.name, event, detail)
-        if self._on_event is not None:
-            self._on_event(event, detail)
-
-    def _post(self, req: sp.Request, *, reply: bool = False) -> None:
-        self.brick.message_write(sp.CMD_INBOX, sp.encode_request(req), reply=reply)
-        self._last_post = self.clock.now()
-
-    def _lost_since(self, posted: float) -> bool:
-        """The mailbox was found empty by a read sent long enough after ``posted``: what was
-        posted then (or its response) is lost."""
-        return self._empty_at is not None and \
-            self._empty_at >= posted + self.timing.empty_after_s
-
-    def _poll(self, *, once: bool = False) -> sp.Response | None:
-        """Read one valid response of this session, or None (empty box, lost, stale, damaged).
-
-        ``once``: a single MESSAGEREAD attempt, so that a caller with something urgent to
-        send (GO before the start time) gets control back after one reply timeout.
-        """
-        asked = self.clock.now()
-        try:
-            if once:
-                reply = self.brick.request(tg.MessageRead(sp.RESPONSE_MAILBOX, 0, True),
-                                           retry=False)
-                assert isinstance(reply, tg.MessageReadReply)
-                raw = reply.payload
-            else:
-                raw = self.brick.message_read(sp.RESPONSE_MAILBOX, 0, True)
-        except EmptyMailboxError:
-            self._empty_at = asked
-            return None
-        except LinkTimeoutError as exc:
-            # the protocol recovers lost reads; only a long silence is fatal (_silent)
-            if not once:  # (a single attempt's timeout is already the brick's event)
-                self._event("read timeout", str(exc))
-            return None
-        except NoActiveProgramError:
-            self._confirm_program_gone()
-            return None
-        try:
-            resp = sp.decode_response(raw)
-        except TelegramError as exc:
-            self.damaged_responses += 1
-            self._event("damaged response", str(exc))
-            return None
-        if resp.session != self.session:
-            return None
-        now = self.clock.now()
-        self._last_valid = now
-        self.state = resp.state
-        if isinstance(resp, sp.Ack):
-            self.logged = resp.logged
-            if resp.seq in self._sent_at and resp.state in (State.RUNNING, State.DONE):
-                self._narrow_start(self._sent_at[resp.seq], now, resp.logged)
-        return resp
-
-    def _confirm_program_gone(self) -> None:
-        """A reply said "no program"; a damaged status byte can say so too: ask again."""
-        try:
-            gone = self._running_program() is None
-        except LinkTimeoutError:
-            return  # the silence check decides
-        if gone:
-            raise StreamError(f"brick {self.name}: the program {sp.PROGRAM_NAME} is no longer "
-                              "running")
-        self._event("damaged reply", "a 'no program' status the brick did not confirm")
-
-    def _new_id(self) -> int:
-        self._next_id = _QUERY_ID0 + ((self._next_id - _QUERY_ID0 + 1) % 0x7FFF)
-        self._sent_at.pop(self._next_id, None)
-        return self._next_id
-
-    def _silent(self, since: float) -> None:
-        """Give up when no valid response came for ``max_silent_s``, counted from the last
-        valid response, or from ``since`` (the start of this step) when that is later."""
-        if self._last_valid is not None:
-            since = max(since, self._last_valid)
-        if self.clock.now() - since <= self.timing.max_silent_s:
-            return
-        try:
-            gone = self._running_program(patient=False) is None
-        except LinkTimeoutError:
-            gone = False
-        if gone:
-            raise StreamError(f"brick {self.name}: the program {sp.PROGRAM_NAME} is no longer "
-                              "running")
-        raise LinkTimeoutError(f"brick {self.name}: no valid answer from the brick program for "
-                               f"{self.timing.max_silent_s:g} s")
-
-    def _exchange_unsequenced(self, make: Callable[[int], sp.Request],
-                              accept: Callable[[sp.Response], bool]) -> sp.Response:
-        """Send an unsequenced request until a matching response arrives."""
-        start = self.clock.now()
-        ids: set[int] = set()  # a late answer to an earlier copy is as good
-        while True:
-            rid = self._new_id()
-            ids.add(rid)
-            self._sent_at[rid] = self.clock.now()
-            self._post(make(rid))
-            resp = self._await(lambda r: r.seq in ids and accept(r))
-            if resp is not None:
-                return resp
-            self.retransmissions += 1
-            self._silent(start)
-
-    def _await(self, accept: Callable[[sp.Response], bool], *, within: float | None = None,
-               once: bool = False) -> sp.Response | None:
-        """Poll until a response passes ``accept``; None once the acknowledgement timeout
-        (or ``within``, when shorter) runs out or the mailbox shows that the request or its
-        response was lost. ``once``: each read is a single attempt (see :meth:`_poll`)."""
-        wait = self.timing.ack_timeout_s if within is None else min(within, self.timing.ack_timeout_s)
-        deadline = Deadline(self.clock, wait)
-        posted = self._last_post
-        while not deadline.expired():
-            resp = self._poll(once=once)
-            if resp is None:
-                if self._lost_since(posted):
-                    return None
-                self.clock.sleep(self.timing.poll_gap_s)
-            elif accept(resp):
-                return resp
-        return None
-
-    # -- 1. program and handshake --------------------------------------------------------
-
-    def ensure_program(self, replace: bool = False) -> None:
-        """Make sure the brick program runs; start it when nothing runs.
-
-        STARTPROGRAM is not repeated blindly: after a lost or untrusted answer the
-        running program is asked for, and the program is started again only when
-        nothing runs.
-        """
-        running = self._running_program()
-        if running == sp.PROGRAM_NAME:
-            return
-        if running is not None:
-            if not replace:
-                raise StreamError(f"brick {self.name} is running {running!r}, not "
-                                  f"{sp.PROGRAM_NAME!r}; stop it on the brick first")
-            self.brick.stop_program()
-            self.clock.sleep(1.0)  # as nxt-python's MotorControl helper does
-        deadline = Deadline(self.clock, self.timing.program_start_timeout_s)
-        missing = 0
-        while True:
-            try:
-                self.brick.start_program(sp.PROGRAM_NAME)
-                missing = 0
-                self._event("program started", sp.PROGRAM_NAME)
-            except (IllegalValueError, RequestFailedError):
-                missing += 1  # the file is missing, or a damaged status says so: ask twice
-                if missing >= 2:
-                    raise StreamError(
-                        f"brick {self.name} has no {sp.PROGRAM_NAME}: compile nxt_link/programs/nxc/"
-                        f"cplus_follow.nxc with nbc and download it (nbc -d ...)") from None
-            except LinkTimeoutError as exc:
-                self._event("timeout", f"START_PROGRAM: {exc}")  # it may have started
-            waited = Deadline(self.clock, 1.0)
-            while not waited.expired():
-                self.clock.sleep(0.1)
-                if self._running_program() == sp.PROGRAM_NAME:
-                    return
-            if deadline.expired():
-                raise StreamError(f"brick {self.name}: {sp.PROGRAM_NAME} did not start within "
-                                  f"{self.timing.program_start_timeout_s:g} s")
-
-    def _direct(self, call: Callable[[], _T]) -> _T:
-        """A direct command, asked again when the brick gave up on it, until no valid frame
-        came for ``max_silent_s`` (the budget of the execution, not of one command)."""
-        start = self.clock.now()
-        while True:
-            try:
-                return call()
-            except LinkTimeoutError:
-                valid = [t for t in (start, self._last_valid, self.brick.last_valid_s)
-                         if t is not None]
-                if self.clock.now() - max(valid) > self.timing.max_silent_s:
-                    raise
-
-    def _running_program(self, patient: bool = True) -> str | None:
-        """The running program's name, or None (:func:`~nxt_link.host.brick.running_program`);
-        ``patient``: each question is asked again while the brick gives up on it."""
-        ask = self.brick.get_current_program_name
-        return running_program(partial(self._direct, ask) if patient else ask, sp.PROGRAM_NAME)
-
-    def open(self, *, start_program: bool = True, replace_program: bool = False) -> sp.Welcome:
-        """Ensure the program runs, then HELLO until WELCOME. Returns the WELCOME."""
-        self.phase = "connect"
-        if start_program:
-            self.ensure_program(replace_program)
-        start = self.clock.now()
-        while True:
-            hello = sp.Hello(self.session, 0)
-            try:
-                self._post(hello, reply=True)  # reply required: a missing program is an error
-            except NoActiveProgramError:
-                if self._running_program() is None:
-                    raise StreamError(f"brick {self.name}: no program is running (start "
-                                      f"{sp.PROGRAM_NAME} on the brick)") from None
-                self._event("damaged reply", "a 'no program' status the brick did not confirm")
-            except LinkTimeoutError:
-                self._silent(start)
-                continue
-            resp = self._await(lambda r: isinstance(r, sp.Welcome))
-            if isinstance(resp, sp.Welcome):
-                if resp.code == Code.BAD_VERSION:
-                    raise StreamError(
-                        f"brick {self.name}: its program speaks protocol version "
-                        f"{resp.version}, this client {sp.PROTOCOL_VERSION}")
-                if resp.state == State.IDLE and resp.expected_seq == 1:
-                    self._event("link ok", f"session {self.session}, program protocol "
-                                           f"v{resp.version}")
-                    return resp
-                # our random session id is the brick's current one: pick another
-                self.session = self.session % 0xFFFF + 1
-            self.retransmissions += 1
-            self._silent(start)
-
-    def motor_angles(self) -> tuple[int, ...]:
-        """The motors' current angles (RotationCount, what the brick program controls).
-
-        GETOUTPUTSTATE replies carry no checksum: each port is asked until two
-        consecutive answers agree.
-        """
-        angles: list[int] = []
-        for port in self.port_numbers:
-            previous = None
-            for _ in range(8):
-                value = self._direct(partial(self.brick.get_output_state, port)).rotation_count
-                if value == previous:
-                    break
-                previous = value
-            else:
-                raise StreamError(f"brick {self.name}: the angle of motor {self.ports[len(angles)]} "
-                                  "changes between readings")
-            angles.append(value)
-        return tuple(angles)
-
-    # -- 2. upload ------------------------------------------------------------------------
-
-    def _messages(self) -> list[sp.Request]:
-        c = self.controller
-        msgs: list[sp.Request] = [sp.Config(
-            self.session, 0, self.port_numbers, len(self.rows), self.tick_ms, c.kp_num, c.kp_den,
-            c.max_power, c.tolerance_deg, tuple(lo for lo, _ in self.limits),
-            tuple(hi for _, hi in self.limits))]
-        per = sp.rows_per_setpoint_message(len(self.ports))
-        for first in range(0, len(self.rows), per):
-            chunk = self.rows[first:first + per]
-            msgs.append(sp.Setpoints(self.session, 0, first, tuple(v for r in chunk for v in r)))
-        return msgs
-
-    def _run_sequenced(self, msgs: list[sp.Request],
-                       progress: Callable[[int, int], None] | None = None) -> sp.Ack:
-        """Deliver ``msgs`` in order exactly once (go-back-N); return the last ACK."""
-        base = self._next_seq
-        msgs = [_with_seq(m, base + i) for i, m in enumerate(msgs)]
-        n = len(msgs)
-        acked = 0
-        next_i = 0
-        last_ack: sp.Ack | None = None
-        start = goback_at = self.clock.now()
-        gap_armed = True  # one immediate go-back per loss; later GAPs may be stale
-        while acked < n:
-            while next_i < n and next_i < acked + WINDOW:
-                self._post(msgs[next_i])
-                next_i += 1
-            resp = self._poll()
-            now = self.clock.now()
-            if isinstance(resp, sp.Ack) and base <= resp.seq < base + n:
-                done = min(n, max(0, resp.expected_seq - base))
-                if resp.code not in (Code.OK, Code.DUPLICATE, Code.GAP):
-                    if resp.seq == base + done:
-                        raise StreamError(_refusal(self.name, msgs[done], resp.code))
-                    continue
-                if done > acked:
-                    acked = done
-                    last_ack = resp
-                    goback_at = now
-                    gap_armed = True
-                    if progress is not None:
-                        progress(acked, n)
-                if resp.code == Code.GAP and gap_armed and next_i > acked:
-                    next_i = acked  # the brick missed one: go back at once
-                    goback_at = now
-                    gap_armed = False
-                    self.retransmissions += 1
-                continue
-            if resp is None:
-                if now - goback_at > self.timing.ack_timeout_s or (
-                        next_i > acked and self._lost_since(max(goback_at, self._last_post))):
-                    self._silent(start)
-                    next_i = acked  # nothing acknowledged for a while: go back
-                    goback_at = now
-                    gap_armed = True
-                    self.retransmissions += 1
-                self.clock.sleep(self.timing.poll_gap_s)
-        self._next_seq = base + n
-        assert last_ack is not None
-        return last_ack
-
-    def upload(self, progress: Callable[[int, int], None] | None = None) -> None:
-        """Send CONFIG and all setpoints; verify the brick's checksum of them.
-
-        Args:
-            progress: called with (rows acknowledged, rows total).
-        """
-        self.phase = "upload"
-        msgs = self._messages()
-        per = sp.rows_per_setpoint_message(len(self.ports))
-        total = len(self.rows)
-
-        def report(done_msgs: int, _n: int) -> None:
-            if progress is not None:
-                progress(min(total, max(0, (done_msgs - 1) * per)), total)
-
-        self._run_sequenced(msgs, report)
-        check = self.query()
-        if check.rows_stored != total or check.checksum != self.expected_checksum:
-            raise StreamError(
-                f"brick {self.name} holds {check.rows_stored} rows with checksum "
-                f"0x{check.checksum:04X}, sent {total} rows with checksum "
-                f"0x{self.expected_checksum:04X}")
-        self._event("upload verified", f"{total} rows, checksum 0x{check.checksum:04X}, "
-                                       f"{self.retransmissions} retransmission(s)")
-
-    def query(self) -> sp.Ack:
-        """QUERY: the brick's state, progress, checksum and current largest error."""
-        resp = self._exchange_unsequenced(lambda rid: sp.Query(self.session, rid),
-                                          lambda r: isinstance(r, sp.Ack))
-        assert isinstance(resp, sp.Ack)
-        return resp
-
-    # -- 3. initial configuration ------------------------------------------------------------
-
-    def prepare(self) -> None:
-        """PREPARE: the brick starts moving to the first setpoint."""
-        self.phase = "homing"
-        self._run_sequenced([sp.Prepare(self.session, 0)])
-        self._event("homing", f"to {self.rows[0]}")
-
-    def wait_ready(self) -> None:
-        """Poll until the brick holds the initial configuration (or fail with its error)."""
-        deadline = Deadline(self.clock, self.timing.homing_timeout_s)
-        while True:
-            ack = self.query()
-            if ack.state == State.READY:
-                self._event("ready", f"largest error {ack.value} deg")
-                return
-            if ack.state != State.HOMING:
-                raise StreamError(f"brick {self.name}: unexpected state "
-                                  f"{_state_name(ack.state)} while homing")
-            if deadline.expired():
-                raise StreamError(
-                    f"brick {self.name} did not reach its initial configuration within "
-                    f"{self.timing.homing_timeout_s:g} s (still {ack.value} deg off)")
-            self.clock.sleep(self.timing.query_interval_s)
-
     # -- 4. start signal --------------------------------------------------------------------------
-
-    def _brick_ms(self, seconds: float) -> int:
-        return round(seconds * 1000.0 * self.time_scale)
 
     def post_go(self, start_at: float, copies: int = GO_COPIES) -> None:
         """Write GO (no reply: fast) telling the brick to start at ``start_at`` (our clock).
@@ -630,33 +165,6 @@ class BrickSession:
             latest = self.poll_go()
             if latest is not None:
                 return latest
-
-    def _narrow_start(self, sent: float, answered: float, logged: int) -> None:
-        """A QUERY sent at ``sent`` and answered by ``answered`` found ``logged`` rows.
-
-        The brick handled it at some p in [sent, answered]: at p, ``logged`` ticks had
-        ended (p >= t0 + logged * tick) and, unless all were, tick ``logged`` had not
-        ended at the brick's previous control step (p < t0 + (logged + 1) * tick + a
-        loop or two). So t0 lies in (sent - (logged + 1) * tick - slack, answered -
-        logged * tick].
-        """
-        if self._go_window is None:
-            return
-        tick = self.tick_ms / 1000.0 / self.time_scale
-        lo, hi = self.start_window or self._go_window
-        if logged >= 1:
-            hi = min(hi, answered - logged * tick)
-        if logged < len(self.rows):
-            slack = 2 * sp.CONTROL_MS / 1000.0 / self.time_scale
-            lo = max(lo, sent - (logged + 1) * tick - slack)
-        if lo <= hi:
-            self.start_window = (lo, hi)
-        elif self.start_window != self._go_window:
-            # progress reports that contradict each other (a brick clock that does not keep
-            # time with ours): trust only the start signal
-            self._event("start window", "progress reports disagree with the clock; "
-                                        "using the start signal's bound")
-            self.start_window = self._go_window
 
     # -- 5. run ----------------------------------------------------------------------------------------
 
@@ -766,24 +274,3 @@ class BrickSession:
             self._event("stop failed", str(exc))
         return False
 
-
-def _with_seq(req: sp.Request, seq: int) -> sp.Request:
-    return replace(req, seq=seq)
-
-
-def _state_name(state: int) -> str:
-    try:
-        return State(state).name
-    except ValueError:
-        return str(state)
-
-
-def _refusal(brick: str, req: sp.Request, code: int) -> str:
-    try:
-        reason = Code(code).name.lower().replace("_", " ")
-    except ValueError:
-        reason = f"code {code}"
-    what = req.kind.name
-    if isinstance(req, sp.Setpoints):
-        what = f"SETPOINTS from row {req.first_row}"
-    return f"brick {brick} refused {what}: {reason}"

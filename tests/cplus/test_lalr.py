@@ -18,7 +18,7 @@ from hypothesis import strategies as st
 from lark import Token as LarkToken
 from lark import Tree as LarkTree
 
-from cplus import lalr, parser
+from cplus import lalr, parse_tables, parser
 from cplus.errors import CPlusSyntaxError, Diagnostics, Source
 from cplus.parser import parse_program
 
@@ -41,14 +41,14 @@ def _statements(corpus: Path) -> list[str]:
 
 def _lark_tree(chunk: str):
     try:
-        return parser._lark().parse(chunk)
+        return parse_tables._lark().parse(chunk)
     except Exception:           # lark's UnexpectedInput and its subclasses
         return None
 
 
 def _ours(chunk: str):
     try:
-        return parser._parser().parse(chunk)
+        return parse_tables._parser().parse(chunk)
     except lalr.NoParse:
         return None
 
@@ -111,7 +111,7 @@ def test_edited_statements_parse_or_fail_as_with_lark(data) -> None:
 
 def _fresh_tables(monkeypatch, cache: Path) -> None:
     monkeypatch.setenv("XDG_CACHE_HOME", str(cache))
-    parser._parser.cache_clear()
+    parse_tables._parser.cache_clear()
 
 
 def test_tables_are_kept_and_rebuilt_when_stale_or_damaged(tmp_path: Path, monkeypatch) -> None:
@@ -119,23 +119,23 @@ def test_tables_are_kept_and_rebuilt_when_stale_or_damaged(tmp_path: Path, monke
     try:
         assert parse_program("a causes b.").statements
         (kept,) = (tmp_path / "cplus").glob("tables-*.marshal")
-        parser._parser.cache_clear()
+        parse_tables._parser.cache_clear()
         kept.write_bytes(b"not marshal data")
         assert parse_program("a causes b.").statements      # damaged: rebuilt
         assert kept.read_bytes() != b"not marshal data"
-        parser._parser.cache_clear()
+        parse_tables._parser.cache_clear()
         import marshal
         fmt, _, tables = marshal.loads(kept.read_bytes())
         kept.write_bytes(marshal.dumps((fmt, "another grammar", {})))
         assert parse_program("a causes b.").statements      # another grammar's: rebuilt
-        grammar = Path(parser._GRAMMAR).read_text(encoding="utf-8")
+        grammar = Path(parse_tables._GRAMMAR).read_text(encoding="utf-8")
         assert marshal.loads(kept.read_bytes())[1] == grammar
-        parser._parser.cache_clear()
+        parse_tables._parser.cache_clear()
         kept.write_bytes(marshal.dumps((fmt, grammar, {"states": {}})))
         assert parse_program("a causes b.").statements      # this grammar's, damaged: rebuilt
         assert marshal.loads(kept.read_bytes())[2] == tables
     finally:
-        parser._parser.cache_clear()
+        parse_tables._parser.cache_clear()
 
 
 def test_an_unwritable_cache_still_parses(tmp_path: Path, monkeypatch) -> None:
@@ -147,7 +147,7 @@ def test_an_unwritable_cache_still_parses(tmp_path: Path, monkeypatch) -> None:
         with pytest.raises(CPlusSyntaxError, match="unexpected"):
             parse_program("a causes causes b.")
     finally:
-        parser._parser.cache_clear()
+        parse_tables._parser.cache_clear()
 
 
 def test_a_plan_does_not_import_lark(tmp_path: Path, corpus: Path) -> None:
@@ -168,14 +168,14 @@ def test_a_plan_does_not_import_lark(tmp_path: Path, corpus: Path) -> None:
 
 def test_no_home_directory_still_parses(monkeypatch) -> None:
     monkeypatch.delenv("XDG_CACHE_HOME", raising=False)
-    monkeypatch.setattr(parser.os.path, "expanduser", lambda path: path)   # "~" stays "~": no home
-    parser._parser.cache_clear()
-    parser._lark.cache_clear()
+    monkeypatch.setattr(parse_tables.os.path, "expanduser", lambda path: path)   # "~" stays "~": no home
+    parse_tables._parser.cache_clear()
+    parse_tables._lark.cache_clear()
     try:
-        assert parser._cache_dir() is None
+        assert parse_tables._cache_dir() is None
         assert len(parse_program("a causes b.").statements) == 1
         with pytest.raises(CPlusSyntaxError, match="unexpected"):
             parse_program("a causes causes b.")
     finally:
-        parser._parser.cache_clear()
-        parser._lark.cache_clear()
+        parse_tables._parser.cache_clear()
+        parse_tables._lark.cache_clear()

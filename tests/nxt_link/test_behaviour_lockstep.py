@@ -22,7 +22,7 @@ from nxt_link import (
     BrickPanicError,
     delivery_world,
 )
-from nxt_link.emulator import legolog_program
+from nxt_link.emulator import legolog_behaviours
 from nxt_link.emulator.emulator import BrickEmulator, EmulatorConfig, FaultParams, LinkParams
 from nxt_link.emulator.firmware import Firmware, FirmwareParams
 from nxt_link.emulator.memory_transport import MemoryTransport
@@ -120,7 +120,7 @@ def test_a_program_started_by_the_pc_is_identical(legolog):
 
 def test_a_model_that_drifts_from_the_program_is_caught(legolog, monkeypatch):
     # one more %/% of steering in the model than in the NXC program
-    monkeypatch.setattr(legolog_program, "KP_NUM", legolog_program.KP_NUM + 1)
+    monkeypatch.setattr(legolog_behaviours, "KP_NUM", legolog_behaviours.KP_NUM + 1)
     p = Pair(legolog, delivery_world(seed=24))
     p.client.connect()
     with pytest.raises(Disagreement, match="outputs"):

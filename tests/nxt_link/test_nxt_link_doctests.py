@@ -6,7 +6,7 @@ import importlib
 
 import pytest
 
-MODULES = ["nxt_link.wire.errors", "nxt_link.wire.telegram", "nxt_link.wire.framing", "nxt_link.wire.clock",
+MODULES = ["nxt_link.wire.errors", "nxt_link.wire.telegram", "nxt_link.wire.reply_checks", "nxt_link.wire.framing", "nxt_link.wire.clock",
            "nxt_link.programs.stream_protocol", "nxt_link.host.brick", "nxt_link.host.execlog"]
 
 

@@ -72,7 +72,7 @@ from typing import Any
 
 import nxt_link.emulator.world as w
 from cplus.errors import CPlusError, Location, Source
-from nxt_link.emulator import legolog_program
+from nxt_link.emulator import legolog_constants
 from trajectory.toml_locations import (
     MAX_INTEGER,
     MAX_NUMBER,
@@ -324,9 +324,9 @@ class _Reader(KeyPathReader):
 
         ports = self.build(base, w.Ports, sensor("touch", d.touch), sensor("light", d.light),
                            motor("left", d.left), motor("right", d.right), motor("tray", d.tray))
-        program = {"touch": legolog_program.PORT_TOUCH, "light": legolog_program.PORT_LIGHT,
-                   "left": legolog_program.PORT_LEFT, "right": legolog_program.PORT_RIGHT,
-                   "tray": legolog_program.PORT_TRAY}
+        program = {"touch": legolog_constants.PORT_TOUCH, "light": legolog_constants.PORT_LIGHT,
+                   "left": legolog_constants.PORT_LEFT, "right": legolog_constants.PORT_RIGHT,
+                   "tray": legolog_constants.PORT_TRAY}
         for key, want in program.items():
             if getattr(ports, key) != want:
                 shown = str(want + 1) if key in ("touch", "light") else "ABC"[want]

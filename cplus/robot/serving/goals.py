@@ -52,151 +52,27 @@ is answered, and another client's request is taken (acknowledged) at once and wa
 a bounded number of goals. Final goals are remembered for status queries up to
 :attr:`Limits.kept_final` (the log has every result), and the outbox keeps at most
 :attr:`Limits.outbox` notifications, beyond which feedback (not a status) is dropped.
+
+The board is in three modules: the goal's types (:mod:`cplus.robot.serving.goal_types`), the
+board's state and its notices to watchers (:mod:`cplus.robot.serving.goal_notices`, its base
+class) and, here, the requests, the events for the loop and what the board sees of the loop.
+Import the names from this module.
 """
 from __future__ import annotations
 
-import copy
-import logging
-import threading
 import time
-from collections import deque
 from collections.abc import Callable, Hashable
-from dataclasses import dataclass, field
-from enum import StrEnum
 
-from cplus.robot.online import CycleRecord, EventSource, Observer, RunResult, State
+from cplus.robot.online import CycleRecord, EventSource, Observer, RunResult
+from cplus.robot.serving.goal_notices import _GoalNotices
+from cplus.robot.serving.goal_types import FINAL, Feedback, Goal, GoalRecorder, GoalStatus, GoalWatcher, Limits
 from cplus.robot.serving.standing import GoalLiteral
-from cplus.robot.serving.vocabulary import MAX_REQUEST, Rejected, RequestVocabulary
-from cplus.signature import render_value
-
-_log = logging.getLogger(__name__)
-"""A watcher's failure is logged here: the library prints nothing (the command shows warnings)."""
+from cplus.robot.serving.vocabulary import MAX_REQUEST, Rejected
 
 __all__ = ["FINAL", "Feedback", "Goal", "GoalBoard", "GoalRecorder", "GoalStatus", "GoalWatcher", "Limits"]
 
 
-class GoalStatus(StrEnum):
-    """The states of an actionlib goal (``actionlib_msgs/GoalStatus``) that a goal here can be in."""
-
-    PENDING = "pending"          # received, not yet taken by the loop
-    ACTIVE = "active"            # its events are in the loop's history; the robot works on it
-    PREEMPTING = "preempting"    # cancelled while active; the robot undoes what it must
-    SUCCEEDED = "succeeded"
-    PREEMPTED = "preempted"
-    RECALLED = "recalled"        # cancelled while pending
-    ABORTED = "aborted"          # the run ended before the goal did
-    REJECTED = "rejected"        # the domain cannot express the request, or a limit was reached
-
-
-FINAL = frozenset({GoalStatus.SUCCEEDED, GoalStatus.PREEMPTED, GoalStatus.RECALLED, GoalStatus.ABORTED,
-                   GoalStatus.REJECTED})
-
-
-@dataclass(frozen=True)
-class Limits:
-    """What one server takes at most, so that no client can make it grow without bound.
-
-    Attributes:
-        open_goals: goals open at once (pending, active or preempting), every client together.
-        client_goals: goals open at once for one client (a socket connection, a ROS caller);
-            scripts and the Python API are bounded by ``open_goals`` only.
-        kept_final: final goals remembered for status queries (older ones are forgotten; the
-            log has their results).
-        outbox: notifications waiting for the dispatcher; beyond it feedback is dropped
-            (statuses never are).
-    """
-
-    open_goals: int = 256
-    client_goals: int = 32
-    kept_final: int = 1000
-    outbox: int = 100_000
-
-
-@dataclass(frozen=True)
-class Feedback:
-    """One cycle of the robot's work, told to every goal in progress: the actions executed at
-    ``cycle`` and the plan that remains after them (one list of actions per step)."""
-
-    cycle: int
-    executed: list[str]
-    plan: list[list[str]]
-
-    def to_json(self) -> dict:
-        return {"cycle": self.cycle, "executed": list(self.executed), "plan": [list(s) for s in self.plan]}
-
-
-class GoalWatcher:
-    """Told about one goal (or every goal, :meth:`GoalBoard.watch`), from the board's dispatcher
-    thread, in the order things happened, with a copy of the goal as it was then. Must not
-    block: a slow watcher delays every other's news. No-ops unless overridden."""
-
-    def status(self, goal: Goal, status: GoalStatus) -> None:
-        """The goal was created or changed to ``status`` (in order; a final status is its
-        result, and ``goal.reason`` says why when it was rejected or aborted)."""
-
-    def feedback(self, goal: Goal, feedback: Feedback) -> None:
-        """A cycle of work happened while the goal was in progress."""
-
-
-class GoalRecorder:
-    """Where every goal change is recorded when it happens (a server's log,
-    :class:`cplus.robot.serving.serve_log.ServeLog`), before anyone can be told of it."""
-
-    def goal_changed(self, goal: Goal) -> None:
-        """``goal`` changed (called under the board's lock, in the order of the changes: write
-        and flush, take no lock but the recorder's own, never call the board)."""
-
-    def sync(self) -> None:
-        """Make the changes recorded so far durable (called with no lock of the board held,
-        before a final status is told to anyone)."""
-
-
-@dataclass
-class Goal:
-    """One request and what became of it. ``slot`` is the domain object it occupies while in
-    flight; ``cycle`` the cycle its events took effect; ``reason`` why it was rejected or
-    aborted; ``reaction_s`` the time from its arrival to the first action sent after the loop
-    took it (the server's reaction latency); ``client`` whose share of open goals it counts in."""
-
-    id: int
-    request: str
-    status: GoalStatus
-    origin: str = ""
-    reason: str = ""
-    slot: object | None = None
-    events: list[str] = field(default_factory=list)
-    cycle: int | None = None
-    cancel_cycle: int | None = None
-    done_cycle: int | None = None
-    received: float = 0.0
-    reaction_s: float | None = None
-    watcher: GoalWatcher | None = field(default=None, repr=False)
-    cancel_requested: bool = False
-    client: Hashable | None = field(default=None, repr=False)
-    parsed: tuple | None = field(default=None, repr=False)
-
-    @property
-    def final(self) -> bool:
-        return self.status in FINAL
-
-    def to_json(self) -> dict:
-        """The goal in the log and on the socket: id, request, status, and what applies of
-        slot, cycle, done_cycle, reason, reaction_ms."""
-        out: dict[str, object] = {"id": self.id, "request": self.request, "status": self.status.value}
-        if self.slot is not None:
-            out["slot"] = self.slot if isinstance(self.slot, int) else render_value(self.slot)  # type: ignore[arg-type]
-        if self.cycle is not None:
-            out["cycle"] = self.cycle
-        if self.done_cycle is not None:
-            out["done_cycle"] = self.done_cycle
-        if self.reason:
-            out["reason"] = self.reason
-        if self.reaction_s is not None:
-            out["reaction_ms"] = round(self.reaction_s * 1000, 3)
-        return out
-
-
-class GoalBoard(EventSource, Observer):
+class GoalBoard(_GoalNotices, EventSource, Observer):
     """The goals of one server run: what clients asked for, as events for the loop.
 
     Args:
@@ -204,40 +80,6 @@ class GoalBoard(EventSource, Observer):
         clock: a function returning seconds (arrival times, reaction latencies).
         limits: how many goals may be open, per client and in all, and what is remembered.
     """
-
-    def __init__(self, vocabulary: RequestVocabulary, clock: Callable[[], float] = time.perf_counter,
-                 limits: Limits | None = None, first_id: int = 1) -> None:
-        self.vocabulary = vocabulary
-        self.clock = clock
-        self.limits = limits or Limits()
-        self._lock = threading.Lock()
-        self._arrived = threading.Condition(self._lock)    # the loop waits here while idle
-        self._news = threading.Condition(self._lock)       # the dispatcher waits here
-        self.goals: dict[int, Goal] = {}           # every goal open, and the last final ones
-        self.first_id = first_id                   # ids before it are an earlier run's (a log continued)
-        self._next_id = first_id
-        self.recorder: GoalRecorder | None = None  # the log: told of each change under the lock
-        self.on_preempt: Callable[[], object] | None = None   # an active goal was cancelled (--preempt stop)
-        self._queue: deque[Goal] = deque()         # pending, oldest first
-        self._cancels: list[Goal] = []             # active goals whose cancellation is not delivered
-        self._holder: dict[object, Goal] = {}      # slot -> goal in flight
-        self._next_slot = 0
-        self._open = 0                             # goals not final
-        self._by_client: dict[Hashable, int] = {}  # client -> its goals not final
-        self._finals: deque[int] = deque()         # final goals still remembered, oldest first
-        self._watchers: tuple[GoalWatcher, ...] = ()
-        self._scripts: list[Callable[[int], None]] = []
-        self._script_left: list[Callable[[], bool]] = []
-        self._live = 0
-        self._seen = -1                            # the last cycle whose state was looked at
-        self._predicted: State | None = None       # the state the current plan predicts next
-        self._closing = ""
-        self._woken = False
-        self._outbox: deque[tuple] = deque()       # (kind, goal copy, status or feedback, audience)
-        self._delivering = False
-        self._dispatcher: threading.Thread | None = None
-        self._stopped = False                      # the dispatcher was told to end
-        self.dropped_feedback = 0                  # feedback left out because the outbox was full
 
     # ------------------------------------------------------------------ clients
     def watch(self, watcher: GoalWatcher) -> None:
@@ -511,130 +353,3 @@ class GoalBoard(EventSource, Observer):
                     self._set(goal, GoalStatus.SUCCEEDED)
         self._started()
 
-    # ------------------------------------------------------------------ the log
-    def remembered(self, timeout: float = -1) -> list[dict]:
-        """Every goal still remembered (those open, and the last final ones), for the end record."""
-        if not self._lock.acquire(timeout=timeout):
-            return []
-        try:
-            return [g.to_json() for g in self.goals.values()]
-        finally:
-            self._lock.release()
-
-    def summary(self, timeout: float = -1) -> dict[str, int]:
-        """How many goals ended in each status (and are still open), of those remembered, and
-        how many were forgotten (``"forgotten"``)."""
-        if not self._lock.acquire(timeout=timeout):
-            return {}
-        try:
-            counts: dict[str, int] = {}
-            for g in self.goals.values():
-                counts[g.status.value] = counts.get(g.status.value, 0) + 1
-            forgotten = self._next_id - 1 - len(self.goals)
-            if forgotten:
-                counts["forgotten"] = forgotten
-            return counts
-        finally:
-            self._lock.release()
-
-    # ------------------------------------------------------------------ notifications
-    def _set(self, goal: Goal, status: GoalStatus, reason: str = "", tell_own: bool = True) -> None:
-        """Change a goal's status (under the lock) and queue the news for its watchers (not for
-        its own one when ``tell_own`` is False: the channel that made it acknowledges it)."""
-        goal.status = status
-        if reason:
-            goal.reason = reason
-        if self.recorder is not None:              # before anyone can hear of it
-            self.recorder.goal_changed(goal)
-        if status in FINAL:
-            if status is not GoalStatus.REJECTED:  # a rejected goal never counted
-                self._open -= 1
-                if goal.client is not None:
-                    left = self._by_client.get(goal.client, 1) - 1
-                    if left:
-                        self._by_client[goal.client] = left
-                    else:
-                        self._by_client.pop(goal.client, None)
-            self._finals.append(goal.id)
-            while len(self._finals) > self.limits.kept_final:
-                self.goals.pop(self._finals.popleft(), None)
-        self._post("status", goal, status, tell_own)
-
-    def _post(self, kind: str, goal: Goal, what: object, tell_own: bool = True) -> None:
-        """Queue a notification (under the lock), with a copy of the goal as it is now and its
-        audience; nothing is queued for a goal nobody watches."""
-        audience = (goal.watcher, *self._watchers) if goal.watcher is not None and tell_own else self._watchers
-        if not audience or self._stopped:
-            return
-        if kind == "feedback" and len(self._outbox) >= self.limits.outbox:
-            self.dropped_feedback += 1
-            return
-        self._outbox.append((kind, copy.copy(goal), what, audience))
-        self._news.notify()
-
-    def _started(self) -> None:
-        """Start the dispatcher when there is news and it is not running (called with no lock
-        held: starting a thread is not done under the board's lock)."""
-        if self._dispatcher is not None or not self._outbox or self._stopped:
-            return
-        with self._lock:
-            if self._dispatcher is not None or self._stopped:
-                return
-            thread = self._dispatcher = threading.Thread(target=self._dispatch, name="cplus-serve-goals",
-                                                         daemon=True)
-        try:
-            thread.start()
-        except RuntimeError:                      # no thread to be had now: the next change tries again
-            with self._lock:
-                self._dispatcher = None
-
-    def _dispatch(self) -> None:
-        """The dispatcher: deliver the outbox in order, outside the lock, until told to end."""
-        while True:
-            with self._lock:
-                self._delivering = False
-                self._news.notify_all()          # drain() waits for an empty outbox
-                while not self._outbox and not self._stopped:
-                    self._news.wait()
-                if not self._outbox:
-                    return
-                batch = list(self._outbox)
-                self._outbox.clear()
-                self._delivering = True
-                recorder = self.recorder
-            if recorder is not None and any(kind == "status" and what in FINAL for kind, _, what, _ in batch):
-                recorder.sync()                    # a result is told once it is durable
-            for kind, goal, what, audience in batch:
-                for w in audience:
-                    try:
-                        if kind == "status":
-                            w.status(goal, what)
-                        else:
-                            w.feedback(goal, what)
-                    except Exception:  # noqa: BLE001 - one watcher's bug must not silence the others
-                        _log.exception("a goal watcher (%s) failed; the others go on", type(w).__name__)
-
-    def drain(self, timeout: float) -> bool:
-        """Wait until every notification queued so far has been delivered (at most ``timeout``
-        seconds); False when some are still waiting."""
-        self._started()
-        deadline = time.monotonic() + timeout
-        with self._lock:
-            while self._outbox or self._delivering:
-                left = deadline - time.monotonic()
-                if left <= 0 or self._dispatcher is None:
-                    return False
-                self._news.wait(left)
-        return True
-
-    def close(self, timeout: float = 1.0) -> None:
-        """Deliver what is queued (at most ``timeout`` seconds), then end the dispatcher; later
-        changes are not told to anyone."""
-        self.drain(timeout)
-        with self._lock:
-            self._stopped = True
-            self._outbox.clear()
-            self._news.notify_all()
-            thread = self._dispatcher
-        if thread is not None and thread is not threading.current_thread():
-            thread.join(timeout)
