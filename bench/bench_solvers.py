@@ -28,7 +28,7 @@ counts as the timeout (``>`` before the figure) and the solver's other runs on t
 are skipped (they would count the same).
 
 ``cplus`` is this checkout's: ``python -m cplus`` with the checkout first on ``PYTHONPATH``;
-``--cplus`` names another command.
+``--cplus`` names another command (its solver names are then passed as given).
 """
 from __future__ import annotations
 
@@ -141,8 +141,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--keep", type=Path, default=None, help="write the drawn instances into this folder and keep them")
     args = ap.parse_args(argv)
 
-    have = offered()
     asked = [s for s in args.solvers.split(",") if s]
+    have = offered() if args.cplus is None else set(asked)     # another command may know other names
     solvers = [s for s in asked if s in have]
     if BASE not in solvers:
         solvers.insert(0, BASE)
@@ -157,7 +157,8 @@ def main(argv: list[str] | None = None) -> int:
     cplus = args.cplus.split() if args.cplus else [sys.executable, "-m", "cplus"]
     env = env_for(args.cplus is not None)
 
-    print(f"seed {seed} (--seed {seed} draws these again); {len(cases)} instances; solvers {', '.join(solvers)}"
+    drew = f"seed {seed} (--seed {seed} draws these again); " if args.count > 0 else ""
+    print(f"{drew}{len(cases)} instances; solvers {', '.join(solvers)}"
           + (f" (not in this pysat: {', '.join(missing)})" if missing else ""))
     print(f"{args.runs} runs each, solvers alternating; medians of processor time; timeout {args.timeout:g} s; "
           f"{os.cpu_count()} cores, load average {' '.join(f'{x:.1f}' for x in os.getloadavg())}\n")
