@@ -162,7 +162,8 @@ def main(argv: list[str] | None = None) -> int:
           + (f" (not in this pysat: {', '.join(missing)})" if missing else ""))
     print(f"{args.runs} runs each, solvers alternating; medians of processor time; timeout {args.timeout:g} s; "
           f"{os.cpu_count()} cores, load average {' '.join(f'{x:.1f}' for x in os.getloadavg())}\n")
-    head = f"{'instance':<24} {'len':>4} | " + " ".join(f"{s[:10]:>10}" for s in solvers)
+    width = {s: max(10, len(s)) for s in solvers}
+    head = f"{'instance':<24} {'len':>4} | " + " ".join(f"{s:>{width[s]}}" for s in solvers)
     print(head)
     print("-" * len(head))
     ratios: dict[str, dict[str, float]] = {s: {} for s in solvers}
@@ -190,7 +191,8 @@ def main(argv: list[str] | None = None) -> int:
             cells = []
             for s in solvers:
                 r = got[s]
-                cells.append(f"{'>' if r.timed_out else '':>1}{r.cpu():>9.2f}" if r.cpus else f"{'fail':>10}")
+                w = width[s]
+                cells.append(f"{'>' if r.timed_out else '':>1}{r.cpu():>{w - 1}.2f}" if r.cpus else f"{'fail':>{w}}")
                 if r.cpus and not math.isnan(base):
                     ratios[s][case.name] = r.cpu() / base
                     walls[s] += r.wall()
