@@ -171,9 +171,12 @@ def _choice(*choices: str) -> Callable[[object], str]:
 
 def check_solver(value: object) -> str:
     """A SAT solver's name, one pysat knows (checked before anything is loaded or printed)."""
-    from cplus.sat.solver import is_solver, solver_names
+    from cplus.sat.solver import _NOT_INCREMENTAL, is_solver, solver_names
     if not isinstance(value, str) or not is_solver(value):
         names = solver_names()
+        if value in _NOT_INCREMENTAL:
+            raise OptionError(f"SAT solver {_shown(value)} cannot solve under assumptions, which planning needs "
+                              f"(solvers: {', '.join(names)})")
         if isinstance(value, str) and value.strip() == "":
             raise OptionError(f"an empty solver name (solvers: {', '.join(names)})")
         hint = _close(value, names)

@@ -43,10 +43,15 @@ def is_solver(name: str) -> bool:
     return name in _NATIVE or name in solver_names()
 
 
+_NOT_INCREMENTAL = frozenset({"kissat404", "kissat4", "kissat", "ks4", "ks"})
+"""Backends pysat offers that ignore assumptions (with a warning): the horizon's activation
+literals would be dropped and the first horizon's wrong "plan" printed, so they are not offered."""
+
+
 def solver_names() -> tuple[str, ...]:
-    """Every solver name pysat accepts (imports ``pysat.solvers``)."""
+    """Every solver name pysat accepts that can solve under assumptions (imports ``pysat.solvers``)."""
     from pysat.solvers import SolverNames
-    return tuple(sorted(n for n in vars(SolverNames) if not n.startswith("_")))
+    return tuple(sorted(n for n in vars(SolverNames) if not n.startswith("_") and n not in _NOT_INCREMENTAL))
 
 
 def __getattr__(name: str):  # SOLVERS stays importable without paying for it at start-up
@@ -183,6 +188,10 @@ class SatSolver:
         self._model: list[int] | None = None
         self.count = 0
         self._b: _Native | _Generic | None
+        if name in _NOT_INCREMENTAL:
+            self._b = None
+            raise CPlusError(f"SAT solver '{name}' cannot solve under assumptions, which planning needs "
+                             f"(choose one of: {', '.join(solver_names())})")
         try:
             prefix = _NATIVE.get(name)
             self._b = _Native(prefix) if prefix else _Generic(name)

@@ -102,6 +102,7 @@ def test_states_query(tmp_path, capsys):
     (["plan", "LAMP", "--query", "missing"], "no query with label 'missing'"),
     (["plan", "LAMP", "-n", "-1"], "non-negative"),
     (["plan", "LAMP", "--solver", "nope"], "unknown SAT solver"),
+    (["plan", "LAMP", "--solver", "kissat404"], "cannot solve under assumptions"),   # it printed a wrong plan
     (["ground", "LAMP", "--maxstep", "x", "--dimacs", "-"], "non-negative"),
 ])
 def test_bad_command_lines(argv, fragment, lamp, capsys):
