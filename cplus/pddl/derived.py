@@ -86,7 +86,7 @@ def strata(rules: Iterable[Rule]) -> list[Stratum]:
     rules = list(rules)
     names = list(dict.fromkeys(r.fluent.name for r in rules))
     edges: dict[str, dict[str, set[bool]]] = {n: {} for n in names}
-    where = {}
+    where: dict[str, Location] = {}
     for r in rules:
         where.setdefault(r.fluent.name, r.loc)
         for occ, pos in occurrences(r.body):
@@ -243,7 +243,8 @@ def check_plan(problem: Any, steps: list[list[Any]]) -> str | None:
         for pre in action.preconditions:
             if not ev.holds(pre, state, env):
                 return f"the precondition of action {i + 1}, {ai}, does not hold"
-        adds, dels = set(), set()
+        adds: set = set()
+        dels: set = set()
         for e in action.effects:
             if not e.fluent.fluent().type.is_bool_type():
                 continue                      # total-cost

@@ -203,8 +203,8 @@ class _DerivedText:
         self.copies = copies
         self.insert_at = self.inserted = 0
         if copies:
-            m = re.match(r"\s*\(", code)
-            self.insert_at = _matching(code, m.end() - 1) if m else len(code)
+            opening = re.match(r"\s*\(", code)
+            self.insert_at = _matching(code, opening.end() - 1) if opening else len(code)
             inserted = "\n" + "".join(piece for piece, _, _ in copies)
             self.inserted = len(inserted)
             text[self.insert_at:self.insert_at] = list(inserted)
