@@ -24,7 +24,7 @@ from cplus.ground.pf import PF, mk_and, mk_or, neg
 from cplus.limits import MAX_INT, count
 from cplus.signature import GroundConst, Signature, StepSort, order_key, render_value
 
-__all__ = ["Cases", "UNDEF", "Ctx", "compile_term", "compile_formula", "evaluate_all", "domain_of", "bind",
+__all__ = ["Cases", "UNDEF", "Ctx", "compile_term", "compile_formula", "evaluate_all", "evaluate_parts", "domain_of", "bind",
            "combine"]
 
 
@@ -376,6 +376,22 @@ def evaluate_all(fns: list[Callable], conjunction: bool) -> Callable:
     return nary
 
 
+def evaluate_parts(parts: list[tuple[Callable, object]]) -> Callable:
+    """``fn(env, _)``: the conjunction of a law's compiled parts, each read at its own slot
+    (``(fn, slot)`` pairs), stopping at the first False: :func:`evaluate_all` without a call
+    per part to pass its slot, since a law's parts run once per binding."""
+    def conj(env, _time=None):
+        out = []
+        for g, slot in parts:
+            r = g(env, slot)
+            if r is False:
+                return False
+            if r is not True:
+                out.append(r)
+        return mk_and(out) if out else True
+    return conj
+
+
 def _compile_atom(f: ir.Atom, ctx: Ctx) -> Callable:
     lit_of = ctx.atoms.lit
     mklit = ctx.mklit
@@ -406,6 +422,16 @@ def _compile_atom(f: ir.Atom, ctx: Ctx) -> Callable:
 
     if not fns:
         gc0 = instances.get(())
+        if isinstance(f.value, (ir.Var, ir.Lit)):     # pos = P: no call for the value
+            value_name = f.value.name if isinstance(f.value, ir.Var) else None
+            value_lit = f.value.value if isinstance(f.value, ir.Lit) else None
+
+            def atom0_fixed(env, time):
+                if gc0 is None:
+                    return False
+                aid = lit_of(gc0, env[value_name] if value_name is not None else value_lit)
+                return mklit(aid, time) if aid else False
+            return atom0_fixed
 
         def atom0(env, time):
             v = vf(env, time)

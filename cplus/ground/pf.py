@@ -51,6 +51,13 @@ def mk_and(items: Iterable[PF]) -> PF:
         a, b = items
         if type(a) is int and type(b) is int:
             return a if a == b else False if a == -b else ("&", items)
+    elif type(items) is list and len(items) > 1 and tuple not in map(type, items) and bool not in map(type, items):
+        seen = set(items)                            # a rule body of literals, as a law's parts give it
+        if len(seen) == len(items):
+            for x in items:
+                if -x in seen:
+                    return False
+            return ("&", tuple(items))
     return _nary("&", True, items)
 
 

@@ -33,7 +33,7 @@ from cplus.ground.compile import (
     compile_formula,
     compile_term,
     domain_of,
-    evaluate_all,
+    evaluate_parts,
     too_many_tries,
 )
 from cplus.ground.cost import bind_levels, probed_tries, sampled_instances, tries_bound
@@ -205,13 +205,13 @@ class _Grounder:
     # ------------------------------------------------------------------ helpers
     def _split(self, formula: ir.Formula | None, slot: int, filters: list, parts: list) -> None:
         """Constant-free conjuncts become binding filters; the rest is compiled to be read at
-        ``slot`` (each part is then ``fn(env, any)``)."""
+        ``slot`` (each part is then ``(fn, slot)``, for :func:`evaluate_parts`)."""
         for c in ir.conjuncts(formula):
             fn = compile_formula(c, self.ctx)
             if not ir.constants_in(c) and not ir.mentions(c, (ir.MaxStepT, ir.StampF, ir.StampT)):
                 filters.append((attach(fn, c, self.ctx), set(ir.free_vars(c))))
             else:
-                parts.append(lambda env, _t, fn=fn, slot=slot: fn(env, slot))
+                parts.append((fn, slot))
 
     def _variables(self, *nodes) -> dict[str, ir.Var]:
         out: dict[str, ir.Var] = {}
@@ -316,7 +316,7 @@ class _Grounder:
         heads = [self._head_fn(h) for h in ir.conjuncts(law.head)] if law.head is not None else None
         if heads == []:   # head `true`
             return None
-        body_of = evaluate_all(parts, True)
+        body_of = evaluate_parts(parts)
 
         def leaf(env: dict) -> None:
             body = body_of(env, 0)
@@ -417,7 +417,7 @@ class _Grounder:
         gc_fn = compile_term(law.frame_cst, self.ctx, names=True)  # type: ignore[arg-type]
         ctx_values = self.ctx.values
         mklit = self.mklit
-        body_of = evaluate_all(parts, True)
+        body_of = evaluate_parts(parts)
         frame = law.frame
 
         def leaf(env: dict) -> None:
@@ -527,7 +527,7 @@ class _Grounder:
         target_fn = compile_term(inc.target, self.ctx, names=True)
         amount_fn = compile_term(inc.amount, self.ctx)
         sign = -1 if inc.decrement else 1
-        body_of = evaluate_all(parts, True)
+        body_of = evaluate_parts(parts)
 
         def leaf(env: dict) -> None:
             target = target_fn(env, 0)

@@ -22,7 +22,7 @@ import sys
 from itertools import product, repeat
 
 from cplus import ir
-from cplus.ground.compile import binding_levels
+from cplus.ground.compile import binding_levels, domain_of
 from cplus.signature import KindSort, StepSort, order_key
 
 __all__ = ["ground_vectorized", "MIN_CELLS", "MAX_CELLS"]
@@ -88,6 +88,17 @@ class _Law:
                     raise _Unsupported
         for v in variables.values():
             if isinstance(v.sort, (KindSort, StepSort)):
+                raise _Unsupported
+        if "numpy" not in sys.modules or joins:      # too few cells, known before any axis is built
+            bound = 1
+            joined: set[str] = set()
+            for _, pattern, rows in joins:
+                bound *= len(rows)
+                joined.update(x for is_var, x in pattern if is_var)
+            for n, v in variables.items():
+                if n not in joined:
+                    bound *= len(domain_of(self.sig, v, {}))
+            if bound < MIN_CELLS or (bound < COLD_CELLS and "numpy" not in sys.modules):
                 raise _Unsupported
         # axes: (variable names, rows of their values); a plain variable has one per value
         self.axes: list[tuple[list[str], list[tuple]]] = []

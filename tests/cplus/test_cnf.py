@@ -341,3 +341,15 @@ def test_mk_helpers_used_by_the_builder_agree_with_truth_tables():
         cb.add(f)
         for bits, exts in extensions(cb.clauses, ATOMS, top[0]).items():
             assert len(exts) == (1 if holds(f, dict(enumerate(bits, start=1))) else 0)
+
+
+@settings(max_examples=300, deadline=None)
+@given(st.lists(st.one_of(literals, st.booleans(), st.tuples(st.just("|"), st.tuples(literals, literals))), max_size=5),
+       st.booleans())
+def test_the_builders_fast_paths_build_what_the_general_one_builds(items, as_tuple):
+    """mk_and and mk_or of two literals, and mk_and of a list of literals (a rule body), are
+    what the general flattening gives: the same formula, items in the same order."""
+    from cplus.ground.pf import _nary
+    given_items = tuple(items) if as_tuple else list(items)
+    assert mk_and(given_items) == _nary("&", True, list(items))
+    assert mk_or(given_items) == _nary("|", False, list(items))
