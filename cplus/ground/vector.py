@@ -90,15 +90,15 @@ class _Law:
             if isinstance(v.sort, (KindSort, StepSort)):
                 raise _Unsupported
         if "numpy" not in sys.modules or joins:      # too few cells, known before any axis is built
-            bound = 1
+            most = 1
             joined: set[str] = set()
             for _, pattern, rows in joins:
-                bound *= len(rows)
+                most *= len(rows)
                 joined.update(x for is_var, x in pattern if is_var)
             for n, v in variables.items():
                 if n not in joined:
-                    bound *= len(domain_of(self.sig, v, {}))
-            if bound < MIN_CELLS or (bound < COLD_CELLS and "numpy" not in sys.modules):
+                    most *= len(domain_of(self.sig, v, {}))
+            if most < MIN_CELLS or (most < COLD_CELLS and "numpy" not in sys.modules):
                 raise _Unsupported
         # axes: (variable names, rows of their values); a plain variable has one per value
         self.axes: list[tuple[list[str], list[tuple]]] = []

@@ -86,7 +86,7 @@ def strata(rules: Iterable[Rule]) -> list[Stratum]:
     rules = list(rules)
     names = list(dict.fromkeys(r.fluent.name for r in rules))
     edges: dict[str, dict[str, set[bool]]] = {n: {} for n in names}
-    where: dict[str, Location] = {}
+    where: dict[str, Location | None] = {}
     for r in rules:
         where.setdefault(r.fluent.name, r.loc)
         for occ, pos in occurrences(r.body):
