@@ -116,12 +116,13 @@ def find_plasp(given: str | None) -> tuple[dict | None, str]:
             "clingo": clingo}, ""
 
 
-OCCURS = re.compile(r'occurs\(action\(\((.*)\)\),(\d+)\)$')
+OCCURS = re.compile(r'occurs\(action\((.*)\),(\d+)\)$')
 
 
 def plasp_steps(atoms: list[str]) -> list[list[tuple[str, ...]]]:
-    """The steps of clingo's ``occurs(action(("name",constant("a"),...)),T)`` atoms: for each step
-    1, 2, ... its actions as (name, argument, ...) tuples in name order."""
+    """The steps of clingo's ``occurs(action(("name",constant("a"),...)),T)`` atoms (an action
+    without parameters is ``action("name")``): for each step 1, 2, ... its actions as (name,
+    argument, ...) tuples in name order."""
     by_step: dict[int, list[tuple[str, ...]]] = {}
     for atom in atoms:
         match = OCCURS.match(atom)
@@ -152,23 +153,33 @@ def run_plasp(planner: str, domain: str, problem: str) -> dict:
         return {"status": {"UNSATISFIABLE": "no_plan"}.get(doc.get("Result"), str(doc.get("Result")).lower())}
     atoms = doc["Call"][-1]["Witnesses"][-1]["Value"]
     steps = plasp_steps(atoms)
-    import unified_planning.shortcuts as up
     from unified_planning.engines import SequentialPlanValidator, ValidationResultStatus
     from unified_planning.io import PDDLReader
-    from unified_planning.plans import ActionInstance, SequentialPlan
     task = PDDLReader().parse_problem(domain, problem)
+    try:
+        plan = plasp_plan(task, steps)
+    except KeyError as e:
+        return {"status": "error", "reason": e.args[0]}
+    with SequentialPlanValidator() as validator:
+        if validator.validate(task, plan).status is not ValidationResultStatus.VALID:
+            return {"status": "invalid plan"}
+    return {"status": "solved", "actions": len(plan.actions), "steps": len(steps)}
+
+
+def plasp_plan(task, steps: list[list[tuple[str, ...]]]):
+    """The steps linearized as a unified-planning ``SequentialPlan`` of ``task`` (plasp writes
+    names in lower case; a name the problem does not have is a KeyError)."""
+    import unified_planning.shortcuts as up
+    from unified_planning.plans import ActionInstance, SequentialPlan
     actions = {a.name.lower(): a for a in task.actions}
     objects = {o.name.lower(): o for o in task.all_objects}
     plan = []
     for step in steps:
         for name, *args in step:
             if name.lower() not in actions or any(a.lower() not in objects for a in args):
-                return {"status": "error", "reason": f"plasp's action ({name} {' '.join(args)}) is not the problem's"}
+                raise KeyError(f"plasp's action ({' '.join([name, *args])}) is not the problem's")
             plan.append(ActionInstance(actions[name.lower()], tuple(up.ObjectExp(objects[a.lower()]) for a in args)))
-    with SequentialPlanValidator() as validator:
-        if validator.validate(task, SequentialPlan(plan)).status is not ValidationResultStatus.VALID:
-            return {"status": "invalid plan"}
-    return {"status": "solved", "actions": len(plan), "steps": len(steps)}
+    return SequentialPlan(plan)
 
 
 def worker(planner: str, domain: str, problem: str) -> dict:
