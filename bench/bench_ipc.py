@@ -153,8 +153,10 @@ def run_plasp(planner: str, domain: str, problem: str) -> dict:
         return {"status": {"UNSATISFIABLE": "no_plan"}.get(doc.get("Result"), str(doc.get("Result")).lower())}
     atoms = doc["Call"][-1]["Witnesses"][-1]["Value"]
     steps = plasp_steps(atoms)
+    import unified_planning.shortcuts as up
     from unified_planning.engines import SequentialPlanValidator, ValidationResultStatus
     from unified_planning.io import PDDLReader
+    up.get_environment().error_used_name = False
     task = PDDLReader().parse_problem(domain, problem)
     try:
         plan = plasp_plan(task, steps)
@@ -202,6 +204,7 @@ def worker(planner: str, domain: str, problem: str) -> dict:
     from unified_planning.engines import SequentialPlanValidator, ValidationResultStatus
     from unified_planning.io import PDDLReader
     up.get_environment().credits_stream = None
+    up.get_environment().error_used_name = False    # as cplus reads: freecell has a type and a predicate `suit`
     task = PDDLReader().parse_problem(domain, problem)
     name = {"fd": "fast-downward", "fd-opt": "fast-downward-opt"}[planner]
     with up.OneshotPlanner(name=name) as engine:
