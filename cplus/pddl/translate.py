@@ -11,7 +11,8 @@
 * the concurrency: ``noconcurrency`` (``sequential``), else the forall-step semantics: two
   distinct actions may share a step unless one changes an atom the other's precondition or
   effect conditions mention (``nonexecutable A & B`` with the arguments unified, one law per
-  pair of schemas and atom, so that it grounds to the interfering pairs only). Any order of a
+  pair of schemas and atom, so that it grounds to the interfering pairs only; where both
+  actions require static atoms, one law per binding that makes them true). Any order of a
   step's actions is then a valid sequential plan.
 
 The result keeps the names both ways: C+ names must be identifiers, PDDL names need not be.
@@ -33,6 +34,7 @@ __all__ = ["Translation", "translate", "check_kind", "SUPPORTED_FEATURES", "QUER
 
 QUERY_LABEL = "pddl"
 MAX_ATOMS = 2_000_000
+STATIC_BINDINGS = 256   # an interference law written once per binding of its static atoms, up to this many
 """The most ground atoms (or instances of an action with a cost of its own) translated; a
 larger problem is refused in one line before anything is enumerated."""
 COST_FLUENT = "total_cost"
@@ -165,6 +167,7 @@ class _Translator:
         self.layers: list[tuple[str, str, Any]] = []     # layer fluent, its level sort, the derived fluent
         self._layer: dict[str, tuple[str, str]] | None = None   # while writing a layer law: name -> (layer, level)
         self._dep_memo: dict[str, tuple[set[str], bool]] = {}
+        self._static: dict[str, set[tuple[str, ...]]] | None = None
 
     # --- sorts and variables -------------------------------------------------------------
     def ancestors(self, t: Any) -> list[str]:
@@ -341,12 +344,76 @@ class _Translator:
                     for atom, bound in self.condition_atoms(b):
                         if atom.fluent() != e.fluent.fluent():
                             continue
-                        law = self.interference(a, e, b, atom, bound)
-                        if law:
+                        for law in self.interference(a, e, b, atom, bound):
                             laws.setdefault(law)
         return list(laws)
 
-    def interference(self, a: Any, e: Any, b: Any, atom: Any, bound: set[str]) -> str | None:
+    def static_facts(self) -> dict[str, set[tuple[str, ...]]]:
+        """The true tuples (as C+ objects) of each static predicate: one no effect and no
+        derived rule changes, whose initial value therefore holds at every step."""
+        if self._static is None:
+            changed = {e.fluent.fluent().name for a in self.p.actions for e in a.effects}
+            self._static = {f.name: set() for f in self.p.fluents
+                            if f.name in self.pred and f.name not in changed and f.name not in self.derived}
+            for fe, v in self.p.explicit_initial_values.items():
+                if fe.is_fluent_exp() and fe.fluent().name in self._static and v.is_true():
+                    self._static[fe.fluent().name].add(tuple(self.obj[x.object().name] for x in fe.args))
+        return self._static
+
+    def static_conditions(self, a: Any, env: dict[str, str]) -> list[tuple[str, list[str]]]:
+        """The static atoms an action's precondition requires (top-level conjuncts), their
+        arguments as the law's variables and objects."""
+        facts = self.static_facts()
+        out = []
+        todo = list(a.preconditions)
+        while todo:
+            n = todo.pop()
+            if n.is_and():
+                todo.extend(n.args)
+            elif (n.is_fluent_exp() and n.fluent().name in facts
+                  and all(x.is_parameter_exp() or x.is_object_exp() for x in n.args)):
+                out.append((n.fluent().name, [self.term(x, env) for x in n.args]))
+        return out
+
+    def static_bindings(self, conditions: list[tuple[str, list[str]]], sorts: dict[str, set[str]]
+                        ) -> list[dict[str, str]] | None:
+        """Every binding of the law's variables in ``conditions`` that makes all of them true
+        (a variable only to objects of its sort, ``sorts``), or None when there are more than
+        :data:`STATIC_BINDINGS`."""
+        facts = self.static_facts()
+        objects = set(self.obj.values())
+        out: list[dict[str, str]] = []
+
+        def rec(i: int, binding: dict[str, str]) -> None:
+            if len(out) > STATIC_BINDINGS:
+                return
+            if i == len(conditions):
+                out.append(dict(binding))
+                return
+            name, args = conditions[i]
+            for row in facts[name]:
+                new: dict[str, str] = {}
+                for x, v in zip(args, row):
+                    if x in objects:
+                        ok = x == v
+                    else:
+                        have = binding.get(x, new.get(x))
+                        ok = v == have if have is not None else v in sorts.get(x, objects)
+                        new[x] = v
+                    if not ok:
+                        break
+                else:
+                    rec(i + 1, {**binding, **new})
+        rec(0, {})
+        return None if len(out) > STATIC_BINDINGS else out
+
+    def interference(self, a: Any, e: Any, b: Any, atom: Any, bound: set[str]) -> list[str]:
+        """The laws that keep ``a`` (whose effect ``e`` touches ``atom``) and ``b`` (which
+        reads it) out of one step, over the pairs of instances that may share the atom. Where
+        the two actions require static atoms (``next(L2, L1)`` of a fuel level), one law per
+        binding of those atoms' variables that makes them true, with objects for variables:
+        the other instances are never executable, and a law over all of them grounds, for a
+        pair of zenotravel's flights, every fuel level five times over."""
         parent: dict[Any, Any] = {}
 
         def find(x: Any) -> Any:
@@ -369,7 +436,7 @@ class _Translator:
             if rx == ry:
                 continue
             if rx[0] == "obj" and ry[0] == "obj":
-                return None                        # two different objects: never the same atom
+                return []                          # two different objects: never the same atom
             if ry[0] == "obj":
                 rx, ry = ry, rx
             parent[ry] = rx
@@ -384,15 +451,35 @@ class _Translator:
             chain = [types[m] for m in members]
             if root[0] == "obj":
                 if not all(t.name in self.ancestors(objtype[root[1]]) for t in chain):
-                    return None
+                    return []
                 rep[root] = self.obj[root[1]]
                 continue
             low = max(chain, key=lambda t: len(self.ancestors(t)))
             if not all(t.name in self.ancestors(low) for t in chain):
-                return None                        # disjoint types: no object is both
+                return []                          # disjoint types: no object is both
             rep[root] = self.var(low, used)
         env_a = {q.name: rep[find(("A", q.name))] for q in a.parameters}
         env_b = {q.name: rep[find(("B", q.name))] for q in b.parameters}
+        conditions = self.static_conditions(a, env_a) + self.static_conditions(b, env_b)
+        if conditions:
+            sorts: dict[str, set[str]] = {}
+            for root, x in rep.items():
+                if root[0] != "obj":
+                    low = max((types[m] for m in classes[root]), key=lambda t: len(self.ancestors(t)))
+                    sorts[x] = {self.obj[o.name] for o in self.objects_of(low)}
+            bindings = self.static_bindings(conditions, sorts)
+            cells = 1
+            for x in {x for _, args in conditions for x in args if x in sorts}:
+                cells *= len(sorts[x])
+            if bindings is not None and len(bindings) * 4 <= cells:
+                laws = [self.pair_law(a, b, {q: bind.get(x, x) for q, x in env_a.items()},
+                                      {q: bind.get(x, x) for q, x in env_b.items()}) for bind in bindings]
+                return [law for law in laws if law]
+        law = self.pair_law(a, b, env_a, env_b)
+        return [law] if law else []
+
+    def pair_law(self, a: Any, b: Any, env_a: dict[str, str], env_b: dict[str, str]) -> str | None:
+        """``nonexecutable A & B`` for instances of a and b given by their arguments."""
         ha, hb = self.head(a, env_a), self.head(b, env_b)
         where = ""
         if a is b:
