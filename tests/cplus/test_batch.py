@@ -452,9 +452,12 @@ def test_sigterm_ends_a_batch_like_ctrl_c_and_every_process_it_started(tmp_path)
                 break
             time.sleep(0.1)
         proc.send_signal(signal.SIGTERM)
-        _, err = proc.communicate(timeout=60)
+        err = ""
+        _, err = proc.communicate(timeout=wall(60))
     except subprocess.TimeoutExpired:
-        pass
+        alive = sorted(p for p in started | _descendants(proc.pid) if _alive(p))
+        err = (f"no exit within {wall(60):.0f} s of SIGTERM ({len(started)} processes seen started); "
+               f"still alive: {alive}; stderr before the signal:\n{seen}")
     finally:
         if proc.poll() is None:
             os.killpg(proc.pid, signal.SIGKILL)
