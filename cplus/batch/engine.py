@@ -140,6 +140,7 @@ def run_local(jobs: list[Job], fn: Callable, workers: int, retries: int, sink: S
                 progress.tick()
         except KeyboardInterrupt:
             _kill_pool(pool)
+            _stop_helpers(forkserver_only=True)
             pool.shutdown(wait=True, cancel_futures=True)
             _stop_helpers()
             raise
@@ -175,12 +176,16 @@ def _quiet_worker(initializer: Callable | None) -> None:
         initializer()
 
 
-def _stop_helpers() -> None:
+def _stop_helpers(forkserver_only: bool = False) -> None:
     """End the processes :mod:`multiprocessing` started for the pool besides its workers: the
     fork server and the resource tracker (they would otherwise outlive an interrupted batch
-    until they notice, or not at all)."""
+    until they notice, or not at all).  ``forkserver_only``: the fork server alone, before the
+    pool's shutdown, which joins the thread feeding the workers' call queue (a batch outlived
+    SIGTERM by a minute in the suite; a fork server still holding that pipe is the suspect, not
+    proven); the resource tracker must outlive the shutdown, which releases what it tracks."""
     from multiprocessing import forkserver, resource_tracker
-    helpers: list = [forkserver._forkserver, resource_tracker._resource_tracker]
+    helpers: list = [forkserver._forkserver] if forkserver_only else [forkserver._forkserver,
+                                                                      resource_tracker._resource_tracker]
     for helper in helpers:
         try:
             helper._stop()
