@@ -46,22 +46,30 @@ def encode_table(domains: list[tuple], value_lits: list[dict], head_lits: list[i
     whose laws are alike (a physics law per axis, a speed rule per car, the same static law
     at the first step and in the transition) share one diagram with their own literals.
     """
+    def build(shape: tuple, cells: int):
+        index = [{w: i for i, w in enumerate(d)} for d in domains]
+        if cells > _SMALL and ("numpy" in sys.modules or cells > _COLD):
+            return _build_large(shape, index, strong, weak)
+        return _build_small(shape, index, [(h, dict(c)) for h, c in strong], [(h, dict(c)) for h, c in weak])
+    return _encode(domains, value_lits, head_lits, lambda: (tuple(domains), len(head_lits), tuple(strong), tuple(weak)),
+                   build, add_clause, new_var, at_most_one, cache)
+
+
+def _encode(domains: list[tuple], value_lits: list[dict], head_lits: list[int], key_of: Callable[[], tuple],
+            build: Callable[[tuple, int], tuple | None], add_clause, new_var, at_most_one, cache: dict | None) -> bool:
+    """What :func:`encode_table` and :func:`encode_full_rows` share: the size limit, the cache
+    of diagrams by the table's content (``key_of()``), ``build(shape, cells)`` on a miss (None:
+    not a table), and the clauses."""
     shape = tuple(len(d) for d in domains)
     cells = 1
     for n in shape:
         cells *= n
     if cells > TABLE_LIMIT or not shape:
         return False
-    key = None
-    if cache is not None:
-        key = (tuple(domains), len(head_lits), tuple(strong), tuple(weak))
+    key = key_of() if cache is not None else None
     built: tuple | None | bool = cache.get(key, False) if cache is not None else False
     if built is False:
-        index = [{w: i for i, w in enumerate(d)} for d in domains]
-        if cells > _SMALL and ("numpy" in sys.modules or cells > _COLD):
-            built = _build_large(shape, index, strong, weak)
-        else:
-            built = _build_small(shape, index, [(h, dict(c)) for h, c in strong], [(h, dict(c)) for h, c in weak])
+        built = build(shape, cells)
         if cache is not None:
             cache[key] = built
     if built is None:
@@ -80,28 +88,14 @@ def encode_full_rows(domains: list[tuple], value_lits: list[dict], head_lits: li
     head index.  The array grounder's rules arrive in this shape by the tens of thousands (a
     physics law), and a Python step per cube was most of their template time; the table, and
     so the clauses, are the ones :func:`encode_table` writes for the same cubes."""
-    import numpy as np
-    shape = tuple(len(d) for d in domains)
-    total = 1
-    for n in shape:
-        total *= n
-    if total > TABLE_LIMIT or not shape:
-        return False
-    key = None
-    built = False
-    if cache is not None:
-        key = ("full", tuple(domains), len(head_lits), cells.tobytes(), hs.tobytes())
-        built = cache.get(key, False)
-    if built is False:
+    def build(shape: tuple, _cells: int):
+        import numpy as np
         table = np.full(shape, NONE, dtype=np.int32)
         _fill(table, cells, hs)
-        built = _diagram(table)
-        if cache is not None:
-            cache[key] = built
-    flat, order, levels = built  # type: ignore[misc]
-    _write(flat, levels, [value_lits[k] for k in order], [domains[k] for k in order], head_lits,
-           add_clause, new_var, at_most_one)
-    return True
+        return _diagram(table)
+    return _encode(domains, value_lits, head_lits, lambda: ("full", tuple(domains), len(head_lits), cells.tobytes(),
+                                                           hs.tobytes()),
+                   build, add_clause, new_var, at_most_one, cache)
 
 
 _SMALL = TABLE_SMALL = 4096      # cells; above, numpy arrays once numpy is loaded
