@@ -3,8 +3,8 @@
 The resolver (:mod:`cplus.resolve`) turns :mod:`cplus.ast` expressions into these nodes
 after macro expansion; the grounder compiles them into closures.  Terms evaluate to
 objects (see :mod:`cplus.signature`); formulas to propositional formulas over atoms.
+Annotations are evaluated, forward references quoted, as in :mod:`cplus.ast` (start-up).
 """
-from __future__ import annotations
 
 from collections.abc import Callable
 from typing import NamedTuple
@@ -31,7 +31,7 @@ class Obj(NamedTuple):
     """A constructor object with non-ground arguments: ``cell(I+1)``."""
 
     name: str
-    args: tuple[Term, ...]
+    args: "tuple[Term, ...]"
     loc: Location
 
 
@@ -39,7 +39,7 @@ class Arith(NamedTuple):
     """``op`` in ``+ - * // mod neg abs min max``."""
 
     op: str
-    args: tuple[Term, ...]
+    args: "tuple[Term, ...]"
     loc: Location
 
 
@@ -47,7 +47,7 @@ class Cst(NamedTuple):
     """An occurrence of a constant; as a term it stands for the constant's value."""
 
     decl: ConstDecl
-    args: tuple[Term, ...]
+    args: "tuple[Term, ...]"
     loc: Location
 
 
@@ -56,8 +56,8 @@ class MaxStepT(NamedTuple):
 
 
 class StampT(NamedTuple):
-    time: Term
-    term: Term
+    time: "Term"
+    term: "Term"
     loc: Location
 
 
@@ -66,7 +66,7 @@ class Ext(NamedTuple):
 
     name: str
     fn: Callable[..., object]
-    args: tuple[Term, ...]
+    args: "tuple[Term, ...]"
     loc: Location
 
 
@@ -95,36 +95,36 @@ class Cmp(NamedTuple):
 
 
 class Not(NamedTuple):
-    arg: Formula
+    arg: "Formula"
 
 
 class And(NamedTuple):
-    items: tuple[Formula, ...]
+    items: "tuple[Formula, ...]"
 
 
 class Or(NamedTuple):
-    items: tuple[Formula, ...]
+    items: "tuple[Formula, ...]"
 
 
 class Imp(NamedTuple):
-    left: Formula
-    right: Formula
+    left: "Formula"
+    right: "Formula"
 
 
 class Iff(NamedTuple):
-    left: Formula
-    right: Formula
+    left: "Formula"
+    right: "Formula"
 
 
 class Quant(NamedTuple):
     exists: bool
     var: Var
-    body: Formula
+    body: "Formula"
 
 
 class StampF(NamedTuple):
     time: Term
-    body: Formula
+    body: "Formula"
     loc: Location
 
 
