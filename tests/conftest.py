@@ -91,13 +91,23 @@ def corpus() -> Path:
 
 def _scale_time_limits(config: pytest.Config, items: list[pytest.Item]) -> None:
     """Every test's pytest-timeout limit (its own ``timeout`` mark, or the configured one)
-    times the wall-time scale: a limit catches a hang, and a loaded machine is no hang."""
+    times the wall-time scale: a limit catches a hang, and a loaded machine is no hang.
+
+    A Hypothesis test's limit ends its process (pytest-timeout's ``thread`` method; under
+    xdist the worker is reported crashed and replaced) instead of raising in the test:
+    Hypothesis takes that exception for a counterexample and goes on replaying and shrinking
+    the example that was too slow, with no limit left (a run of the whole suite at load 12
+    stayed 35 minutes in one such test)."""
     factor = walltime.scale()
-    if factor == 1.0 or not config.pluginmanager.hasplugin("timeout"):
+    if not config.pluginmanager.hasplugin("timeout"):
         return
     default = config.getoption("timeout", None) or config.getini("timeout")
     for item in items:
         mark = item.get_closest_marker("timeout")
         limit = mark.args[0] if mark is not None and mark.args else mark.kwargs.get("timeout") if mark else default
-        if limit:
-            item.add_marker(pytest.mark.timeout(float(limit) * factor), append=False)
+        method = mark.kwargs.get("method") if mark is not None else None
+        if getattr(getattr(item, "obj", None), "is_hypothesis_test", False):
+            method = method or "thread"
+        if limit and (factor != 1.0 or method):
+            kwargs = {"method": method} if method else {}
+            item.add_marker(pytest.mark.timeout(float(limit) * factor, **kwargs), append=False)
