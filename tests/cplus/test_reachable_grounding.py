@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import pytest
 from cplus_random import descriptions
-from hypothesis import given, settings
+from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
 from cplus import Domain
@@ -23,8 +23,14 @@ caused g=0 if f=0. caused g=1 if f=1.
 """
 
 
+# Histories are enumerated one solver call each: a random domain with few laws can have
+# 200,000 of them (five free Boolean fluents, two exogenous actions, three steps), which took
+# over ten minutes on a loaded machine.  Every history up to this many, and one more to tell.
+MOST = 600
+
+
 def histories(text: str, label: str = "0") -> tuple[int | None, set]:
-    r = Domain.from_text(text).solve(label, solutions=0)
+    r = Domain.from_text(text).solve(label, solutions=MOST + 1)
     return r.maxstep, {h.key() for h in r.histories}
 
 
@@ -34,7 +40,7 @@ def full_histories(text: str, label: str = "0") -> tuple[int | None, set]:
         m.setattr(horizon, "unreachable", lambda theory, fixed: set())
         d = Domain.from_text(text)
         assert d.theory.initial is None     # every instance ground: solve uses it, unpruned
-        r = d.solve(label, solutions=0)
+        r = d.solve(label, solutions=MOST + 1)
     return r.maxstep, {h.key() for h in r.histories}
 
 
@@ -128,7 +134,9 @@ def loops(draw):
 @settings(max_examples=150, deadline=None)
 @given(loops())
 def test_loops_keep_the_histories_of_the_full_grounding(text):
-    assert histories(text) == full_histories(text), text
+    got = histories(text)
+    assume(len(got[1]) <= MOST)
+    assert got == full_histories(text), text
 
 
 @settings(max_examples=60, deadline=None)
@@ -136,4 +144,6 @@ def test_loops_keep_the_histories_of_the_full_grounding(text):
 def test_random_domains_keep_the_histories_of_the_full_grounding(drawn):
     desc, m = drawn
     text = desc.text(m, None)
-    assert histories(text) == full_histories(text), text
+    got = histories(text)
+    assume(len(got[1]) <= MOST)          # about one domain in 300 has more
+    assert got == full_histories(text), text
