@@ -97,7 +97,7 @@ def _scale_time_limits(config: pytest.Config, items: list[pytest.Item]) -> None:
     xdist the worker is reported crashed and replaced) instead of raising in the test:
     Hypothesis takes that exception for a counterexample and goes on replaying and shrinking
     the example that was too slow, with no limit left (a run of the whole suite at load 12
-    stayed 35 minutes in one such test)."""
+    stayed half an hour in one such test)."""
     factor = walltime.scale()
     if not config.pluginmanager.hasplugin("timeout"):
         return

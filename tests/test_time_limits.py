@@ -2,7 +2,7 @@
 
 pytest-timeout's default method raises inside the test; Hypothesis takes that exception for a
 counterexample and goes on replaying and shrinking the slow example with no limit left, so a
-run of the whole suite stayed 35 minutes in one test.  ``tests/conftest.py`` gives Hypothesis
+run of the whole suite stayed half an hour in one test.  ``tests/conftest.py`` gives Hypothesis
 tests the ``thread`` method instead: this runs a copy of it on a test that sleeps past its
 limit, under xdist as CI runs the suite, and asks that the test fail, the next one run, and
 the slow example never run again after its limit (with the default method it ran 8 times)."""
