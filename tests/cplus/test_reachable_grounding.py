@@ -24,7 +24,7 @@ caused g=0 if f=0. caused g=1 if f=1.
 
 
 # Histories are enumerated one solver call each: a random domain with few laws can have
-# 200,000 of them (five free Boolean fluents, two exogenous actions, three steps), which took
+# 196,608 of them (five free Boolean fluents, two exogenous actions, maxstep 2), which took
 # over ten minutes on a loaded machine.  Every history up to this many, and one more to tell.
 MOST = 600
 
