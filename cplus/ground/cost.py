@@ -18,7 +18,6 @@ time up to the limit, never a hang.
 """
 from __future__ import annotations
 
-import random
 from collections.abc import Callable, Mapping, Sequence
 
 from cplus.errors import GroundingError
@@ -46,6 +45,7 @@ def probed_tries(levels: Sequence[Level], probes: int = PROBES) -> int:
     tries from a fixed seed: a walk picks one of the options at each level, uniformly, and
     stops where it fails a test; the options met, weighted by the product of the option
     counts above them, are an unbiased estimate of the tree's size."""
+    import random  # here: few laws need an estimate, and every command would import it
     rnd = random.Random(0)
     total = 0
     for _ in range(probes):
@@ -107,6 +107,7 @@ def _passes(tests: list[Callable[[dict], bool]], env: dict) -> bool:
 def sampled_instances(doms: Mapping[str, Sequence], filters: list, cells: int, samples: int = PROBES) -> int:
     """Estimated number of bindings of the variables' domains ``doms`` (``cells`` of them)
     that pass every filter ``(fn, variables)``, from a fixed random sample."""
+    import random
     rnd = random.Random(0)
     names = list(doms)
     passed = 0
