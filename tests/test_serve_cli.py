@@ -89,6 +89,16 @@ def cli(args, env=None, timeout=120) -> subprocess.CompletedProcess:
                           timeout=wall(timeout), env=env)
 
 
+@pytest.mark.parametrize("value", ["x", "0", "601"])
+def test_a_stop_grace_that_is_not_seconds_is_refused_before_the_server_starts(tmp_path, value):
+    log = tmp_path / "run.jsonl"
+    r = cli([DOMAIN, "--listen", "127.0.0.1:0", "--log", str(log)], env=dict(os.environ, CPLUS_STOP_GRACE=value))
+    assert r.returncode == 2
+    assert r.stderr == ("cplus serve: error: CPLUS_STOP_GRACE must be a number of seconds > 0 and at most 600, "
+                        f"got {value!r}\n")
+    assert not log.exists()
+
+
 def test_ros_absent_is_a_clear_message(tmp_path):
     fake = tmp_path / "noros"
     fake.mkdir()

@@ -51,8 +51,9 @@ def version() -> str:
         return "unknown"
 
 
-_STOPPED_IN_ORDER = ("execute", "online", "run")
-"""The commands whose SIGINT/SIGTERM is an orderly stop under a watchdog (:mod:`cplus.cli.signals`)."""
+_STOPPED_IN_ORDER = ("execute", "online", "run", "serve")
+"""The commands whose SIGINT/SIGTERM is an orderly stop under a watchdog (:mod:`cplus.cli.signals`;
+``serve``'s is :class:`cplus.cli.serve.Watchdog`): each honours ``CPLUS_STOP_GRACE``."""
 
 
 def main(argv: list[str] | None = None, *, exiting: bool = False) -> int:

@@ -81,13 +81,14 @@ class Stopped(KeyboardInterrupt):
         self.code = 128 + signum
 
 
-def stop_grace(prog: str, environ: Mapping[str, str] | None = None) -> float:
-    """The orderly stop's time limit: :data:`GRACE_S`, or ``CPLUS_STOP_GRACE`` when it is set.
-    A value that is not a number of seconds in (0, 600] is refused with one line naming the
-    variable (a :class:`~cplus.cli.common.CliError`), never silently replaced."""
+def stop_grace(prog: str, environ: Mapping[str, str] | None = None, default: float = GRACE_S) -> float:
+    """The orderly stop's time limit: ``default`` (:data:`GRACE_S`; ``cplus serve`` has its
+    own), or ``CPLUS_STOP_GRACE`` when it is set. A value that is not a number of seconds in
+    (0, 600] is refused with one line naming the variable (a
+    :class:`~cplus.cli.common.CliError`), never silently replaced."""
     text = (os.environ if environ is None else environ).get(GRACE_ENV, "").strip()
     if not text:
-        return GRACE_S
+        return default
     try:
         value = float(text)
     except ValueError:
