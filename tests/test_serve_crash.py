@@ -17,6 +17,7 @@ import sys
 from pathlib import Path
 
 import pytest
+from walltime import ORDERLY_STOP
 
 ROOT = Path(__file__).resolve().parent.parent
 DOMAIN = str(ROOT / "domains" / "mailbot" / "mailbot.cp")
@@ -26,7 +27,7 @@ pytestmark = [pytest.mark.slow, pytest.mark.timeout(1200)]
 
 
 def start(log: Path) -> tuple[subprocess.Popen, int]:
-    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    env = {**os.environ, "PYTHONPATH": str(ROOT), **ORDERLY_STOP}
     proc = subprocess.Popen([sys.executable, "-m", "cplus", "serve", DOMAIN, "--listen", "127.0.0.1:0", "--log",
                              str(log), "--action-time", "0.005", "--quiet"], stderr=subprocess.PIPE, text=True,
                             env=env)

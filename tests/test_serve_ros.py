@@ -18,7 +18,7 @@ import time
 from pathlib import Path
 
 import pytest
-from walltime import wall
+from walltime import ORDERLY_STOP, wall
 
 ROOT = Path(__file__).resolve().parent.parent
 MAILBOT = ROOT / "domains" / "mailbot"
@@ -151,7 +151,7 @@ def test_an_actionlib_client_sends_hears_cancels_and_gets_results(roscore, tmp_p
     log = tmp_path / "run.jsonl"
     server = subprocess.Popen([sys.executable, "-m", "cplus", "serve", str(MAILBOT / "mailbot.cp"), "--ros",
                                "--ros-name", "mailbot", "--action-time", "0.3", "--log", str(log)],
-                              env=dict(roscore, PYTHONUNBUFFERED="1"), stderr=subprocess.PIPE, text=True)
+                              env=dict(roscore, PYTHONUNBUFFERED="1", **ORDERLY_STOP), stderr=subprocess.PIPE, text=True)
     try:
         for line in server.stderr:
             if "ROS action server" in line:
@@ -252,7 +252,7 @@ def test_recalled_and_pending_at_the_stop_are_the_states_docs_serve_says(roscore
             "while pending in the server |") in doc
     server = subprocess.Popen([sys.executable, "-m", "cplus", "serve", str(MAILBOT / "mailbot.cp"), "--ros",
                                "--ros-name", "states", "--action-time", "1"],
-                              env=dict(roscore, PYTHONUNBUFFERED="1"), stderr=subprocess.PIPE, text=True)
+                              env=dict(roscore, PYTHONUNBUFFERED="1", **ORDERLY_STOP), stderr=subprocess.PIPE, text=True)
     client = None
     try:
         for line in server.stderr:
@@ -310,7 +310,7 @@ def test_the_server_registers_again_when_the_master_restarts(tmp_path):
     with ros_master(home, port, kill=True) as master:
         server = subprocess.Popen([sys.executable, "-m", "cplus", "serve", str(MAILBOT / "mailbot.cp"), "--ros",
                                    "--action-time", "0.3", "--listen", "127.0.0.1:0"],
-                                  env=dict(master, PYTHONUNBUFFERED="1"), stderr=subprocess.PIPE, text=True)
+                                  env=dict(master, PYTHONUNBUFFERED="1", **ORDERLY_STOP), stderr=subprocess.PIPE, text=True)
         assert server.stderr is not None
         for line in server.stderr:
             m = re.search(r"listening on 127\.0\.0\.1:(\d+)", line)

@@ -17,7 +17,7 @@ from pathlib import Path
 from types import SimpleNamespace
 
 import pytest
-from walltime import wall
+from walltime import ORDERLY_STOP, wall
 
 from cplus.api import Domain
 from cplus.robot.online.loop import OnlineStatus
@@ -184,7 +184,8 @@ def test_an_ipv6_address_is_printed_as_listen_takes_it():
     except OSError:
         pytest.skip("no IPv6 loopback here")
     proc = subprocess.Popen([sys.executable, "-m", "cplus", "serve", str(MAILBOT / "mailbot.cp"), "--listen",
-                             "[::1]:0"], stderr=subprocess.PIPE, text=True, env=dict(os.environ, PYTHONUNBUFFERED="1"))
+                             "[::1]:0"], stderr=subprocess.PIPE, text=True,
+                            env=dict(os.environ, PYTHONUNBUFFERED="1", **ORDERLY_STOP))
     try:
         assert proc.stderr is not None
         line = next(x for x in proc.stderr if "listening on" in x)
@@ -220,7 +221,7 @@ def test_listen_addresses_are_loopback_only():
 @pytest.mark.slow
 def test_the_command_serves_a_socket_until_sigterm(tmp_path):
     log = tmp_path / "run.jsonl"
-    env = dict(os.environ, PYTHONUNBUFFERED="1")
+    env = dict(os.environ, PYTHONUNBUFFERED="1", **ORDERLY_STOP)
     proc = subprocess.Popen([sys.executable, "-m", "cplus", "serve", str(MAILBOT / "mailbot.cp"), "--listen",
                              "127.0.0.1:0", "--action-time", "1", "--log", str(log)],
                             stderr=subprocess.PIPE, text=True, env=env)

@@ -24,7 +24,7 @@ from pathlib import Path
 
 import pytest
 from test_serve_ros import DIST, MSG_PATH, client_python, needs_ros, ros_master
-from walltime import wall
+from walltime import ORDERLY_STOP, wall
 
 ROOT = Path(__file__).resolve().parent.parent
 MAILBOT = ROOT / "domains" / "mailbot"
@@ -76,7 +76,7 @@ def serve(env: dict, tmp_path: Path, name: str) -> tuple[subprocess.Popen, Path]
     log = tmp_path / "run.jsonl"
     server = subprocess.Popen([sys.executable, "-m", "cplus", "serve", str(MAILBOT / "mailbot.cp"), "--ros",
                                "--ros-name", name, "--action-time", "0.01", "--log", str(log), "--quiet"],
-                              env=dict(env, PYTHONUNBUFFERED="1"), stderr=subprocess.PIPE, text=True,
+                              env=dict(env, PYTHONUNBUFFERED="1", **ORDERLY_STOP), stderr=subprocess.PIPE, text=True,
                               start_new_session=True)
     return server, log
 

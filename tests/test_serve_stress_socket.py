@@ -32,7 +32,7 @@ import threading
 from pathlib import Path
 
 import pytest
-from walltime import wall
+from walltime import ORDERLY_STOP, wall
 
 ROOT = Path(__file__).resolve().parent.parent
 MAILBOT = ROOT / "domains" / "mailbot"
@@ -45,13 +45,14 @@ class Served:
     """A ``cplus serve`` process listening on a free loopback port; its stderr is read all the
     time (a pipe nobody reads would stall it), and kept."""
 
-    def __init__(self, tmp_path: Path, *extra: str, argv: list[str] | None = None) -> None:
+    def __init__(self, tmp_path: Path, *extra: str, argv: list[str] | None = None,
+                 grace: dict[str, str] = ORDERLY_STOP) -> None:
         self.log = tmp_path / "run.jsonl"
         args = argv or [sys.executable, "-m", "cplus", "serve", DOMAIN]
         self.proc = subprocess.Popen([*args, "--listen", "127.0.0.1:0", "--action-time", "0.01", "--log",
                                       str(self.log), "--quiet", *extra],
-                                     env=dict(os.environ, PYTHONUNBUFFERED="1"), stderr=subprocess.PIPE, text=True,
-                                     start_new_session=True)
+                                     env=dict(os.environ, PYTHONUNBUFFERED="1", **grace), stderr=subprocess.PIPE,
+                                     text=True, start_new_session=True)
         self.err: list[str] = []
         assert self.proc.stderr is not None
         for line in self.proc.stderr:
@@ -382,7 +383,9 @@ STUCK = textwrap.dedent("""
 
 @pytest.mark.parametrize("signals", [1, 2])
 def test_a_loop_that_never_comes_back_is_ended_by_the_watchdog(tmp_path, signals):
-    with Served(tmp_path, argv=[sys.executable, "-c", STUCK, "serve", DOMAIN]) as server:
+    """Forced after ``CPLUS_STOP_GRACE`` seconds (0.5 here) by one signal, at once by two."""
+    with Served(tmp_path, argv=[sys.executable, "-c", STUCK, "serve", DOMAIN],
+                grace={"CPLUS_STOP_GRACE": "0.5"}) as server:
         c = Client(server.address)
         c.send({"request": "deliver(office1,office2)"})
         assert c.until("status")[-1]["status"] == "active"
@@ -398,7 +401,8 @@ def test_a_loop_that_never_comes_back_is_ended_by_the_watchdog(tmp_path, signals
         c.close()
         assert server.proc.returncode == (143 if signals == 1 else 124)
         lines = server.log_lines()
-    assert lines[-1]["status"] == "stopped" and "forced" in lines[-1]["message"]
+    assert lines[-1]["status"] == "stopped"
+    assert lines[-1]["message"] == ("forced 0.5 s after the signal" if signals == 1 else "forced by a second signal")
     assert final_statuses(lines) == {1: "aborted"}
 
 

@@ -50,3 +50,10 @@ def scale() -> float:
 def wall(seconds: float) -> float:
     """``seconds`` of wall time on an idle machine, as many on this one."""
     return seconds * scale()
+
+
+ORDERLY_STOP = {"CPLUS_STOP_GRACE": "600"}
+"""The environment of a command whose orderly stop (SIGINT, SIGTERM) a test checks: without it
+the command's watchdog forces a stop that takes over 1.2 s (``serve``) or 1.5 s (``run``,
+``online``, ``execute``), which a loaded machine's orderly stop can (a ROS server's exit 0
+became 143 in a run of the suite at load 12). Tests of the watchdog itself set their own."""
