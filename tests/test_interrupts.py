@@ -5,13 +5,14 @@ bricks are running (no timing involved)."""
 from __future__ import annotations
 
 import json
+import os
 import signal
 import subprocess
 import sys
 from pathlib import Path
 
 import pytest
-from walltime import wall
+from walltime import ORDERLY_STOP, wall
 
 from trajectory import StepState, build_trajectory, parse_scene, save_json
 from trajectory.scene import EXAMPLE_SCENE
@@ -28,7 +29,8 @@ def interruptible() -> None:
 
 def interrupt_when(argv: list[str], marker: str) -> tuple[int, str]:
     proc = subprocess.Popen([sys.executable, "-m", "cplus", *argv], stdout=subprocess.PIPE,
-                            stderr=subprocess.PIPE, text=True, cwd=ROOT, preexec_fn=interruptible)
+                            stderr=subprocess.PIPE, text=True, cwd=ROOT, preexec_fn=interruptible,
+                            env=dict(os.environ, **ORDERLY_STOP))
     seen = ""
     try:
         while marker not in seen:
