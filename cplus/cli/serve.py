@@ -8,8 +8,9 @@ domain (``requests.toml`` beside it), and the online loop plans, acts and re-pla
 Runs until interrupted (SIGINT or SIGTERM: the goals in flight are aborted, exit 0), or until
 a script has delivered everything and every goal is final (exit 0). A run that does not stop
 within 1.2 s of the signal (or the seconds in ``CPLUS_STOP_GRACE``) is ended by the watchdog
-(exit 130 or 143, ``128 + signal``), a second signal ends it at once (124). Exit codes otherwise as ``cplus online``: 1 no plan, 2 bad
-input, 6 the world contradicted the model, 7 ambiguous, 8 robot lost.
+(exit 130 or 143, ``128 + signal``), a second signal ends it at once (124). Exit codes
+otherwise as ``cplus online``: 1 no plan, 2 bad input, 6 the world contradicted the model, 7
+ambiguous, 8 robot lost.
 """
 from __future__ import annotations
 
