@@ -18,14 +18,13 @@ from cplus import ir
 from cplus.errors import GroundingError, Location
 from cplus.ground.arith import ARITH_FUNCTIONS
 from cplus.ground.atoms import AtomTable
-from cplus.ground.equations import level_solvers
 from cplus.ground.intexpr import int_comparison, int_term
 from cplus.ground.pf import PF, mk_and, mk_or, neg
 from cplus.limits import MAX_INT, count
 from cplus.signature import GroundConst, Signature, StepSort, order_key, render_value
 
 __all__ = ["Cases", "UNDEF", "Ctx", "compile_term", "compile_formula", "evaluate_all", "evaluate_parts", "domain_of", "bind",
-           "combine"]
+           "combine", "level_solvers", "Solver"]
 
 
 class Cases(list):
@@ -540,6 +539,30 @@ def _compile_quant(f: ir.Quant, ctx: Ctx) -> Callable:
 
 
 # --------------------------------------------------------------------------- binding
+
+
+Solver = Callable[[dict], "list | None"]
+"""``solve(env) -> candidates``: the only values the variable may take given the others in
+``env`` (a list of at most one), or None when the equation does not narrow it here."""
+
+SOLVERS_ATTRIBUTE = "solutions"
+"""The attribute of a compiled condition that holds its solvers by variable
+(:func:`cplus.ground.equations.attach`): here, where binding reads them, so that this module
+needs no import of :mod:`cplus.ground.equations`, which imports it."""
+
+
+def level_solvers(levels: list) -> list[Solver | None]:
+    """For each level of :func:`binding_levels`, the solver of one of the conditions completed
+    there for that level's variable, or None."""
+    out: list[Solver | None] = []
+    for name, _, fl in levels:
+        found = None
+        for fn in fl:
+            found = getattr(fn, SOLVERS_ATTRIBUTE, {}).get(name)
+            if found is not None:
+                break
+        out.append(found)
+    return out
 
 
 def binding_levels(sig: Signature, variables: dict[str, ir.Var], filters: list[tuple[Callable, set[str]]],

@@ -31,38 +31,20 @@ from collections.abc import Callable
 
 from cplus import ir
 from cplus.errors import GroundingError
+from cplus.ground.compile import SOLVERS_ATTRIBUTE, UNDEF, Cases, Solver, compile_term
 from cplus.ground.intexpr import int_source
 
-__all__ = ["solvers_of", "attach", "level_solvers", "Solver"]
-
-Solver = Callable[[dict], "list | None"]
-"""``solve(env) -> candidates``: the only values the variable may take given the others in
-``env`` (a list of at most one), or None when the equation does not narrow it here."""
-
-_ATTRIBUTE = "solutions"
+__all__ = ["solvers_of", "attach"]
 
 
 def attach(fn: Callable, c: ir.Formula, ctx) -> Callable:
     """The compiled condition ``fn`` of ``c``, carrying the solvers of ``c`` (if any) for
-    :func:`level_solvers` (``fn`` is a fresh closure of :func:`compile_formula`)."""
+    :func:`~cplus.ground.compile.level_solvers` (``fn`` is a fresh closure of
+    :func:`~cplus.ground.compile.compile_formula`)."""
     solvers = solvers_of(c, ctx)
     if solvers:
-        setattr(fn, _ATTRIBUTE, solvers)
+        setattr(fn, SOLVERS_ATTRIBUTE, solvers)
     return fn
-
-
-def level_solvers(levels: list) -> list[Solver | None]:
-    """For each level of :func:`~cplus.ground.compile.binding_levels`, the solver of one of
-    the conditions completed there for that level's variable, or None."""
-    out: list[Solver | None] = []
-    for name, _, fl in levels:
-        found = None
-        for fn in fl:
-            found = getattr(fn, _ATTRIBUTE, {}).get(name)
-            if found is not None:
-                break
-        out.append(found)
-    return out
 
 
 def solvers_of(c: ir.Formula, ctx) -> dict[str, Solver]:
@@ -114,7 +96,6 @@ def _solver(left, right, name: str, ctx) -> Solver | None:
 
 def _equal(t, ctx) -> Solver:
     """``V = t`` with ``t`` free of V: the value of ``t``, whatever object it is."""
-    from cplus.ground.compile import UNDEF, Cases, compile_term
     fn = compile_term(t, ctx)
 
     def equal(env: dict) -> list | None:

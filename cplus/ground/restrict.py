@@ -31,9 +31,8 @@ from collections.abc import Callable, Iterable
 
 from cplus import ir, limits
 from cplus.errors import GroundingError
-from cplus.ground.compile import Ctx, bind, binding_levels, compile_formula, domain_of, too_many_tries
+from cplus.ground.compile import Ctx, bind, binding_levels, compile_formula, domain_of, level_solvers, too_many_tries
 from cplus.ground.cost import options_of, passing
-from cplus.ground.equations import level_solvers
 from cplus.ground.pf import PF, mk_and
 from cplus.ground.vector import ground_vectorized, matching
 from cplus.signature import SIMPLE_KINDS, ConstDecl, StepSort

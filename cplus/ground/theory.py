@@ -34,10 +34,11 @@ from cplus.ground.compile import (
     compile_term,
     domain_of,
     evaluate_parts,
+    level_solvers,
     too_many_tries,
 )
 from cplus.ground.cost import bind_levels, probed_tries, sampled_instances, tries_bound
-from cplus.ground.equations import attach, level_solvers
+from cplus.ground.equations import attach
 from cplus.ground.pf import PF, mk_and, neg
 from cplus.ground.vector import ground_vectorized
 from cplus.limits import RULE_BYTES, count, too_large
