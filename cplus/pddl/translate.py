@@ -34,9 +34,11 @@ __all__ = ["Translation", "translate", "check_kind", "SUPPORTED_FEATURES", "QUER
 
 QUERY_LABEL = "pddl"
 MAX_ATOMS = 2_000_000
-STATIC_BINDINGS = 256   # an interference law written once per binding of its static atoms, up to this many
 """The most ground atoms (or instances of an action with a cost of its own) translated; a
 larger problem is refused in one line before anything is enumerated."""
+STATIC_BINDINGS = 256
+"""An interference law is written once per binding of its static atoms up to this many
+bindings (:meth:`_Translator.interference`); beyond, once over every instance."""
 COST_FLUENT = "total_cost"
 
 SUPPORTED_FEATURES = {
@@ -446,6 +448,7 @@ class _Translator:
         for t in types:
             classes.setdefault(find(t), []).append(t)
         rep: dict[Any, str] = {}
+        lowest: dict[str, Any] = {}                # a variable of the law -> its type
         used: dict[str, int] = {}
         for root, members in sorted(classes.items(), key=lambda kv: str(kv[0])):
             chain = [types[m] for m in members]
@@ -458,15 +461,12 @@ class _Translator:
             if not all(t.name in self.ancestors(low) for t in chain):
                 return []                          # disjoint types: no object is both
             rep[root] = self.var(low, used)
+            lowest[rep[root]] = low
         env_a = {q.name: rep[find(("A", q.name))] for q in a.parameters}
         env_b = {q.name: rep[find(("B", q.name))] for q in b.parameters}
         conditions = self.static_conditions(a, env_a) + self.static_conditions(b, env_b)
         if conditions:
-            sorts: dict[str, set[str]] = {}
-            for root, x in rep.items():
-                if root[0] != "obj":
-                    low = max((types[m] for m in classes[root]), key=lambda t: len(self.ancestors(t)))
-                    sorts[x] = {self.obj[o.name] for o in self.objects_of(low)}
+            sorts = {x: {self.obj[o.name] for o in self.objects_of(t)} for x, t in lowest.items()}
             bindings = self.static_bindings(conditions, sorts)
             cells = 1
             for x in {x for _, args in conditions for x in args if x in sorts}:
