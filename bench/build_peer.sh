@@ -9,14 +9,7 @@
 # bison re2c (Debian's names) and python3 with venv. Afterwards PREFIX/bin holds cplus2asp4,
 # its tools, f2lp, and `clingo`: bench/peer_clingo.py run by PREFIX/venv's interpreter.
 set -euo pipefail
-if [ $# -ne 2 ]; then
-    echo "usage: $0 SOURCE PREFIX" >&2
-    exit 2
-fi
-here="$(cd "$(dirname "$0")" && pwd)"
-src="$(cd "$1" && pwd)"
-prefix="$(realpath -m "$2")"
-case "$prefix/" in "$(cd "$here/.." && pwd)/"*) echo "$0: install the peer outside this repository" >&2; exit 2;; esac
+. "$(dirname "$0")/build_args.sh" "$@"   # sets here, src, prefix
 mkdir -p "$prefix"
 
 # the upstream README's steps: its boost macro wants the installed Boost's version

@@ -11,14 +11,7 @@
 # and PREFIX/venv, whose interpreter has the clingo module; pass --plasp PREFIX to the bench
 # or set CPLUS_PLASP=PREFIX.
 set -euo pipefail
-if [ $# -ne 2 ]; then
-    echo "usage: $0 SOURCE PREFIX" >&2
-    exit 2
-fi
-here="$(cd "$(dirname "$0")" && pwd)"
-src="$(cd "$1" && pwd)"
-prefix="$(realpath -m "$2")"
-case "$prefix/" in "$(cd "$here/.." && pwd)/"*) echo "$0: install plasp outside this repository" >&2; exit 2;; esac
+. "$(dirname "$0")/build_args.sh" "$@"   # sets here, src, prefix
 for sub in lib/cxxopts/include lib/variant/include; do
     [ -d "$src/$sub" ] || { echo "$0: $src/$sub is missing: fetch plasp's submodules (git submodule update --init)" >&2; exit 2; }
 done

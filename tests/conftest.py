@@ -64,7 +64,7 @@ def pytest_report_header(config: pytest.Config) -> str:
 
 
 def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
-    _scale_time_limits(config, items)
+    _time_limits(config, items)
     if config.getoption("--run-nxt"):
         return
     skip = pytest.mark.skip(reason="needs a real NXT brick: give its port with --run-nxt PORT")
@@ -89,7 +89,7 @@ def corpus() -> Path:
     return CORPUS
 
 
-def _scale_time_limits(config: pytest.Config, items: list[pytest.Item]) -> None:
+def _time_limits(config: pytest.Config, items: list[pytest.Item]) -> None:
     """Every test's pytest-timeout limit (its own ``timeout`` mark, or the configured one)
     times the wall-time scale: a limit catches a hang, and a loaded machine is no hang.
 

@@ -14,7 +14,7 @@ import time
 from pathlib import Path
 
 import pytest
-from walltime import wall
+from walltime import ORDERLY_STOP, wall
 
 pytestmark = pytest.mark.slow
 
@@ -247,7 +247,7 @@ def test_sigterm_stops_run_with_143_and_no_plot(tmp_path):
     out = tmp_path / "out"
     proc = start(["run", str(ROOT / "domains" / "payload" / "payload.cp"), "--out", str(out),
                   "--step-time", "4", "--points-per-step", "20"],   # simulated time: about a second running
-                 env={"CPLUS_STOP_GRACE": "600"})
+                 env=ORDERLY_STOP)
     read_until(proc, "running")
     proc.send_signal(signal.SIGTERM)
     code, err, _ = finish(proc, timeout_s=60)
