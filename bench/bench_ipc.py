@@ -153,19 +153,32 @@ def run_plasp(planner: str, domain: str, problem: str) -> dict:
         return {"status": {"UNSATISFIABLE": "no_plan"}.get(doc.get("Result"), str(doc.get("Result")).lower())}
     atoms = doc["Call"][-1]["Witnesses"][-1]["Value"]
     steps = plasp_steps(atoms)
-    import unified_planning.shortcuts as up
-    from unified_planning.engines import SequentialPlanValidator, ValidationResultStatus
-    from unified_planning.io import PDDLReader
-    up.get_environment().error_used_name = False
-    task = PDDLReader().parse_problem(domain, problem)
+    task = read_task(domain, problem)
     try:
         plan = plasp_plan(task, steps)
     except KeyError as e:
         return {"status": "error", "reason": e.args[0]}
-    with SequentialPlanValidator() as validator:
-        if validator.validate(task, plan).status is not ValidationResultStatus.VALID:
-            return {"status": "invalid plan"}
+    if not valid(task, plan):
+        return {"status": "invalid plan"}
     return {"status": "solved", "actions": len(plan.actions), "steps": len(steps)}
+
+
+def read_task(domain: str, problem: str):
+    """The instance as unified-planning's reader gives it, read as cplus reads it (a name used
+    twice allowed: IPC 2000's freecell has a type and a predicate ``suit``), its engines quiet."""
+    import unified_planning.shortcuts as up
+    from unified_planning.io import PDDLReader
+    env = up.get_environment()
+    env.credits_stream = None
+    env.error_used_name = False
+    return PDDLReader().parse_problem(domain, problem)
+
+
+def valid(task, plan) -> bool:
+    """Whether unified-planning's validator accepts ``plan`` for ``task``."""
+    from unified_planning.engines import SequentialPlanValidator, ValidationResultStatus
+    with SequentialPlanValidator() as validator:
+        return validator.validate(task, plan).status is ValidationResultStatus.VALID
 
 
 def plasp_plan(task, steps: list[list[tuple[str, ...]]]):
@@ -201,19 +214,14 @@ def worker(planner: str, domain: str, problem: str) -> dict:
             return {"status": doc["status"]}
         return {"status": "solved", "actions": len(doc["plan"]), "steps": len(doc["steps"]), "cost": doc["cost"]}
     import unified_planning.shortcuts as up
-    from unified_planning.engines import SequentialPlanValidator, ValidationResultStatus
-    from unified_planning.io import PDDLReader
-    up.get_environment().credits_stream = None
-    up.get_environment().error_used_name = False    # as cplus reads: freecell has a type and a predicate `suit`
-    task = PDDLReader().parse_problem(domain, problem)
+    task = read_task(domain, problem)
     name = {"fd": "fast-downward", "fd-opt": "fast-downward-opt"}[planner]
     with up.OneshotPlanner(name=name) as engine:
         result = engine.solve(task)
     if result.plan is None:
         return {"status": result.status.name.lower()}
-    with SequentialPlanValidator() as validator:
-        if validator.validate(task, result.plan).status is not ValidationResultStatus.VALID:
-            return {"status": "invalid plan"}
+    if not valid(task, result.plan):
+        return {"status": "invalid plan"}
     return {"status": "solved", "actions": len(result.plan.actions)}
 
 
