@@ -140,9 +140,13 @@ def run_local(jobs: list[Job], fn: Callable, workers: int, retries: int, sink: S
                 progress.tick()
         except KeyboardInterrupt:
             _kill_pool(pool)
-            _stop_helpers(forkserver_only=True)
+            # the fork server before the shutdown, which joins the thread feeding the workers'
+            # call queue (a batch outlived SIGTERM by a minute in the suite; a fork server still
+            # holding that pipe was the suspect); the resource tracker after it, since the
+            # shutdown releases what the tracker tracks
+            _stop_helper("forkserver")
             pool.shutdown(wait=True, cancel_futures=True)
-            _stop_helpers()
+            _stop_helper("resource_tracker")
             raise
         finally:
             pool.shutdown(wait=not broken, cancel_futures=True)
@@ -176,21 +180,17 @@ def _quiet_worker(initializer: Callable | None) -> None:
         initializer()
 
 
-def _stop_helpers(forkserver_only: bool = False) -> None:
-    """End the processes :mod:`multiprocessing` started for the pool besides its workers: the
-    fork server and the resource tracker (they would otherwise outlive an interrupted batch
-    until they notice, or not at all).  ``forkserver_only``: the fork server alone, before the
-    pool's shutdown, which joins the thread feeding the workers' call queue (a batch outlived
-    SIGTERM by a minute in the suite; a fork server still holding that pipe is the suspect, not
-    proven); the resource tracker must outlive the shutdown, which releases what it tracks."""
+def _stop_helper(name: str) -> None:
+    """End a process :mod:`multiprocessing` started for the pool besides its workers, its
+    ``forkserver`` or its ``resource_tracker`` (it would otherwise outlive an interrupted batch
+    until it notices, or not at all)."""
     from multiprocessing import forkserver, resource_tracker
-    helpers: list = [forkserver._forkserver] if forkserver_only else [forkserver._forkserver,
-                                                                      resource_tracker._resource_tracker]
-    for helper in helpers:
-        try:
-            helper._stop()
-        except (OSError, AttributeError, ChildProcessError):
-            pass
+    helpers: dict[str, Any] = {"forkserver": forkserver._forkserver, "resource_tracker": resource_tracker._resource_tracker}
+    helper = helpers[name]
+    try:
+        helper._stop()
+    except (OSError, AttributeError, ChildProcessError):
+        pass
 
 
 def _kill_pool(pool) -> None:
